@@ -1,0 +1,71 @@
+"""Problem-set files: CSV with full-precision floats and a one-line header comment.
+
+Same seed and settings give a byte-identical file (floats written with 17 significant digits,
+no timestamps).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.problems import ProblemSet
+
+MAGIC = "# ik-pipeline problem set v1"
+
+
+class ProblemFileError(ValueError):
+    """A problem-set file is unreadable or malformed (one line naming file and field)."""
+
+
+def _columns(n: int) -> list[str]:
+    return (["problem_id"] + [f"q_start_{i + 1}" for i in range(n)] + [f"q_goal_{i + 1}" for i in range(n)]
+            + ["goal_x", "goal_y", "goal_z", "goal_qw", "goal_qx", "goal_qy", "goal_qz"])
+
+
+def write_problems(path: str | Path, ps: ProblemSet, meta: dict[str, str]) -> None:
+    """Write atomically (temporary file, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    n = ps.q_start.shape[1]
+    buf = io.StringIO()
+    head = {"robot": ps.robot, "length_unit": ps.length_unit, **meta}
+    buf.write(MAGIC + " " + " ".join(f"{k}={v}" for k, v in head.items()) + "\n")
+    buf.write(",".join(_columns(n)) + "\n")
+    data = np.column_stack([ps.q_start, ps.q_goal, ps.goal_position, ps.goal_quat])
+    for pid, row in zip(ps.problem_id, data):
+        buf.write(str(int(pid)) + "," + ",".join(format(x, ".17g") for x in row) + "\n")
+    tmp = path.with_name(path.name + ".partial")
+    tmp.write_text(buf.getvalue())
+    os.replace(tmp, path)
+
+
+def read_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str]]:
+    """Read a problem-set file; returns the set and its header fields."""
+    path = Path(path)
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as exc:
+        raise ProblemFileError(f"{path}: cannot read problem set ({exc.strerror})") from None
+    if not lines or not lines[0].startswith(MAGIC):
+        raise ProblemFileError(f"{path}: line 1: not an ik-pipeline problem set (missing '{MAGIC}')")
+    meta = dict(kv.split("=", 1) for kv in lines[0][len(MAGIC):].split() if "=" in kv)
+    for key in ("robot", "length_unit"):
+        if key not in meta:
+            raise ProblemFileError(f"{path}: line 1: header field '{key}' missing")
+    cols = lines[1].split(",") if len(lines) > 1 else []
+    n = (len(cols) - 8) // 2
+    if n < 1 or cols != _columns(n):
+        raise ProblemFileError(f"{path}: line 2: unexpected columns")
+    try:
+        data = np.array([[float(x) for x in ln.split(",")] for ln in lines[2:]], dtype=float).reshape(-1, len(cols))
+    except ValueError as exc:
+        raise ProblemFileError(f"{path}: malformed row ({exc})") from None
+    if data.shape[0] == 0 or not np.all(np.isfinite(data)):
+        raise ProblemFileError(f"{path}: no rows, or a non-finite value")
+    ps = ProblemSet(data[:, 0].astype(int), data[:, 1:1 + n], data[:, 1 + n:1 + 2 * n], data[:, 1 + 2 * n:4 + 2 * n],
+                    data[:, 4 + 2 * n:], meta["robot"], meta["length_unit"])
+    return ps, meta

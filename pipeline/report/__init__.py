@@ -1,0 +1,1 @@
+"""Figures, archive summaries and the HTML report (matplotlib and jinja2 are imported here)."""

@@ -1,0 +1,84 @@
+"""The self-contained HTML report (images embedded as data URIs; opens offline)."""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import json
+import platform
+from importlib import metadata as _md
+from pathlib import Path
+
+import jinja2
+import pandas as pd
+import yaml
+
+import pipeline
+from pipeline.settings import Study, git_commit
+
+TEMPLATES = Path(__file__).parent / "templates"
+PACKAGES = ("numpy", "scipy", "numba", "pandas", "matplotlib", "mcap", "snakemake")
+
+
+def _img(path: Path) -> str:
+    return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode()
+
+
+def _table_html(path: Path) -> str:
+    df = pd.read_csv(path)
+    return df.to_html(index=False, na_rep="—", float_format=lambda x: f"{x:.4g}", classes="data", border=0)
+
+
+def _benchmarks(folder: Path) -> list[dict]:
+    rows = []
+    for f in sorted(folder.glob("*.tsv")):
+        df = pd.read_csv(f, sep="\t")
+        rows.append({"job": f.stem, "wall_s": float(df["s"].iloc[0]), "max_rss_mb": float(df["max_rss"].iloc[0])
+                     if "max_rss" in df and pd.notna(df["max_rss"].iloc[0]) else float("nan")})
+    return rows
+
+
+def study_context(study: Study, results: Path) -> dict:
+    folder = results / study.id
+    tables = []
+    tindex = folder / "tables" / "index.json"
+    for t in json.loads(tindex.read_text()) if tindex.is_file() else []:
+        tables.append({**t, "html": _table_html(folder / "tables" / t["file"])})
+    figures = []
+    findex = folder / "figures" / "index.json"
+    for f in json.loads(findex.read_text()) if findex.is_file() else []:
+        figures.append({**f, "src": _img(folder / "figures" / f["files"][0])})
+    prov_file = folder / "tables" / "provenance.json"
+    provenance = json.loads(prov_file.read_text()) if prov_file.is_file() else []
+    solvers = pd.DataFrame([{"solver": k, **v.as_dict()} for k, v in study.solvers.items()]).T
+    solvers.columns = solvers.iloc[0]
+    return {
+        "id": study.id, "title": study.doc["title"], "document": study.doc["document"],
+        "notes": study.doc.get("notes", ""), "robots": study.doc["robots"],
+        "problems_yaml": yaml.safe_dump(study.doc["problems"], sort_keys=False),
+        "solvers_html": solvers.iloc[1:].to_html(border=0, classes="data"),
+        "interpretations": study.doc["interpretations"], "tables": tables, "figures": figures,
+        "provenance": provenance, "benchmarks": _benchmarks(folder / "benchmarks"),
+    }
+
+
+def render_report(studies: list[Study], config: dict, results: Path, out: Path) -> None:
+    """Write ``out`` (normally results/report.html) from the studies' tables and figures."""
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)), autoescape=True,
+                             undefined=jinja2.StrictUndefined)
+    versions = {}
+    for p in PACKAGES:
+        try:
+            versions[p] = _md.version(p)
+        except _md.PackageNotFoundError:
+            versions[p] = "not installed"
+    html = env.get_template("report.html").render(
+        studies=[study_context(s, results) for s in studies], config=config,
+        version=pipeline.__version__, commit=git_commit(), python=platform.python_version(),
+        machine=f"{platform.machine()} {platform.processor() or ''}".strip(), versions=versions,
+        built=_dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+    )
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.name + ".partial")
+    tmp.write_text(html)
+    tmp.replace(out)

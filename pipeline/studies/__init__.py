@@ -1,0 +1,63 @@
+"""Per-study aggregation: each study module turns archives into the document's tables and figures.
+
+A study module ``pipeline.studies.<id>`` provides::
+
+    build_tables(study, archives, published_dir) -> list[TableSpec]
+    build_figures(study, archives, out_dir) -> list[FigureSpec]
+
+Tables and figures are computed from archives only (the archive is the source of truth) plus the
+published values under ``data/published/<id>/``. Figure modules import matplotlib through
+:mod:`pipeline.report.plotting` (a departure from "matplotlib only in pipeline/report": a study's
+figures live beside its tables so that one study is one folder of code).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+
+@dataclass
+class TableSpec:
+    """One reproduced table: file stem, title, the frame (units in every header) and a note."""
+
+    name: str
+    title: str
+    frame: pd.DataFrame
+    note: str = ""
+
+
+@dataclass
+class FigureSpec:
+    """One figure: file names written (PNG first), title and caption."""
+
+    files: list[str]
+    title: str
+    caption: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+def get_study_module(study_id: str):
+    try:
+        return importlib.import_module(f"pipeline.studies.{study_id}")
+    except ModuleNotFoundError as exc:
+        raise ValueError(f"no aggregation module pipeline/studies/{study_id}.py ({exc})") from None
+
+
+def write_tables(tables: list[TableSpec], out_dir: Path) -> None:
+    """Each table as ``<name>.csv`` plus ``index.json`` (order, titles, notes)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    index = []
+    for t in tables:
+        t.frame.to_csv(out_dir / f"{t.name}.csv", index=False, float_format="%.6g")
+        index.append({"name": t.name, "title": t.title, "note": t.note, "file": f"{t.name}.csv"})
+    (out_dir / "index.json").write_text(json.dumps(index, indent=1, ensure_ascii=False))
+
+
+def write_figure_index(figs: list[FigureSpec], out_dir: Path) -> None:
+    index = [{"files": f.files, "title": f.title, "caption": f.caption} for f in figs]
+    (out_dir / "index.json").write_text(json.dumps(index, indent=1, ensure_ascii=False))

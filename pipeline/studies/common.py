@@ -1,0 +1,48 @@
+"""Helpers shared by study modules: archive frames, published tables, summary statistics."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pipeline.io.archive import Archive
+
+
+def solves_frame(archives: list[Archive]) -> pd.DataFrame:
+    """All solve records of several archives, with ``solver``, ``method`` and settings columns."""
+    frames = []
+    for a in archives:
+        df = a.frame()
+        settings = json.loads(a.metadata["settings"])
+        df["method"] = settings.get("method", a.metadata["solver"])
+        df["archive"] = str(a.path)
+        frames.append(df)
+    return pd.concat(frames, ignore_index=True)
+
+
+def published(published_dir: Path, study: str, name: str) -> pd.DataFrame | None:
+    """A published table ``data/published/<study>/<name>.csv`` or None when absent."""
+    path = Path(published_dir) / study / f"{name}.csv"
+    return pd.read_csv(path) if path.is_file() else None
+
+
+def describe(x, stats=("min", "max", "mean", "std")) -> dict:
+    """min/max/mean/sample std (ddof=1, as SPSS and MATLAB std) of a 1-D sample; NaN when empty."""
+    x = np.asarray(x, dtype=float)
+    out = {}
+    for s in stats:
+        if x.size == 0 or (s == "std" and x.size < 2):
+            out[s] = np.nan
+        elif s == "std":
+            out[s] = float(np.std(x, ddof=1))
+        else:
+            out[s] = float(getattr(np, s)(x))
+    return out
+
+
+def percentiles(x, qs=(50, 95, 99)) -> dict:
+    x = np.asarray(x, dtype=float)
+    return {f"p{q}": (float(np.percentile(x, q)) if x.size else np.nan) for q in qs}

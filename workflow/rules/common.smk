@@ -1,0 +1,42 @@
+# Config validation (schema + every study settings file + every robot file) before any job runs,
+# and the helpers the other rule files use.
+import json
+import sys
+
+from pipeline.settings import ConfigError, check_inputs
+from pipeline.robots import RobotFileError
+from pipeline.solvers import SettingsError
+
+try:
+    STUDIES = {s.id: s for s in check_inputs(config)}
+except (ConfigError, RobotFileError, SettingsError) as exc:
+    sys.exit(f"error: {exc}")
+
+RESULTS = config["results_dir"]
+DATA = config["data_dir"]
+SCALE = config["scale"]
+# one thread per job: the solvers are sequential, and 2 jobs fill the 2 cores
+ENV = "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1"
+
+
+wildcard_constraints:
+    study="[a-z0-9_]+",
+    robot="[a-z0-9_]+",
+    solver="[a-z0-9_]+",
+
+
+def study_file(wildcards):
+    return f"{DATA}/studies/{wildcards.study}.yaml"
+
+
+def study_archives(wildcards):
+    st = STUDIES[wildcards.study]
+    return [
+        f"{RESULTS}/{st.id}/runs/{robot}__{solver}.mcap"
+        for robot in st.doc["robots"]
+        for solver in st.solvers
+    ]
+
+
+def study_targets(sid):
+    return [f"{RESULTS}/{sid}/tables", f"{RESULTS}/{sid}/figures"]

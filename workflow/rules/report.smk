@@ -1,0 +1,66 @@
+# Tables and figures per study (from archives only), then the HTML report.
+
+
+rule aggregate_tables:
+    input:
+        study_archives,
+    output:
+        report(
+            directory(f"{RESULTS}/{{study}}/tables"),
+            patterns=["{name}.csv"],
+            caption="../report/tables.rst",
+            category="{study}",
+            subcategory="tables",
+        ),
+    params:
+        settings=study_file,
+        published=f"{DATA}/published",
+    log:
+        f"{RESULTS}/{{study}}/logs/aggregate_tables.log",
+    shell:
+        "python -m pipeline aggregate_tables --study {params.settings} --archives {input}"
+        " --published {params.published} --out-dir {output} > {log} 2>&1"
+
+
+rule plot_figures:
+    input:
+        study_archives,
+    output:
+        report(
+            directory(f"{RESULTS}/{{study}}/figures"),
+            patterns=["{name}.png"],
+            caption="../report/figures.rst",
+            category="{study}",
+            subcategory="figures",
+        ),
+    params:
+        settings=study_file,
+    log:
+        f"{RESULTS}/{{study}}/logs/plot_figures.log",
+    shell:
+        "python -m pipeline plot_figures --study {params.settings} --archives {input}"
+        " --out-dir {output} > {log} 2>&1"
+
+
+rule render_report:
+    input:
+        targets=[t for sid in STUDIES for t in study_targets(sid)],
+        settings=[f"{DATA}/studies/{sid}.yaml" for sid in STUDIES],
+    output:
+        report(f"{RESULTS}/report.html", caption="../report/report.rst", category="report"),
+    params:
+        sets=" ".join(f"--set {k}={json.dumps(v, separators=(',', ':'))}" for k, v in config.items()),
+    log:
+        f"{RESULTS}/logs/render_report.log",
+    shell:
+        "python -m pipeline render_report {params.sets} --out {output} > {log} 2>&1"
+
+
+# one target per configured study: `snakemake --cores 2 cerbaro2019`
+for _sid in STUDIES:
+
+    rule:
+        name:
+            _sid
+        input:
+            study_targets(_sid),
