@@ -24,7 +24,7 @@ import yaml
 
 
 class CLIError(Exception):
-    pass
+    """A usage problem found after parsing (one line, printed as ``error: ...``)."""
 
 
 def _progress(done: int, total: int, t0: float, extra: str = "") -> None:
@@ -204,6 +204,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--problem", type=int, help="show one problem's record and error trace")
     p.add_argument("--csv", metavar="OUT", help="export the solve records as CSV")
     p.set_defaults(func=cmd_inspect)
+
+    # study packages may add their own verbs (a module-level ``register_cli(subparsers)``)
+    from pipeline.studies import study_cli_modules
+
+    for mod in study_cli_modules():
+        mod.register_cli(sub)
     return ap
 
 

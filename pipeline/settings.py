@@ -75,6 +75,16 @@ class Study:
     doc: dict
     solvers: dict[str, SolverSettings]
 
+    @property
+    def generic(self) -> bool:
+        """True when the study uses the generic problem/solve rules (random problems + Jacobian solvers)."""
+        return "problems" in self.doc
+
+    @property
+    def settings(self) -> dict:
+        """The study-specific settings block (``study_settings``), empty when absent."""
+        return self.doc.get("study_settings", {})
+
     def count(self, scale: str) -> int:
         return int(self.doc["problems"]["count"][scale])
 
@@ -92,7 +102,12 @@ def load_study(path: str | Path) -> Study:
     validate_against(doc, _schema("study.schema.yaml"), str(path))
     if doc["study"] != path.stem:
         raise ConfigError(f"{path}: field 'study': {doc['study']!r} must equal the file name {path.stem!r}")
-    solvers = {name: SolverSettings.from_dict(s, f"{path}: solvers/{name}") for name, s in doc["solvers"].items()}
+    own = SCHEMAS / "studies" / f"{doc['study']}.schema.yaml"
+    if own.is_file():
+        validate_against(doc.get("study_settings", {}), yaml.safe_load(own.read_text()), f"{path}: study_settings")
+    if ("problems" in doc) != ("solvers" in doc):
+        raise ConfigError(f"{path}: field 'problems'/'solvers': a generic study needs both (or neither)")
+    solvers = {name: SolverSettings.from_dict(s, f"{path}: solvers/{name}") for name, s in doc.get("solvers", {}).items()}
     return Study(doc["study"], path, doc, solvers)
 
 

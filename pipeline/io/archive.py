@@ -115,6 +115,19 @@ class ArchiveWriter:
         self._solve = self._w.register_channel(SOLVE_TOPIC, "json", sid)
         self._trace = self._w.register_channel(TRACE_TOPIC, "json", tid)
         self._seq = 0
+        self._extra: dict[str, int] = {}
+
+    def add_channel(self, topic: str, schema: dict) -> None:
+        """Register an extra JSON channel (e.g. measurements that are not IK solves)."""
+        sid = self._w.register_schema(schema.get("title", topic), "jsonschema", json.dumps(schema).encode())
+        self._extra[topic] = self._w.register_channel(topic, "json", sid)
+
+    def write_message(self, topic: str, record: dict) -> None:
+        """Append one JSON record on a channel registered with :meth:`add_channel`."""
+        t = self._seq
+        self._w.add_message(self._extra[topic], log_time=t, publish_time=t, sequence=t,
+                            data=json.dumps(record, separators=(",", ":")).encode())
+        self._seq += 1
 
     def write(self, solve: dict, trace: dict) -> None:
         """Append one problem's solve record and trace (plain JSON-able dicts)."""
@@ -177,6 +190,11 @@ class Archive:
         import pandas as pd
 
         return pd.DataFrame(self.solves)
+
+    def messages(self, topic: str) -> Iterator[dict]:
+        """Yield the decoded JSON records of any channel."""
+        for _, _, msg in _iter_messages(self.path, [topic]):
+            yield json.loads(msg.data)
 
     def traces(self, problem_ids=None) -> Iterator[dict]:
         """Yield trace messages (optionally only for ``problem_ids``)."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+from html import escape as html_escape
 import datetime as _dt
 import json
 import platform
@@ -50,13 +51,16 @@ def study_context(study: Study, results: Path) -> dict:
         figures.append({**f, "src": _img(folder / "figures" / f["files"][0])})
     prov_file = folder / "tables" / "provenance.json"
     provenance = json.loads(prov_file.read_text()) if prov_file.is_file() else []
-    solvers = pd.DataFrame([{"solver": k, **v.as_dict()} for k, v in study.solvers.items()]).T
-    solvers.columns = solvers.iloc[0]
+    if study.solvers:
+        solvers = pd.DataFrame({k: v.as_dict() for k, v in study.solvers.items()})
+        solvers_html = solvers.to_html(border=0, classes="data")
+    else:
+        solvers_html = "<pre>" + html_escape(yaml.safe_dump(study.settings, sort_keys=False, allow_unicode=True)) + "</pre>"
     return {
         "id": study.id, "title": study.doc["title"], "document": study.doc["document"],
         "notes": study.doc.get("notes", ""), "robots": study.doc["robots"],
-        "problems_yaml": yaml.safe_dump(study.doc["problems"], sort_keys=False),
-        "solvers_html": solvers.iloc[1:].to_html(border=0, classes="data"),
+        "problems_yaml": yaml.safe_dump(study.doc.get("problems", {}), sort_keys=False) if study.generic else "",
+        "solvers_html": solvers_html,
         "interpretations": study.doc["interpretations"], "tables": tables, "figures": figures,
         "provenance": provenance, "benchmarks": _benchmarks(folder / "benchmarks"),
     }

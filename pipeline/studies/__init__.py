@@ -1,9 +1,12 @@
 """Per-study aggregation: each study module turns archives into the document's tables and figures.
 
-A study module ``pipeline.studies.<id>`` provides::
+A study module or package ``pipeline.studies.<id>`` provides::
 
     build_tables(study, archives, published_dir) -> list[TableSpec]
     build_figures(study, archives, out_dir) -> list[FigureSpec]
+
+A study package may also hold ``cli.py`` with ``register_cli(subparsers)`` adding its own verbs to
+``python -m pipeline`` (keep its imports light: heavy ones go inside the command functions).
 
 Tables and figures are computed from archives only (the archive is the source of truth) plus the
 published values under ``data/published/<id>/``. Figure modules import matplotlib through
@@ -14,6 +17,7 @@ figures live beside its tables so that one study is one folder of code).
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,6 +43,19 @@ class FigureSpec:
     title: str
     caption: str = ""
     extra: dict = field(default_factory=dict)
+
+
+def study_cli_modules() -> list:
+    """Study modules that define ``register_cli(subparsers)`` (for study-specific verbs)."""
+    import pkgutil
+
+    mods = []
+    for info in pkgutil.iter_modules(__path__):
+        if info.ispkg and importlib.util.find_spec(f"{__name__}.{info.name}.cli") is not None:
+            mod = importlib.import_module(f"{__name__}.{info.name}.cli")
+            if hasattr(mod, "register_cli"):
+                mods.append(mod)
+    return mods
 
 
 def get_study_module(study_id: str):

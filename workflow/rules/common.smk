@@ -29,13 +29,22 @@ def study_file(wildcards):
     return f"{DATA}/studies/{wildcards.study}.yaml"
 
 
-def study_archives(wildcards):
-    st = STUDIES[wildcards.study]
-    return [
-        f"{RESULTS}/{st.id}/runs/{robot}__{solver}.mcap"
+# Archives each study's tables and figures are computed from. Generic studies get one archive
+# per (robot, solver); a study with its own rules (workflow/rules/studies/<id>.smk) sets its list.
+STUDY_ARCHIVES = {
+    sid: [
+        f"{RESULTS}/{sid}/runs/{robot}__{solver}.mcap"
         for robot in st.doc["robots"]
         for solver in st.solvers
     ]
+    for sid, st in STUDIES.items()
+    if st.generic
+}
+GENERIC_STUDIES = "|".join(sid for sid, st in STUDIES.items() if st.generic) or "__none__"
+
+
+def study_archives(wildcards):
+    return STUDY_ARCHIVES[wildcards.study]
 
 
 def study_targets(sid):

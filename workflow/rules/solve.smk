@@ -6,6 +6,8 @@ rule make_problems:
         robot=f"{DATA}/robots/{{robot}}.yaml",
     output:
         f"{RESULTS}/{{study}}/problems/{{robot}}.csv",
+    wildcard_constraints:
+        study=GENERIC_STUDIES,
     params:
         settings=study_file,
         problems=lambda w: STUDIES[w.study].doc["problems"],
@@ -24,6 +26,8 @@ rule solve_problems:
         robot=f"{DATA}/robots/{{robot}}.yaml",
     output:
         f"{RESULTS}/{{study}}/runs/{{robot}}__{{solver}}.mcap",
+    wildcard_constraints:
+        study=GENERIC_STUDIES,
     params:
         settings=study_file,
         solver=lambda w: STUDIES[w.study].solvers[w.solver].as_dict(),
