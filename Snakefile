@@ -25,4 +25,15 @@ for _rules in sorted(Path(workflow.basedir, "workflow/rules/studies").glob("*.sm
 rule all:
     default_target: True
     input:
-        f"{RESULTS}/report.html",
+        all_targets(),
+
+
+# one target per configured study: `snakemake --cores 2 cerbaro2019`
+for _sid in STUDIES:
+
+    rule:
+        name:
+            _sid
+        input:
+            study_targets(_sid),
+            STUDY_ARCHIVES.get(_sid, []),

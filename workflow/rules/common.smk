@@ -49,3 +49,10 @@ def study_archives(wildcards):
 
 def study_targets(sid):
     return [f"{RESULTS}/{sid}/tables", f"{RESULTS}/{sid}/figures"]
+
+
+def all_targets():
+    """The report and every archive. Archives are listed as targets on purpose: since Snakemake 7.7
+    a deleted intermediate file is not rebuilt while its consumers are present, and deleting an
+    archive must rebuild it and exactly what depends on it."""
+    return [f"{RESULTS}/report.html"] + [a for sid in STUDIES for a in STUDY_ARCHIVES.get(sid, [])]

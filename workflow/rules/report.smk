@@ -54,13 +54,3 @@ rule render_report:
         f"{RESULTS}/logs/render_report.log",
     shell:
         "python -m pipeline render_report {params.sets} --out {output} > {log} 2>&1"
-
-
-# one target per configured study: `snakemake --cores 2 cerbaro2019`
-for _sid in STUDIES:
-
-    rule:
-        name:
-            _sid
-        input:
-            study_targets(_sid),

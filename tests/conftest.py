@@ -1,0 +1,53 @@
+"""Shared fixtures and hypothesis strategies."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import strategies as st
+
+from pipeline.kinematics import Chain
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = ROOT / "data"
+
+
+def random_rotation(rng: np.random.Generator) -> np.ndarray:
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    from pipeline.kinematics import matrix_from_quat
+
+    return matrix_from_quat(q)
+
+
+def random_transform(rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = random_rotation(rng)
+    T[:3, 3] = rng.normal(scale=scale, size=3)
+    return T
+
+
+def random_chain(rng: np.random.Generator, n: int, convention: str, prismatic_share: float = 0.3,
+                 with_base_tool: bool = True) -> Chain:
+    return Chain(rng.normal(size=n), rng.uniform(-np.pi, np.pi, n), rng.normal(size=n),
+                 rng.uniform(-np.pi, np.pi, n), rng.random(n) < prismatic_share, convention,
+                 random_transform(rng) if with_base_tool else np.eye(4),
+                 random_transform(rng, 0.2) if with_base_tool else np.eye(4))
+
+
+@st.composite
+def chains(draw, max_dof: int = 8):
+    """A random DH chain (standard or modified, revolute and prismatic joints, base and tool)."""
+    seed = draw(st.integers(0, 2**32 - 1))
+    n = draw(st.integers(1, max_dof))
+    conv = draw(st.sampled_from(["standard", "modified"]))
+    return random_chain(np.random.default_rng(seed), n, conv)
+
+
+@pytest.fixture(scope="session")
+def lwr():
+    from pipeline.robots import load_robot
+
+    return load_robot(DATA / "robots" / "kuka_lwr.yaml")

@@ -1,0 +1,115 @@
+"""Jacobian IK loop: compiled kernel vs numpy reference, stop codes, FK-verified success."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pipeline.kinematics import fk_htm, geometric_jacobian
+from pipeline.robots import parse_robot
+from pipeline.solvers import PreparedRobot, SettingsError, SolverSettings, solve
+from pipeline.solvers import _jit
+from tests.conftest import chains
+
+KERNEL_TOL = 1e-12  # same formulas, different evaluation order
+
+
+@settings(max_examples=30, deadline=None)
+@given(chain=chains(), seed=st.integers(0, 2**32 - 1))
+def test_kernel_fk_and_jacobian_match_numpy(chain, seed):
+    q = np.random.default_rng(seed).uniform(-np.pi, np.pi, chain.n)
+    n = chain.n
+    axes, origins, T, J = np.empty((n, 3)), np.empty((n, 3)), np.empty((4, 4)), np.empty((6, n))
+    _jit.forward(chain.a, chain.alpha, chain.d, chain.theta_offset, chain.prismatic, chain.modified,
+                 chain.base, chain.tool, q, axes, origins, T)
+    _jit.jacobian(chain.prismatic, axes, origins, T[:3, 3].copy(), J)
+    np.testing.assert_allclose(T, fk_htm(chain, q), atol=KERNEL_TOL * 100)
+    np.testing.assert_allclose(J, geometric_jacobian(chain, q), atol=KERNEL_TOL * 100)
+
+
+def _planar(n=3):
+    return parse_robot({"name": "planar", "source": "test", "length_unit": "m", "convention": "standard",
+                        "joints": [{"type": "revolute", "a": 1.0, "alpha": 0, "d": 0, "theta_offset": 0}] * n})
+
+
+# Jacobian transpose converges slowly (linear rate); the others are Newton-like
+@pytest.mark.parametrize("method,min_ok", [("dls", 9), ("pseudoinverse", 9), ("sdls", 9), ("jacobian_transpose", 6)])
+def test_methods_solve_reachable_lwr_targets(lwr, method, min_ok):
+    rng = np.random.default_rng(11)
+    s = SolverSettings(method=method, criterion="pos_orient", tol_pos=1e-4, tol_rot=1e-4,
+                       orientation_error="axis_angle", max_iterations=3000, length_unit="m", grow_limit=50)
+    m = lwr.in_unit("m")
+    ok = 0
+    for _ in range(10):
+        qg = rng.uniform(0, 2 * np.pi, 7)
+        q0 = qg + rng.normal(scale=0.3, size=7)
+        res = solve(m, fk_htm(m.chain, qg), q0, s)
+        ok += res.success
+        if res.success:
+            assert res.position_error <= 1e-4 and res.orientation_error <= 1e-4
+    assert ok >= min_ok
+
+
+def test_dls_step_on_planar_arm_by_hand():
+    """One DLS step of a 2R arm at q = (0, pi/2) for e = (0.1, 0, 0, 0, 0, 0), λ = 0.1."""
+    m = _planar(2)
+    J = geometric_jacobian(m.chain, np.array([0.0, np.pi / 2]))
+    # tip at (1, 1): columns z x (p - o) = (-1, 1) and (-1, 0) in x, y
+    np.testing.assert_allclose(J[:2], [[-1, -1], [1, 0]], atol=1e-15)
+    e = np.array([0.1, 0, 0, 0, 0, 0])
+    s = SolverSettings(method="dls", damping=0.1)
+    ip, fp = s.packed()
+    dq = _jit.step(2, J, e, ip, fp)
+    Jr = J[[0, 1, 5]]
+    expect = Jr.T @ np.linalg.solve(Jr @ Jr.T + 0.01 * np.eye(3), np.array([0.1, 0, 0]))
+    np.testing.assert_allclose(dq, expect, atol=1e-12)
+
+
+def test_unreachable_target_is_a_reported_failure():
+    m = _planar(3)
+    T = np.eye(4)
+    T[0, 3] = 10.0  # reach is 3 m
+    res = solve(m, T, np.zeros(3), SolverSettings(method="dls", criterion="pos_orient"))
+    assert not res.success and res.stop_reason in (2, 3, 4)
+    assert np.all(np.isfinite(res.q)) and np.isfinite(res.position_error) and res.position_error > 6.9
+
+
+def test_claimed_success_contradicted_by_fk(lwr):
+    """A kernel that says "success" for wrong angles must not produce a success flag."""
+
+    def lying_kernel(*args):
+        q0, q_out = args[9], args[12]
+        q_out[:] = q0
+        return _jit.SUCCESS, 1
+
+    qg = np.full(7, 0.5)
+    res = solve(lwr, fk_htm(lwr.chain, qg), np.zeros(7), SolverSettings(), _kernel=lying_kernel)
+    assert res.claimed_success and not res.success and res.stop_reason == _jit.FK_CHECK_FAILED
+
+
+def test_same_problem_same_result(lwr):
+    rng = np.random.default_rng(5)
+    T = fk_htm(lwr.chain, rng.uniform(0, 6, 7))
+    q0 = rng.uniform(0, 6, 7)
+    a, b = (solve(lwr, T, q0, SolverSettings()) for _ in range(2))
+    assert a.iterations == b.iterations and a.stop_reason == b.stop_reason
+    assert np.array_equal(a.q, b.q) and np.array_equal(a.trace, b.trace)
+
+
+@pytest.mark.parametrize("field,value,expect", [
+    ("method", "newton", "field 'method'"),
+    ("max_iterations", 0, "field 'max_iterations'"),
+    ("damping", float("nan"), "field 'damping'"),
+    ("tol_dq", 0.5, "tol_dq"),
+    ("nonsense", 1, "field 'nonsense': unknown setting"),
+])
+def test_settings_errors_name_the_field(field, value, expect):
+    with pytest.raises(SettingsError, match=expect):
+        SolverSettings.from_dict({field: value}, "study.yaml: solvers/x")
+
+
+def test_prepared_robot_unit_conversion(lwr):
+    prep = PreparedRobot(lwr, "m")
+    assert prep.model.length_unit == "m" and prep.args[2][0] == pytest.approx(0.31)

@@ -1,0 +1,68 @@
+"""The Snakemake workflow itself: dry run, a quick full run, no-op rerun, targeted rebuild."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+
+import pytest
+
+from tests.conftest import ROOT
+
+pytestmark = pytest.mark.workflow
+
+
+def _snakemake(results, *args, check=True, scale="quick"):
+    env = dict(os.environ)
+    env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")
+    cmd = [sys.executable, "-m", "snakemake", "--cores", "2", "--nolock",
+           "--config", f"scale={scale}", f"results_dir={results}", *args]
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=1800)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"snakemake failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+    return proc
+
+
+def _jobs(proc):
+    """Rule names of the jobs a dry run would execute."""
+    return set(re.findall(r"^rule (\w+):", proc.stdout + proc.stderr, flags=re.M))
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    results = tmp_path_factory.mktemp("results")
+    _snakemake(results)
+    return results
+
+
+def test_dry_run_plans_everything(tmp_path):
+    proc = _snakemake(tmp_path / "r", "-n")
+    assert {"make_problems", "solve_problems", "aggregate_tables", "plot_figures", "render_report"} <= _jobs(proc)
+
+
+def test_quick_run_builds_report(built):
+    report = built / "report.html"
+    html = report.read_text()
+    assert "data:image/png;base64," in html and "Table 7" in html and "(published)" in html
+    assert (built / "cerbaro2019" / "runs" / "kuka_lwr__dls.mcap").is_file()
+    assert not list(built.rglob("*.partial"))
+
+
+def test_rerun_has_nothing_to_do(built):
+    proc = _snakemake(built, "-n")
+    assert "Nothing to be done" in proc.stdout + proc.stderr
+
+
+def test_deleting_an_archive_rebuilds_only_its_dependents(built):
+    (built / "cerbaro2019" / "runs" / "kuka_lwr__dls.mcap").unlink()
+    jobs = _jobs(_snakemake(built, "-n"))
+    assert "solve_problems" in jobs and "make_problems" not in jobs
+    assert jobs <= {"solve_problems", "aggregate_tables", "plot_figures", "render_report", "all", "cerbaro2019"}
+
+
+def test_bad_config_fails_before_any_job(tmp_path):
+    proc = _snakemake(tmp_path / "r", "-n", check=False, scale="huge")
+    assert proc.returncode != 0
+    assert "field 'scale'" in proc.stderr + proc.stdout
