@@ -5,6 +5,7 @@ Verbs (each one is also a Snakemake rule of the same name):
 check_inputs      validate config, study settings and robot files (one line per problem)
 make_problems     write a study's seeded problem set for one robot
 solve_problems    solve every problem with one solver, write an MCAP archive
+rerun_failures    rerun one archive's failed problems with changed stop rules (Table 16 of 000)
 aggregate_tables  compute a study's tables from its archives, beside the published values
 plot_figures      render a study's figures from its archives
 render_report     assemble results/report.html
@@ -60,7 +61,8 @@ def cmd_make_problems(args) -> None:
     print(f"wrote {count} problems for {model.name} to {args.out}")
 
 
-def cmd_solve_problems(args) -> None:
+def _solve_to_archive(args, settings, select=None, extra_meta=None) -> None:
+    """Solve the problems of ``args.problems`` (all, or the ids in ``select``) into ``args.out``."""
     import pipeline
     from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter, solve_record
     from pipeline.io.problems import read_problems
@@ -69,42 +71,76 @@ def cmd_solve_problems(args) -> None:
     from pipeline.solvers import PreparedRobot, solve
 
     study = load_study(args.study)
-    if args.solver not in study.solvers:
-        raise CLIError(f"{args.study}: field 'solvers/{args.solver}': no such solver (have: {', '.join(study.solvers)})")
-    settings = study.solvers[args.solver]
     model = load_robot(args.robot)
-    ps, pmeta = read_problems(args.problems)
+    ps, _ = read_problems(args.problems)
     if ps.robot != model.name:
         raise CLIError(f"{args.problems}: header field 'robot': {ps.robot!r} but the robot file is {model.name!r}")
-    if args.limit:
+    if getattr(args, "limit", 0):
         ps = ps.head(args.limit)
+    idx = np.arange(len(ps)) if select is None else np.flatnonzero(np.isin(ps.problem_id, list(select)))
     prep = PreparedRobot(model, settings.length_unit)
     unit = prep.model.length_unit
-    scale = LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[unit]
     T_goals = ps.goal_transforms()
-    T_goals[:, :3, 3] *= scale
+    T_goals[:, :3, 3] *= LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[unit]
     meta = {
         "format_version": FORMAT_VERSION, "study": study.id, "robot": model.name, "solver": args.solver,
         "settings": json.dumps(settings.as_dict(), sort_keys=True), "settings_hash": study.solver_hash(args.solver, args.scale),
-        "seed": str(study.doc["problems"]["seed"]), "scale": args.scale, "problems": str(len(ps)),
+        "seed": str(study.doc["problems"]["seed"]), "scale": args.scale, "problems": str(len(idx)),
         "problem_file": Path(args.problems).name, "problem_sha256": file_sha256(args.problems)[:16],
         "length_unit": unit, "package_version": pipeline.__version__, "git_commit": git_commit(),
+        **(extra_meta or {}),
     }
-    # compile (or load the cached machine code) before the first timed solve
-    solve(prep, T_goals[0], ps.q_start[0], settings)
+    if len(idx):
+        solve(prep, T_goals[idx[0]], ps.q_start[idx[0]], settings)  # compile or load the cached code before timing
     t0 = time.monotonic()
     n_ok = 0
-    every = max(1, len(ps) // 10)
+    every = max(1, len(idx) // 10)
     with ArchiveWriter(args.out, meta) as w:
-        for i in range(len(ps)):
+        for k, i in enumerate(idx):
             res = solve(prep, T_goals[i], ps.q_start[i], settings)
             n_ok += res.success
-            rec, tr = solve_record(ps.problem_id[i], model.name, args.solver, unit, ps.q_start[i],
-                                   T_goals[i, :3, 3], ps.goal_quat[i], res)
-            w.write(rec, tr)
-            if (i + 1) % every == 0 or i + 1 == len(ps):
-                _progress(i + 1, len(ps), t0, f"solved, {n_ok} successes")
-    print(f"wrote {args.out}: {len(ps)} problems, {n_ok} FK-verified successes")
+            w.write(*solve_record(ps.problem_id[i], model.name, args.solver, unit, ps.q_start[i],
+                                  T_goals[i, :3, 3], ps.goal_quat[i], res))
+            if (k + 1) % every == 0 or k + 1 == len(idx):
+                _progress(k + 1, len(idx), t0, f"solved, {n_ok} successes")
+    print(f"wrote {args.out}: {len(idx)} problems, {n_ok} FK-verified successes")
+
+
+def _study_solver(args):
+    from pipeline.settings import load_study
+
+    study = load_study(args.study)
+    if args.solver not in study.solvers:
+        raise CLIError(f"{args.study}: field 'solvers/{args.solver}': no such solver (have: {', '.join(study.solvers)})")
+    return study, study.solvers[args.solver]
+
+
+def cmd_solve_problems(args) -> None:
+    _, settings = _study_solver(args)
+    _solve_to_archive(args, settings)
+
+
+def cmd_rerun_failures(args) -> None:
+    from dataclasses import replace
+
+    from pipeline.io.archive import read_archive
+    from pipeline.solvers import SettingsError
+
+    study, settings = _study_solver(args)
+    overrides = study.settings.get("rerun")
+    if not overrides:
+        raise CLIError(f"{args.study}: field 'study_settings/rerun': missing (the rerun's setting overrides)")
+    try:
+        rerun = replace(settings, **overrides)
+    except TypeError as exc:
+        raise SettingsError(f"{args.study}: field 'study_settings/rerun': {exc}") from None
+    rerun.validate(f"{args.study}: study_settings/rerun")
+    original = read_archive(args.archive)
+    if original.metadata["solver"] != args.solver:
+        raise CLIError(f"{args.archive}: metadata field 'solver' is {original.metadata['solver']!r}, expected {args.solver!r}")
+    failed = [r["problem_id"] for r in original.solves if not r["success"]]
+    _solve_to_archive(args, rerun, select=failed, extra_meta={
+        "rerun_of": Path(args.archive).name, "rerun_of_settings_hash": original.metadata["settings_hash"]})
 
 
 def cmd_aggregate_tables(args) -> None:
@@ -182,6 +218,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--limit", type=int, default=0, help="solve only the first N problems (debugging)")
     p.add_argument("--out", required=True, help="output .mcap")
     p.set_defaults(func=cmd_solve_problems)
+
+    p = sub.add_parser("rerun_failures", help="rerun a solver's failed problems with the study's rerun overrides")
+    p.add_argument("--study", required=True)
+    p.add_argument("--robot", required=True)
+    p.add_argument("--solver", required=True)
+    p.add_argument("--problems", required=True)
+    p.add_argument("--archive", required=True, help="the solver's archive (its failures are rerun)")
+    p.add_argument("--scale", choices=["full", "quick"], default="full")
+    p.add_argument("--out", required=True)
+    p.set_defaults(func=cmd_rerun_failures)
 
     for verb, fn, what in (("aggregate_tables", cmd_aggregate_tables, "tables (CSV)"),
                            ("plot_figures", cmd_plot_figures, "figures (PNG/SVG)")):

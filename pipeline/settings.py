@@ -74,6 +74,11 @@ class Study:
     path: Path
     doc: dict
     solvers: dict[str, SolverSettings]
+    readings: dict[str, str] = None  # solver name -> reading label (see `readings` in the schema)
+
+    def default_solvers(self) -> list[str]:
+        """Solvers of the default reading (the study's main tables)."""
+        return list(self.doc.get("solvers", {}))
 
     @property
     def generic(self) -> bool:
@@ -108,7 +113,13 @@ def load_study(path: str | Path) -> Study:
     if ("problems" in doc) != ("solvers" in doc):
         raise ConfigError(f"{path}: field 'problems'/'solvers': a generic study needs both (or neither)")
     solvers = {name: SolverSettings.from_dict(s, f"{path}: solvers/{name}") for name, s in doc.get("solvers", {}).items()}
-    return Study(doc["study"], path, doc, solvers)
+    readings = {name: doc.get("readings", {}).get("default", "default") for name in solvers}
+    for variant, overrides in doc.get("readings", {}).get("variants", {}).items():
+        for name, base in doc["solvers"].items():
+            solvers[f"{name}_{variant}"] = SolverSettings.from_dict({**base, **overrides},
+                                                                    f"{path}: readings/variants/{variant}")
+            readings[f"{name}_{variant}"] = variant
+    return Study(doc["study"], path, doc, solvers, readings)
 
 
 def check_inputs(config: dict, root: Path = Path(".")) -> list[Study]:

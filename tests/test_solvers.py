@@ -113,3 +113,20 @@ def test_settings_errors_name_the_field(field, value, expect):
 def test_prepared_robot_unit_conversion(lwr):
     prep = PreparedRobot(lwr, "m")
     assert prep.model.length_unit == "m" and prep.args[2][0] == pytest.approx(0.31)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_verify_matches_reference_error_helpers(seed, lwr):
+    from pipeline.kinematics import orientation_error_angle, relative_dq_norm
+    from pipeline.solvers import verify
+
+    rng = np.random.default_rng(seed)
+    Tg = fk_htm(lwr.chain, rng.uniform(0, 6, 7))
+    q = rng.uniform(0, 6, 7)
+    T = fk_htm(lwr.chain, q)
+    norm = float(relative_dq_norm(Tg, T))
+    ok, dp, ang = verify(lwr, Tg, q, SolverSettings(tol_dq=norm * (1 + 1e-9)))
+    assert ok and abs(dp - np.linalg.norm(Tg[:3, 3] - T[:3, 3])) < 1e-12
+    assert abs(ang - orientation_error_angle(Tg, T)) < 1e-9
+    assert not verify(lwr, Tg, q, SolverSettings(tol_dq=norm * (1 - 1e-9)))[0]

@@ -40,7 +40,7 @@ F_LAMBDA, F_GAMMA_MAX, F_TOL_DQ, F_STALL_DQ, F_TOL_POS, F_TOL_ROT, F_STALL_POS, 
 N_FP = 9
 
 METHODS = {"jacobian_transpose": 0, "pseudoinverse": 1, "dls": 2, "sdls": 3}
-CRITERIA = {"dq_norm": 0, "pos_orient": 1}
+CRITERIA = {"dq_norm": 0, "pos_orient": 1, "dq_norm_body": 2}
 ORIENT_ERRORS = {"quat_vec": 0, "axis_angle": 1}
 NORMS = {"maxabs": 0, "one": 1, "two": 2}
 
@@ -176,6 +176,9 @@ def pose_error(Tg, T, ip, fp, qa, qb, e):
     if ip[I_CRITERION] == 0:
         t = relative_translation_norm(Tg, T)
         err = np.sqrt(1.0 + 0.25 * t * t)
+    elif ip[I_CRITERION] == 2:
+        # Q* Q_goal: its translation is R^T (p_goal - p), so the norm sees position only
+        err = np.sqrt(1.0 + 0.25 * dp * dp)
     else:
         err = np.sqrt(dp * dp + e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
     return err, dp, angle
@@ -199,15 +202,19 @@ def step(method, J, e, ip, fp):
         den = np.dot(jjte, jjte)
         alpha = np.dot(e, jjte) / den if den > 0 else 0.0
         return alpha * g
-    if method == 1:  # pseudoinverse (eq. 49 of 000) through the SVD
-        U, S, Vt = np.linalg.svd(J, full_matrices=False)
-        tol = max(J.shape[0], J.shape[1]) * S[0] * 2.220446049250313e-16
-        ue = U.T @ e
-        out = np.zeros(J.shape[1])
-        for i in range(S.shape[0]):
-            if S[i] > tol:
-                out += (ue[i] / S[i]) * Vt[i]
-        return out
+    if method == 1:  # pseudoinverse, eq. 49 of 000: J^T (J J^T)^-1 e
+        A = J @ J.T
+        try:
+            return J.T @ np.linalg.solve(A, e)
+        except Exception:  # J J^T singular: Moore-Penrose through the SVD
+            U, S, Vt = np.linalg.svd(J, full_matrices=False)
+            tol = max(J.shape[0], J.shape[1]) * S[0] * 2.220446049250313e-16
+            ue = U.T @ e
+            out = np.zeros(J.shape[1])
+            for i in range(S.shape[0]):
+                if S[i] > tol:
+                    out += (ue[i] / S[i]) * Vt[i]
+            return out
     if method == 2:  # damped least squares (eq. 50 of 000)
         lam = fp[F_LAMBDA]
         A = J @ J.T
@@ -286,7 +293,7 @@ def solve_one(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
     grew = 0
     if not np.isfinite(err):
         code = NON_FINITE
-    elif (crit == 0 and err <= fp[F_TOL_DQ]) or (crit == 1 and dp <= fp[F_TOL_POS] and ang <= fp[F_TOL_ROT]):
+    elif (crit != 1 and err <= fp[F_TOL_DQ]) or (crit == 1 and dp <= fp[F_TOL_POS] and ang <= fp[F_TOL_ROT]):
         code = SUCCESS
     while code == 0:
         it += 1
@@ -305,8 +312,11 @@ def solve_one(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
         trace[it, 0] = err
         trace[it, 1:7] = e
         trace[it, 7] = dp
-        if crit == 0:
-            t = relative_translation_norm(T, Tprev)
+        if crit == 0 or crit == 2:
+            if crit == 0:
+                t = relative_translation_norm(T, Tprev)
+            else:
+                t = np.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
             moved = np.sqrt(1.0 + 0.25 * t * t)
             stalled = moved < fp[F_STALL_DQ]
             ok = err <= fp[F_TOL_DQ]

@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from pipeline.kinematics import fk_htm, orientation_error_angle, position_error, relative_dq_norm
+from pipeline.kinematics import fk_htm
 from pipeline.robots import RobotModel
 from pipeline.solvers import _jit
 
@@ -40,9 +40,11 @@ class SolverSettings:
     method : {"jacobian_transpose", "pseudoinverse", "dls", "sdls"}
     max_iterations : int
         Stop code 4 after this many iterations (500 in 000).
-    criterion : {"dq_norm", "pos_orient"}
+    criterion : {"dq_norm", "dq_norm_body", "pos_orient"}
         ``dq_norm``: success when the 8-coefficient norm of ``Q_goal Q*`` is at most ``tol_dq``
         (1 + 1e-6), stall when the norm of ``Q_k Q_{k-1}*`` is below ``stall_dq`` (1 + 1e-12).
+        ``dq_norm_body``: the same with ``Q* Q_goal``, whose translation is ``R^T (p_goal - p)``:
+        the norm then sees the position error only.
         ``pos_orient``: success when |dp| <= ``tol_pos`` [length] and angle <= ``tol_rot`` [rad];
         stall when the pose moves less than ``stall_pos`` and ``stall_rot``.
     orientation_error : {"quat_vec", "axis_angle"}
@@ -179,14 +181,27 @@ class PreparedRobot:
 
 
 def verify(model: RobotModel, T_goal: np.ndarray, q: np.ndarray, settings: SolverSettings) -> tuple[bool, float, float]:
-    """Independent FK check of a solution: (meets the success criterion, |dp| [length], angle [rad])."""
+    """Independent FK check of a solution: (meets the success criterion, |dp| [length], angle [rad]).
+
+    Uses the numpy reference FK (not the compiled kernel). The DQ norm of ``Q_goal Q*`` is taken in
+    its closed form ``sqrt(1 + |t|^2 / 4)``, t the translation of ``T_goal T^-1`` (tested against the
+    explicit dual-quaternion product in tests/test_kinematics.py).
+    """
     T = fk_htm(model.chain, q)
-    dp = float(np.linalg.norm(position_error(T_goal, T)))
-    ang = float(orientation_error_angle(T_goal, T))
+    Rg, R = T_goal[:3, :3], T[:3, :3]
+    dpv = T_goal[:3, 3] - T[:3, 3]
+    dp = float(math.sqrt(dpv @ dpv))
+    Rrel = Rg @ R.T
+    c = (np.trace(Rrel) - 1.0) / 2.0
+    s = 0.5 * math.sqrt((Rrel[2, 1] - Rrel[1, 2]) ** 2 + (Rrel[0, 2] - Rrel[2, 0]) ** 2 + (Rrel[1, 0] - Rrel[0, 1]) ** 2)
+    ang = float(math.atan2(s, c)) if math.isfinite(c) and math.isfinite(s) else math.nan
     if not (math.isfinite(dp) and math.isfinite(ang)):
         return False, dp, ang
     if settings.criterion == "dq_norm":
-        ok = float(relative_dq_norm(T_goal, T)) <= settings.tol_dq * (1 + 1e-12)
+        t = T_goal[:3, 3] - Rrel @ T[:3, 3]
+        ok = math.sqrt(1 + (t @ t) / 4) <= settings.tol_dq * (1 + 1e-12)
+    elif settings.criterion == "dq_norm_body":
+        ok = math.sqrt(1 + dp * dp / 4) <= settings.tol_dq * (1 + 1e-12)
     else:
         ok = dp <= settings.tol_pos * (1 + 1e-9) and ang <= settings.tol_rot * (1 + 1e-9)
     return ok, dp, ang

@@ -1,0 +1,31 @@
+# cerbaro2019 beyond the generic solve jobs: the Table 16 rerun of each default-reading solver's
+# failed problems (codes 2 and 3 off, 4 000-iteration cap), archived as its own job.
+if "cerbaro2019" in STUDIES:
+
+    _cerbaro = STUDIES["cerbaro2019"]
+    STUDY_ARCHIVES["cerbaro2019"] = STUDY_ARCHIVES["cerbaro2019"] + [
+        f"{RESULTS}/cerbaro2019/reruns/{robot}__{solver}.mcap"
+        for robot in _cerbaro.doc["robots"]
+        for solver in _cerbaro.default_solvers()
+    ]
+
+    rule rerun_failures:
+        input:
+            problems=f"{RESULTS}/cerbaro2019/problems/{{robot}}.csv",
+            robot=f"{DATA}/robots/{{robot}}.yaml",
+            archive=f"{RESULTS}/cerbaro2019/runs/{{robot}}__{{solver}}.mcap",
+        output:
+            f"{RESULTS}/cerbaro2019/reruns/{{robot}}__{{solver}}.mcap",
+        params:
+            settings=f"{DATA}/studies/cerbaro2019.yaml",
+            rerun=lambda w: _cerbaro.settings["rerun"],
+            solver=lambda w: _cerbaro.solvers[w.solver].as_dict(),
+            scale=SCALE,
+        log:
+            f"{RESULTS}/cerbaro2019/logs/rerun_failures__{{robot}}__{{solver}}.log",
+        benchmark:
+            f"{RESULTS}/cerbaro2019/benchmarks/rerun__{{robot}}__{{solver}}.tsv"
+        shell:
+            "{ENV} python -m pipeline rerun_failures --study {params.settings} --robot {input.robot}"
+            " --solver {wildcards.solver} --problems {input.problems} --archive {input.archive}"
+            " --scale {params.scale} --out {output} > {log} 2>&1"
