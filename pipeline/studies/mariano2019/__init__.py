@@ -1,0 +1,20 @@
+"""Mariano & Lima (2019), 003_8b306f4736fa5051.txt: HTM vs unit dual quaternions.
+
+Operation counts by instrumentation (:mod:`.counting`, :mod:`.algebra`, :mod:`.closed_form`),
+host timing (:mod:`.timing`), generated C on a simulated ATmega328P (:mod:`.codegen`, :mod:`.avr`);
+Tables I-VI and Gráficos 1-4 from the archives (:mod:`.report`).
+"""
+
+from __future__ import annotations
+
+
+def build_tables(study, archives, published_dir):
+    from pipeline.studies.mariano2019.report import build_tables as _bt
+
+    return _bt(study, archives, published_dir)
+
+
+def build_figures(study, archives, out_dir):
+    from pipeline.studies.mariano2019.report import build_figures as _bf
+
+    return _bf(study, archives, out_dir)

@@ -1,0 +1,176 @@
+"""The study's measurements as plain records (the CLI writes them to MCAP archives).
+
+* :func:`count_records` — operation counts: general chains m = 1..M (eqs. 21-22), the 4-DOF arm's
+  FK and IK variants (Tables II-III), per-transformation / per-product counts (Gráficos 2-3),
+  and the IK round-trip check.
+* :func:`mcu_records` — flash/SRAM/stack and cycles of the generated C on the simulated MCU
+  (Tables IV-VI, Gráfico 4), or one "not measured" record when the toolchain is absent.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pipeline.studies.mariano2019 import algebra as A
+from pipeline.studies.mariano2019 import closed_form as CF
+from pipeline.studies.mariano2019 import counting as K
+
+
+def _rec(kind: str, variant: str, algebra: str, c: K.OpCounts, **extra) -> dict:
+    return {"kind": kind, "variant": variant, "algebra": algebra, **c.as_dict(), **extra}
+
+
+def _counted_q(q):
+    return [K.Counted(v) for v in q]
+
+
+def _counted_p(p: dict) -> dict:
+    return {k: K.Counted(v) for k, v in p.items()}
+
+
+def arm_fk_counts(model, q) -> list[dict]:
+    """FK variants of the 4-DOF arm, each including the position extraction."""
+    p = CF.arm_params(model)
+    out = []
+    for general, variant in ((True, "chain_general"), (False, "chain_folded")):
+        parts = []
+        with K.counting() as c:
+            A.htm_translation(A.fk_htm_chain(model.chain, _counted_q(q), general, parts))
+        out.append(_rec("fk", variant, "htm", c))
+        out += [_rec("part", variant, "htm", pc, stage=st, index=i) for st, i, pc in parts]
+        parts = []
+        with K.counting() as c:
+            Q = A.fk_dq_chain(model.chain, _counted_q(q), general, parts)
+            c0 = K.snapshot()
+            A.dq_translation(Q)
+            tr = K.snapshot() - c0
+        out.append(_rec("fk", variant, "dq", c))
+        out += [_rec("part", variant, "dq", pc, stage=st, index=i) for st, i, pc in parts]
+        out.append(_rec("part", variant, "dq", tr, stage="translation", index=0))
+        out.append(_rec("part", variant, "htm", K.OpCounts(), stage="translation", index=0))
+    for fn, variant in ((CF.fk_printed, "closed_printed"), (CF.fk_factored, "closed_factored")):
+        with K.counting() as c:
+            fn(_counted_p(p), _counted_q(q))
+        out.append(_rec("fk", variant, "closed", c))
+    return out
+
+
+def arm_ik_counts(model, q) -> list[dict]:
+    """IK variants: the core eqs. 29-32 from (x, y, z, phi), and from an HTM / a DQ pose."""
+    p = CF.arm_params(model)
+    x, y, z, phi, _, _ = CF.fk_factored(p, q)
+    T = A.fk_htm_chain(model.chain, list(q))
+    Q = A.fk_dq_chain(model.chain, list(q))
+    out = []
+    with K.counting() as c:
+        CF.ik(_counted_p(p), *(K.Counted(v) for v in (x, y, z, phi)))
+    out.append(_rec("ik", "closed_xyzphi", "closed", c))
+    with K.counting() as c:
+        CF.ik_from_htm(_counted_p(p), [[K.Counted(v) for v in row] for row in T])
+    out.append(_rec("ik", "from_pose", "htm", c))
+    with K.counting() as c:
+        CF.ik_from_dq(_counted_p(p), [K.Counted(v) for v in Q])
+    out.append(_rec("ik", "from_pose", "dq", c))
+    return out
+
+
+def sample_reachable(model, n: int, rng: np.random.Generator, rho_min: float) -> np.ndarray:
+    """``n`` joint vectors uniform within the limits whose pose the front solution of eq. 29 reaches
+    (horizontal radius of the tool point ``rho > rho_min``). Shape (n, 4) [rad]."""
+    lim = np.where(np.isfinite(model.limits), model.limits, np.array([-np.pi, np.pi]))
+    p = CF.arm_params(model)
+    out = []
+    while len(out) < n:
+        q = rng.uniform(lim[:, 0], lim[:, 1], size=(4 * n, 4))
+        t23, t234 = q[:, 1] + q[:, 2], q[:, 1] + q[:, 2] + q[:, 3]
+        rho = p["a4"] * np.cos(t234) + p["a3"] * np.cos(t23) + p["a2"] * np.cos(q[:, 1]) + p["d"]
+        out += list(q[rho > rho_min])
+    return np.array(out[:n])
+
+
+def ik_roundtrip(model, n: int, rng: np.random.Generator, rho_min: float) -> list[dict]:
+    """FK(IK(pose)) vs pose on ``n`` random reachable poses, both elbow branches.
+
+    Returns one record per branch: poses, unreachable count, max position error [length], max
+    orientation error [rad], and how many poses the branch returned the original joints for.
+    """
+    from pipeline.kinematics import fk_htm, orientation_error_angle
+
+    p = CF.arm_params(model)
+    Qs = sample_reachable(model, n, rng, rho_min)
+    T0 = fk_htm(model.chain, Qs)
+    out = []
+    for elbow in (1, -1):
+        sols, unreachable = [], 0
+        for q in Qs:
+            x, y, z, phi, _, _ = CF.fk_factored(p, q)
+            try:
+                sols.append(CF.ik(p, x, y, z, phi, elbow))
+            except CF.UnreachableError:
+                unreachable += 1
+                sols.append([math.nan] * 4)
+        S = np.array(sols)
+        T1 = fk_htm(model.chain, S)
+        pos = np.linalg.norm(T1[:, :3, 3] - T0[:, :3, 3], axis=-1)
+        ang = orientation_error_angle(T0, T1)
+        same = np.all(np.abs(np.angle(np.exp(1j * (S - Qs)))) < 1e-9, axis=-1)
+        out.append({"elbow": elbow, "poses": int(n), "unreachable": unreachable,
+                    "max_position_error": float(np.nanmax(pos)), "max_orientation_error": float(np.nanmax(ang)),
+                    "recovered_joints": int(same.sum()), "length_unit": model.length_unit})
+    return out
+
+
+def count_records(model, max_links: int, ik_poses: int, seed: int, rho_min_fraction: float) -> dict:
+    """Every counting record of the study, by channel name (``general``, ``arm``, ``ik_check``)."""
+    general = []
+    for m in range(1, max_links + 1):
+        for alg in ("htm", "dq"):
+            general.append(_rec("general", "chain_general", alg, A.general_chain_counts(m, alg), m=m))
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-1.0, 1.0, 4)  # counts do not depend on the values (tested)
+    arm = arm_fk_counts(model, q) + arm_ik_counts(model, q)
+    reach = float(np.sum(np.abs(model.chain.a)) + np.sum(np.abs(model.chain.d)))
+    ik = ik_roundtrip(model, ik_poses, rng, rho_min_fraction * reach)
+    return {"general": general, "arm": arm, "ik_check": ik}
+
+
+def mcu_records(model, configs: np.ndarray, mcu: dict, workdir) -> dict:
+    """Build, size and simulate the three firmwares (+ the operation-cost one).
+
+    Returns ``{"status": [...], "fk": [...], "sizes": [...], "ops": [...]}``; when the toolchain
+    is missing ``status`` says so and the other lists are empty.
+    """
+    from pathlib import Path
+
+    from pipeline.kinematics import fk_htm
+    from pipeline.studies.mariano2019 import avr, codegen
+
+    tc = avr.toolchain()
+    status = {"measured": tc["available"], "missing": tc["missing"], "versions": tc["versions"],
+              "mcu": mcu["mcu"], "freq_hz": mcu["freq_hz"], "cflags": mcu["cflags"],
+              "hint": "" if tc["available"] else avr.ENABLE_HINT}
+    out = {"status": [status], "fk": [], "sizes": [], "ops": []}
+    if not tc["available"]:
+        return out
+    workdir = Path(workdir)
+    ref = fk_htm(model.chain, configs)[:, :3, 3]
+    for variant in codegen.VARIANTS:
+        src = codegen.generate_fk_program(variant, model.chain, configs)
+        elf = avr.compile_c(src, workdir, f"fk_{variant}", mcu["mcu"], mcu["cflags"])
+        sizes = avr.section_sizes(elf)
+        res = avr.parse_fk_output(avr.simulate(elf, mcu["mcu"], mcu["freq_hz"], mcu["timeout_s"]))
+        out["sizes"].append({"variant": variant, **sizes, "stack_peak": res["stack_peak"],
+                             "timer_overhead": res["overhead"]})
+        if variant == "baseline":
+            continue
+        for c in res["confs"]:
+            i = c["i"]
+            out["fk"].append({"variant": variant, **c, "q": [float(v) for v in configs[i]],
+                              "x_ref": float(ref[i, 0]), "y_ref": float(ref[i, 1]), "z_ref": float(ref[i, 2]),
+                              "length_unit": model.length_unit})
+    a_vals, b_vals = mcu["op_values"]["a"], mcu["op_values"]["b"]
+    elf = avr.compile_c(codegen.generate_ops_program(a_vals, b_vals), workdir, "ops", mcu["mcu"], mcu["cflags"])
+    out["ops"] = avr.parse_ops_output(avr.simulate(elf, mcu["mcu"], mcu["freq_hz"], mcu["timeout_s"]))
+    return out

@@ -1,0 +1,380 @@
+"""Tables I-VI and Gráficos 1-4 of 003_8b306f4736fa5051.txt from the study's archives."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pipeline.studies import FigureSpec, TableSpec
+from pipeline.studies.common import published
+
+STUDY = "mariano2019"
+T = "/mariano2019/"
+NOT_MEASURED = "not measured"
+TIE = 0.02  # |ratio - 1| below this is called a tie: the spread between configurations is ~1 %
+VARIANT_LABEL = {
+    "chain_general": "chain, general (eqs. 21-22 model)",
+    "chain_folded": "chain, arm constants folded",
+    "closed_printed": "closed form eqs. 23-28 as printed",
+    "closed_factored": "closed form eqs. 23-28 factored",
+    "closed_xyzphi": "closed form eqs. 29-32 from (x, y, z, φ)",
+    "from_pose": "eqs. 29-32 from a pose",
+}
+ALG = {"htm": "HTM", "dq": "DQ", "closed": "closed form (either)"}
+
+
+def _by_measure(archives) -> dict:
+    out = {}
+    for a in archives:
+        out.setdefault(a.metadata.get("measurement", ""), []).append(a)
+    return out
+
+
+def _msgs(archives, ch) -> list[dict]:
+    return [r for a in archives for r in a.messages(T + ch)]
+
+
+def _q(x, q):
+    return float(np.percentile(x, q)) if len(x) else np.nan
+
+
+def _count_cols(r) -> dict:
+    return {"trig (ours)": r["trig"], "add/sub (ours)": r["add"], "mul (ours)": r["mul"], "div (ours)": r["div"],
+            "sqrt (ours)": r["sqrt"], "×2^k (ours)": r["scale"], "flop (ours)": r["flop"]}
+
+
+def _pub_cols(pub, alg) -> dict:
+    row = None if pub is None or alg not in set(pub["algebra"]) else pub[pub["algebra"] == alg].iloc[0]
+    keys = (("trig (published)", "trig"), ("add/sub (published)", "add_sub"), ("mul (published)", "mul"),
+            ("flop (published)", "flop_total"))
+    return {k: (np.nan if row is None else row[c]) for k, c in keys}
+
+
+def _mcu(by) -> dict:
+    arch = by.get("mcu", [])
+    status = _msgs(arch, "mcu_status")
+    st = status[0] if status else {"measured": False, "hint": "no MCU archive", "missing": []}
+    return {"status": st, "fk": pd.DataFrame(_msgs(arch, "mcu_fk")), "sizes": pd.DataFrame(_msgs(arch, "mcu_sizes")),
+            "ops": pd.DataFrame(_msgs(arch, "mcu_ops"))}
+
+
+def _not_measured_note(st) -> str:
+    return (f"MCU rows NOT MEASURED: missing {', '.join(st.get('missing', [])) or 'toolchain'}; to enable: "
+            f"{st.get('hint', '')}.")
+
+
+def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+    by = _by_measure(archives)
+    counts = by.get("counting", [])
+    out = []
+    mcu = _mcu(by)
+    st = mcu["status"]
+    freq = float(st.get("freq_hz", 16e6))
+
+    # Table I: flop weights vs measured cycles relative to an addition
+    pub1 = published(published_dir, STUDY, "table01_flop_weights")
+    weights = {"add": 1, "mul": 1, "div": 4, "sqrt": 4, "sin": 8, "cos": 8, "atan2": 8}
+    rows = []
+    ops = mcu["ops"]
+    base = add = np.nan
+    if len(ops):
+        base = ops.loc[ops["op"] == "load_store", "cycles"].median()
+        add = ops.loc[ops["op"] == "add", "cycles"].median() - base
+    for op, w in weights.items():
+        cyc = ops.loc[ops["op"] == op, "cycles"] - base if len(ops) else pd.Series(dtype=float)
+        rows.append({"operation": op, "weight [flop] (published)": w,
+                     "cycles, median (ours)": float(cyc.median()) if len(cyc) else NOT_MEASURED,
+                     "cycles relative to add (ours)": float(cyc.median() / add) if len(cyc) else NOT_MEASURED})
+    out.append(TableSpec("table01_flop_weights", "Table I / Gráfico 4 — weight of each float operation",
+                         pd.DataFrame(rows),
+                         "Published: Table I weights. Ours: ATmega328P cycles of one float operation (avr-libc soft float, "
+                         "simavr), median over operand pairs, minus the cost of moving the operands; relative to an addition. "
+                         + ("" if st["measured"] else _not_measured_note(st))
+                         + (f" Published file: {len(pub1)} rows." if pub1 is not None else "")))
+
+    # eqs. 21-22
+    gen = pd.DataFrame(_msgs(counts, "general"))
+    rows = []
+    for m, g in gen.groupby("m"):
+        h, d = g[g["algebra"] == "htm"].iloc[0], g[g["algebra"] == "dq"].iloc[0]
+        rows.append({"m": m, "HTM trig (ours)": h["trig"], "HTM trig (eq. 21)": 4 * m,
+                     "HTM mul (ours)": h["mul"], "HTM mul (eq. 21)": 70 * m - 64,
+                     "HTM add (ours)": h["add"], "HTM add (eq. 21)": 48 * m - 48,
+                     "DQ trig (ours)": d["trig"], "DQ trig (eq. 22)": 4 * m,
+                     "DQ mul (ours)": d["mul"], "DQ mul (eq. 22)": 60 * m - 48,
+                     "DQ add (ours)": d["add"], "DQ add (eq. 22)": 44 * m - 40,
+                     "DQ ×½ (ours, not in eq. 22)": d["scale"]})
+    out.append(TableSpec("eq21_22_general_chain", "Eqs. 21–22 — operations of a general m-link chain",
+                         pd.DataFrame(rows),
+                         "Counted by running the chain code on a counting number type (links with run-time DH parameters, "
+                         "general 4×4 / DQ products). The DQ link's halvings (θ/2, α/2, a/2, d/2) are listed apart: eq. 22 "
+                         "does not count them."))
+
+    arm = pd.DataFrame(_msgs(counts, "arm"))
+    for kind, name, title, pubname in (("fk", "table02_fk_counts", "Table II — FK operations of the 4-DOF arm",
+                                        "table02_fk_flop"),
+                                       ("ik", "table03_ik_counts", "Table III — IK operations of the 4-DOF arm",
+                                        "table03_ik_flop")):
+        pub = published(published_dir, STUDY, pubname)
+        rows = []
+        for _, r in arm[arm["kind"] == kind].iterrows():
+            pub_alg = "htm" if r["algebra"] in ("htm", "closed") else "dq"
+            rows.append({"variant": VARIANT_LABEL[r["variant"]], "algebra": ALG[r["algebra"]], **_count_cols(r),
+                         "compared with": {"htm": "MTH", "dq": "QDU"}[pub_alg], **_pub_cols(pub, pub_alg)})
+        note = ("Ours counted by instrumentation (FK includes the position extraction: free for HTM, eq. 18 for DQ). "
+                "flop = Table I weights (×2^k = 1, sign flips 0). The published rows are the authors' hand-simplified "
+                "code, which is not published; the closed form is the same for both algebras (the document's own "
+                "finding), so it is set beside MTH.")
+        out.append(TableSpec(name, title, pd.DataFrame(rows), note))
+
+    # Table IV: cycles and time
+    pub4 = published(published_dir, STUDY, "table04_interrupt_timing")
+    fk = mcu["fk"]
+    rows = []
+    for alg in ("htm", "dq"):
+        p = pub4[pub4["algebra"] == alg].iloc[0] if pub4 is not None else None
+        row = {"algebra": ALG[alg]}
+        if st["measured"] and len(fk):
+            c = fk.loc[fk["variant"] == alg, "total"]
+            row.update({"cycles per FK, median (ours)": float(c.median()),
+                        "cycles min–max (ours)": f"{int(c.min())}–{int(c.max())}",
+                        "time per FK [ms] at 16 MHz (ours)": 1e3 * float(c.median()) / freq})
+        else:
+            row.update({"cycles per FK, median (ours)": NOT_MEASURED})
+        row.update({"counter value (published)": np.nan if p is None else p["counter_value"],
+                    "time [s] (published)": np.nan if p is None else p["time_s"]})
+        rows.append(row)
+    df4 = pd.DataFrame(rows)
+    if st["measured"] and len(fk):
+        h = fk[fk["variant"] == "htm"].sort_values("i")["total"].to_numpy(float)
+        d = fk[fk["variant"] == "dq"].sort_values("i")["total"].to_numpy(float)
+        ratio = h / d
+        rows.append({"algebra": "ratio HTM/DQ", "cycles per FK, median (ours)": float(np.median(ratio)),
+                     "cycles min–max (ours)": f"{ratio.min():.3f}–{ratio.max():.3f}",
+                     "counter value (published)": 233176 / 152770})
+        df4 = pd.DataFrame(rows)
+        err = np.max(np.abs(fk[["x", "y", "z"]].to_numpy() - fk[["x_ref", "y_ref", "z_ref"]].to_numpy()))
+        note4 = (f"Ours: generated C (float) on a simulated {st['mcu']} (simavr, {st.get('versions', {}).get('simavr', '')}), "
+                 f"{len(h)} joint configurations, Timer1 at the CPU clock, printing outside the timed region; "
+                 f"max |p_MCU − p_Python| = {err:.2g} {fk['length_unit'].iloc[0]} (float32 vs float64). The published "
+                 "counter (≈ µs) probably includes serial printing: 0.233 s is 3.7 M cycles at 16 MHz.")
+    else:
+        note4 = _not_measured_note(st)
+    out.append(TableSpec("table04_mcu_time", "Table IV — FK time on the ATmega328P", df4, note4))
+
+    # Table V: per function group
+    pub5 = published(published_dir, STUDY, "table05_ram_model_steps")
+    parts = arm[(arm["kind"] == "part") & (arm["variant"] == "chain_general")] if len(arm) else arm
+    stage_of = {"transformations": "transformation", "products": "product", "translation": "translation"}
+    fk_col = {"transformations": "links", "products": "products", "translation": "translation"}
+    rows = []
+    for grp in ("declarations", "transformations", "products", "print_array", "translation", "total"):
+        row = {"function group": grp}
+        for alg in ("htm", "dq"):
+            if grp in stage_of:
+                sel = parts[(parts["algebra"] == alg) & (parts["stage"] == stage_of[grp])]
+                row[f"{ALG[alg]} operations (ours)"] = int(sel[["trig", "mul", "add", "scale"]].to_numpy().sum())
+                if st["measured"] and len(fk):
+                    row[f"{ALG[alg]} cycles, median (ours)"] = float(fk.loc[fk["variant"] == alg, fk_col[grp]].median())
+            elif grp == "total":
+                sel = parts[parts["algebra"] == alg]
+                row[f"{ALG[alg]} operations (ours)"] = int(sel[["trig", "mul", "add", "scale"]].to_numpy().sum())
+                if st["measured"] and len(fk):
+                    row[f"{ALG[alg]} cycles, median (ours)"] = float(fk.loc[fk["variant"] == alg, "total"].median())
+            if pub5 is not None:
+                p = pub5[pub5["function"] == grp]
+                row[f"{ALG[alg]} RAM-model steps (published)"] = p[f"{alg}_steps"].iloc[0] if len(p) else np.nan
+        rows.append(row)
+    out.append(TableSpec("table05_steps_cycles", "Table V — cost per function group", pd.DataFrame(rows),
+                         "RAM-model steps are replaced by measured cycles (what the RAM model approximates) and by the "
+                         "instrumented operation counts (trig + mul + add + ×½) of the same general functions. Our "
+                         "program has no timed declarations or printing. "
+                         + ("" if st["measured"] else _not_measured_note(st))))
+
+    # Table VI: memory
+    pub6 = published(published_dir, STUDY, "table06_memory")
+    sizes = mcu["sizes"]
+    rows = []
+    for alg in ("htm", "dq"):
+        p = pub6[pub6["algebra"] == alg].iloc[0] if pub6 is not None else None
+        row = {"algebra": ALG[alg]}
+        if st["measured"] and len(sizes):
+            s = sizes[sizes["variant"] == alg].iloc[0]
+            b = sizes[sizes["variant"] == "baseline"].iloc[0]
+            row.update({"flash [B] (ours)": int(s["flash"]), "flash of the FK [B] (ours)": int(s["flash"] - b["flash"]),
+                        "static SRAM [B] (ours)": int(s["sram"]), "static SRAM of the FK [B] (ours)": int(s["sram"] - b["sram"]),
+                        "peak stack [B] (ours)": int(s["stack_peak"]),
+                        "peak stack of the FK [B] (ours)": int(s["stack_peak"] - b["stack_peak"])})
+        else:
+            row["flash [B] (ours)"] = NOT_MEASURED
+        row.update({"flash [B] (published)": np.nan if p is None else p["flash_bytes"],
+                    "SRAM [B] (published)": np.nan if p is None else p["sram_bytes"]})
+        rows.append(row)
+    out.append(TableSpec("table06_memory", "Table VI — memory of the FK firmware (ATmega328P: 32 256 B flash for "
+                         "sketches, 2 048 B SRAM)", pd.DataFrame(rows),
+                         "Ours: avr-size (flash = .text + .data, static SRAM = .data + .bss, as the Arduino IDE reports); "
+                         "'of the FK' = minus the same harness without kinematics; peak stack by stack painting. The "
+                         "published sketch includes the Arduino core and Serial. "
+                         + ("" if st["measured"] else _not_measured_note(st))))
+
+    # host timing
+    host = pd.DataFrame(_msgs(by.get("host_timing", []), "host_timing"))
+    rows = []
+    if len(host):
+        for (robot, impl), g in host.groupby(["robot", "impl"], sort=False):
+            h = g[g["algebra"] == "htm"].sort_values("rep")["ns_per_fk"].to_numpy()
+            d = g[g["algebra"] == "dq"].sort_values("rep")["ns_per_fk"].to_numpy()
+            r = h / d
+            rows.append({"robot": robot, "DOF": int(g["dof"].iloc[0]), "implementation": impl,
+                         "blocks": len(h), "FKs per block": int(g["fks"].iloc[0]),
+                         "HTM median [µs/FK] (ours)": np.median(h) / 1e3, "HTM p5–p95 [µs] (ours)":
+                             f"{_q(h, 5) / 1e3:.3g}–{_q(h, 95) / 1e3:.3g}",
+                         "DQ median [µs/FK] (ours)": np.median(d) / 1e3, "DQ p5–p95 [µs] (ours)":
+                             f"{_q(d, 5) / 1e3:.3g}–{_q(d, 95) / 1e3:.3g}",
+                         "ratio HTM/DQ median (ours)": float(np.median(r)),
+                         "ratio p5–p95 (ours)": f"{_q(r, 5):.3f}–{_q(r, 95):.3f}",
+                         "DQ faster? (ours)": "yes" if np.median(r) > 1 else "no"})
+    out.append(TableSpec("host_fk_speed", "Host speed — HTM vs DQ forward kinematics (not in the document)",
+                         pd.DataFrame(rows),
+                         "Per-FK time of blocks of FKs, HTM and DQ blocks alternating; ratio per adjacent pair. python = "
+                         "pure-Python chain code of this study (pose + position); numpy = pipeline.kinematics fk_htm / fk_dq "
+                         "one configuration per call (fk_dq also converts base and tool to DQs each call); numpy_batch = "
+                         "one call for a batch; numba = compiled loops of the general chain (pose + position)."))
+
+    # IK round trip
+    ik = pd.DataFrame(_msgs(counts, "ik_check"))
+    if len(ik):
+        ik = ik.rename(columns={"elbow": "elbow branch (sign in eq. 30)", "poses": "poses",
+                                "unreachable": "reported unreachable",
+                                "max_position_error": "max |Δp| (ours)", "max_orientation_error": "max angle [rad] (ours)",
+                                "recovered_joints": "poses whose joints this branch returns"})
+    out.append(TableSpec("ik_roundtrip", "IK round trip FK(IK(pose)) = pose (not in the document)", ik,
+                         "Random joint vectors within the limits whose tool point is in front of the base axis; IK of "
+                         "eqs. 29–32 for both elbow branches; errors of the FK of the IK solution against the pose."))
+
+    out.append(TableSpec("verdict", "Verdict — which algebra wins which measure", _verdict(arm, fk, sizes, host, st),
+                         "'HTM' / 'DQ' = the cheaper one by that measure; 'tie' when the ratio is within 2 % of 1. Ratios are "
+                         "HTM/DQ (> 1: DQ cheaper)."))
+    return out
+
+
+def _verdict(arm, fk, sizes, host, st) -> pd.DataFrame:
+    rows = []
+
+    def add(measure, ours, ratio, published, pub_ratio):
+        if isinstance(ratio, float) and np.isfinite(ratio) and abs(ratio - 1.0) < TIE:
+            ours = f"tie (within {TIE:.0%})"
+        rows.append({"measure": measure, "cheaper (ours)": ours, "ratio HTM/DQ (ours)": ratio,
+                     "cheaper (published)": published, "ratio HTM/DQ (published)": pub_ratio})
+
+    if len(arm):
+        for variant in ("chain_general", "chain_folded"):
+            f = arm[(arm["kind"] == "fk") & (arm["variant"] == variant)].set_index("algebra")["flop"]
+            r = f["htm"] / f["dq"]
+            add(f"FK flop, {VARIANT_LABEL[variant]}", "HTM" if r < 1 else "DQ", r, "HTM (Table II)", 92 / 169)
+        ik = arm[(arm["kind"] == "ik") & (arm["variant"] == "from_pose")].set_index("algebra")["flop"]
+        add("IK flop, from a pose", "HTM" if ik["htm"] < ik["dq"] else "DQ", ik["htm"] / ik["dq"], "HTM (Table III)",
+            68 / 171)
+    if st["measured"] and len(fk):
+        h = fk.loc[fk["variant"] == "htm", "total"].median()
+        d = fk.loc[fk["variant"] == "dq", "total"].median()
+        add("MCU cycles per FK", "HTM" if h < d else "DQ", h / d, "DQ (Table IV)", 233176 / 152770)
+        s = sizes.set_index("variant")
+        fh, fd = s.loc["htm", "flash"] - s.loc["baseline", "flash"], s.loc["dq", "flash"] - s.loc["baseline", "flash"]
+        add("flash of the FK", "HTM" if fh < fd else "DQ", fh / fd, "HTM (Table VI)", 4780 / 7088)
+        rh, rd = s.loc["htm", "sram"] - s.loc["baseline", "sram"], s.loc["dq", "sram"] - s.loc["baseline", "sram"]
+        add("static SRAM of the FK", "HTM" if rh < rd else "DQ", rh / rd, "DQ (Table VI)", 958 / 496)
+    else:
+        add("MCU cycles / flash / SRAM", NOT_MEASURED, np.nan, "DQ / HTM / DQ", np.nan)
+    if len(host):
+        for impl, g in host.groupby("impl", sort=False):
+            m = g.groupby("algebra")["ns_per_fk"].median()
+            r = m["htm"] / m["dq"]
+            add(f"host FK time, {impl} (pooled over robots)", "HTM" if r < 1 else "DQ", r, "—", np.nan)
+    return pd.DataFrame(rows)
+
+
+def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+    from pipeline.report.plotting import plt, save
+
+    by = _by_measure(archives)
+    counts = by.get("counting", [])
+    figs = []
+    gen = pd.DataFrame(_msgs(counts, "general"))
+    if len(gen):
+        fig, ax = plt.subplots(figsize=(6.4, 3.8))
+        for alg, ls in (("htm", "-"), ("dq", "--")):
+            g = gen[gen["algebra"] == alg].sort_values("m")
+            ax.plot(g["m"], g["mul"], ls, marker="o", label=f"{ALG[alg]} multiplications")
+            ax.plot(g["m"], g["add"], ls, marker="s", label=f"{ALG[alg]} additions/subtractions")
+        ax.set_xlabel("links m")
+        ax.set_ylabel("operations (counted)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        figs.append(FigureSpec(save(fig, out_dir, "grafico1_ops_vs_m"), "Gráfico 1 — operations of a general chain vs m",
+                               "Counted by instrumentation; equal to eqs. 21–22 for every m (DQ halvings not included)."))
+    arm = pd.DataFrame(_msgs(counts, "arm"))
+    if len(arm):
+        parts = arm[arm["kind"] == "part"]
+        for stage, stem, title in (("transformation", "grafico2_per_transformation",
+                                    "Gráfico 2 — operations of each link transformation (4-DOF arm)"),
+                                   ("product", "grafico3_per_product",
+                                    "Gráfico 3 — operations of each product (4-DOF arm)")):
+            fig, axes = plt.subplots(1, 2, figsize=(8.5, 3.6), sharey=True)
+            for ax, variant in zip(axes, ("chain_general", "chain_folded")):
+                sel = parts[(parts["stage"] == stage) & (parts["variant"] == variant)]
+                idx = sorted(sel["index"].unique())
+                x = np.arange(len(idx))
+                w = 0.13
+                k = 0
+                for alg, hatch in (("htm", ""), ("dq", "//")):
+                    for op in ("trig", "mul", "add"):
+                        vals = [int(sel[(sel["algebra"] == alg) & (sel["index"] == i)][op].sum()) for i in idx]
+                        ax.bar(x + (k - 2.5) * w, vals, w, hatch=hatch, label=f"{ALG[alg]} {op}")
+                        k += 1
+                ax.set_xticks(x, [f"{'link' if stage == 'transformation' else 'product'} {i}" for i in map(int, idx)])
+                ax.set_title(VARIANT_LABEL[variant], fontsize=9)
+                ax.grid(axis="y", alpha=0.3)
+            axes[0].set_ylabel("operations (counted)")
+            axes[1].legend(fontsize=7, ncol=2)
+            figs.append(FigureSpec(save(fig, out_dir, stem), title,
+                                   "Left: general functions (eqs. 21–22 model); right: the same code with the arm's "
+                                   "constants folded (α and zero lengths known at compile time)."))
+    mcu = _mcu(by)
+    ops = mcu["ops"]
+    if len(ops):
+        base = ops.loc[ops["op"] == "load_store", "cycles"].median()
+        names = ["add", "mul", "div", "sqrt", "sin", "cos", "atan2"]
+        add = ops.loc[ops["op"] == "add", "cycles"].median() - base
+        rel = [(ops.loc[ops["op"] == n, "cycles"].median() - base) / add for n in names]
+        pub = [1, 1, 4, 4, 8, 8, 8]
+        fig, ax = plt.subplots(figsize=(6.4, 3.6))
+        x = np.arange(len(names))
+        ax.bar(x - 0.2, pub, 0.4, label="Table I weight [flop] (published)")
+        ax.bar(x + 0.2, rel, 0.4, label="ATmega328P cycles / add cycles (ours)")
+        ax.set_xticks(x, names)
+        ax.set_ylabel("cost relative to an addition")
+        ax.legend(fontsize=8)
+        ax.grid(axis="y", alpha=0.3)
+        figs.append(FigureSpec(save(fig, out_dir, "grafico4_op_cost"), "Gráfico 4 — cost of each float operation on the MCU",
+                               "Published weights (Table I) beside the measured cycles of avr-libc's soft float on a "
+                               "simulated ATmega328P, relative to an addition."))
+    host = pd.DataFrame(_msgs(by.get("host_timing", []), "host_timing"))
+    if len(host):
+        fig, ax = plt.subplots(figsize=(7, 3.8))
+        labels, data = [], []
+        for (robot, impl), g in host.groupby(["robot", "impl"], sort=False):
+            h = g[g["algebra"] == "htm"].sort_values("rep")["ns_per_fk"].to_numpy()
+            d = g[g["algebra"] == "dq"].sort_values("rep")["ns_per_fk"].to_numpy()
+            labels.append(f"{robot}\n{impl}")
+            data.append(h / d)
+        ax.boxplot(data, whis=(5, 95), showfliers=False)
+        ax.axhline(1.0, color="k", lw=0.8)
+        ax.set_xticks(range(1, len(labels) + 1), labels, fontsize=7, rotation=45, ha="right")
+        ax.set_ylabel("time ratio HTM / DQ  (> 1: DQ faster)")
+        ax.grid(axis="y", alpha=0.3)
+        figs.append(FigureSpec(save(fig, out_dir, "host_ratio"), "Host speed — HTM/DQ time ratio",
+                               "Ratio of adjacent HTM and DQ timing blocks; box = quartiles, whiskers 5–95 %."))
+    return figs

@@ -1,0 +1,152 @@
+"""Study mariano2019 (003_8b306f4736fa5051.txt): counting, generic chains, closed forms, IK, MCU."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pipeline.kinematics import fk_dq, fk_htm
+from pipeline.robots import load_robot
+from pipeline.studies.mariano2019 import algebra as A
+from pipeline.studies.mariano2019 import avr, codegen
+from pipeline.studies.mariano2019 import closed_form as CF
+from pipeline.studies.mariano2019 import counting as K
+from pipeline.studies.mariano2019.measure import arm_fk_counts, arm_ik_counts, ik_roundtrip, mcu_records
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM = load_robot(ROOT / "data/robots/mariano_4dof.yaml")
+P = CF.arm_params(ARM)
+FK_TOL = 1e-12        # same double-precision formulas in a different order: a few ulps of ~30 cm
+IK_POS_TOL = 1e-9     # cm; near-stretched poses lose ~sqrt(eps) in theta3 (beta close to 1)
+IK_ANG_TOL = 1e-9     # rad; same reason
+MCU_TOL = 1e-3        # cm; float32 on the MCU (~1e-7 relative) through ~40 operations on a 30 cm arm
+ROBOTS = sorted(p.stem for p in (ROOT / "data/robots").glob("*.yaml"))
+angles = st.floats(-math.pi, math.pi, allow_nan=False)
+
+
+@pytest.mark.parametrize("m", range(1, 9))
+def test_general_chain_counts_equal_eqs_21_22(m):
+    h = A.general_chain_counts(m, "htm")
+    d = A.general_chain_counts(m, "dq")
+    assert (h.trig, h.mul, h.add) == (4 * m, 70 * m - 64, 48 * m - 48)
+    assert (d.trig, d.mul, d.add) == (4 * m, 60 * m - 48, 44 * m - 40)
+    assert h.div == h.sqrt == d.div == d.sqrt == 0
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_generic_chains_match_pipeline_kinematics(robot):
+    model = load_robot(ROOT / "data/robots" / f"{robot}.yaml")
+    c = model.chain
+    rng = np.random.default_rng(5)
+    for q in rng.uniform(-np.pi, np.pi, size=(5, c.n)):
+        # the generic code has no base/tool: compare with the chain alone
+        T_ref = np.linalg.inv(c.base) @ fk_htm(c, q) @ np.linalg.inv(c.tool)
+        assert np.allclose(np.array(A.fk_htm_chain(c, list(q))), T_ref, atol=FK_TOL * max(1, np.abs(T_ref).max()))
+        from pipeline.kinematics import dq_mul, dq_from_transform, dq_conj
+
+        Q_ref = dq_mul(dq_mul(dq_conj(dq_from_transform(c.base)), fk_dq(c, q)), dq_conj(dq_from_transform(c.tool)))
+        Q = np.array(A.fk_dq_chain(c, list(q)))
+        Q_ref = Q_ref if np.dot(Q[:4], Q_ref[:4]) >= 0 else -Q_ref   # q and -q are the same pose
+        assert np.allclose(Q, Q_ref, atol=FK_TOL * max(1, np.abs(Q_ref).max()))
+        assert np.allclose(A.dq_translation(list(Q)), T_ref[:3, 3], atol=FK_TOL * max(1, np.abs(T_ref).max()))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.tuples(angles, angles, angles, angles))
+def test_closed_form_fk_equals_htm_and_dq_chains(q):
+    q = np.array(q)
+    T = fk_htm(ARM.chain, q)
+    for fn in (CF.fk_printed, CF.fk_factored):
+        assert np.allclose(CF.pose_matrix(*fn(P, q)), T, atol=FK_TOL * 100)  # 100: tolerance is absolute in cm
+    assert np.allclose(A.dq_translation(A.fk_dq_chain(ARM.chain, list(q))), T[:3, 3], atol=FK_TOL * 100)
+
+
+def test_counting_does_not_change_values_and_does_not_depend_on_them():
+    q = [0.3, -0.2, 0.9, 0.1]
+    T = A.fk_dq_chain(ARM.chain, q)
+    with K.counting():
+        Tc = A.fk_dq_chain(ARM.chain, [K.Counted(v) for v in q])
+    assert [K.value(v) for v in Tc] == pytest.approx(T, abs=0)
+    a = arm_fk_counts(ARM, q) + arm_ik_counts(ARM, q)
+    b = arm_fk_counts(ARM, [1.1, 0.4, -0.5, 0.7]) + arm_ik_counts(ARM, [1.1, 0.4, -0.5, 0.7])
+    assert a == b
+
+
+def test_counting_rules():
+    x, y = K.Counted(2.0), K.Counted(3.0)
+    with K.counting() as c:
+        _ = x * y + x * 0.5 - x * 0.0 + 2.0 * 3.0 + (-x) + K.sin(x) + K.cos(math.pi / 2) + K.sqrt(y) / y
+    assert (c.mul, c.scale, c.add, c.neg, c.trig, c.sqrt, c.div) == (1, 1, 5, 1, 1, 1, 1)
+    assert K.cos(math.pi / 2) == 0.0
+
+
+def test_ik_roundtrip_1000_poses_both_branches():
+    recs = ik_roundtrip(ARM, 1000, np.random.default_rng(11), 1e-3 * 38.5)
+    assert len(recs) == 2
+    for r in recs:
+        assert r["poses"] == 1000 and r["unreachable"] == 0
+        assert r["max_position_error"] < IK_POS_TOL
+        assert r["max_orientation_error"] < IK_ANG_TOL
+    assert sum(r["recovered_joints"] for r in recs) >= 1000   # every pose's joints come back in one branch
+
+
+def test_ik_unreachable_is_reported():
+    with pytest.raises(CF.UnreachableError, match="unreachable"):
+        CF.ik(P, 100.0, 0.0, 8.0, 0.0)
+
+
+def test_arm_params_rejects_other_robots():
+    with pytest.raises(ValueError, match="not the 4-DOF arm"):
+        CF.arm_params(load_robot(ROOT / "data/robots/kuka_lwr.yaml"))
+
+
+def test_mcu_not_measured_without_toolchain(monkeypatch, tmp_path):
+    monkeypatch.setattr(avr, "toolchain", lambda: {"available": False, "missing": ["simavr"], "versions": {}})
+    s = {"mcu": "atmega328p", "freq_hz": 16_000_000, "cflags": ["-Os"], "timeout_s": 10,
+         "op_values": {"a": [1.0], "b": [2.0]}}
+    recs = mcu_records(ARM, np.zeros((1, 4)), s, tmp_path)
+    assert recs["status"][0]["measured"] is False and "install_avr_toolchain" in recs["status"][0]["hint"]
+    assert recs["fk"] == recs["sizes"] == recs["ops"] == []
+
+
+def test_codegen_rejects_bad_input():
+    with pytest.raises(ValueError, match="variant"):
+        codegen.generate_fk_program("rpy", ARM.chain, np.zeros((1, 4)))
+    with pytest.raises(ValueError, match="shape"):
+        codegen.generate_fk_program("htm", ARM.chain, np.zeros(4))
+
+
+@pytest.mark.skipif(not avr.toolchain()["available"], reason="AVR toolchain (avr-gcc, avr-size, simavr) not installed")
+def test_mcu_fk_matches_python_fk(tmp_path):
+    configs = np.array([[0.1, 0.5, -0.7, 0.3], [-1.2, 2.0, -1.0, 0.5]])
+    s = {"mcu": "atmega328p", "freq_hz": 16_000_000, "timeout_s": 60, "op_values": {"a": [0.7], "b": [1.3]},
+         "cflags": ["-Os", "-ffunction-sections", "-fdata-sections", "-Wl,--gc-sections"]}
+    recs = mcu_records(ARM, configs, s, tmp_path)
+    assert recs["status"][0]["measured"]
+    ref = fk_htm(ARM.chain, configs)[:, :3, 3]
+    assert len(recs["fk"]) == 4
+    for r in recs["fk"]:
+        assert np.allclose([r["x"], r["y"], r["z"]], ref[r["i"]], atol=MCU_TOL)
+        assert r["total"] > r["links"] > 0
+    sizes = {r["variant"]: r for r in recs["sizes"]}
+    assert sizes["htm"]["flash"] > sizes["baseline"]["flash"] and sizes["dq"]["flash"] > sizes["baseline"]["flash"]
+    assert {r["op"] for r in recs["ops"]} == set(codegen.OPS)
+
+
+@pytest.mark.parametrize("convention", ["standard", "modified"])
+def test_generic_chains_modified_and_prismatic(convention):
+    from pipeline.kinematics import Chain
+
+    rng = np.random.default_rng(3)
+    c = Chain(rng.uniform(-1, 1, 5), rng.uniform(-3, 3, 5), rng.uniform(-1, 1, 5), rng.uniform(-1, 1, 5),
+              np.array([False, True, False, False, True]), convention)
+    q = rng.uniform(-1, 1, 5)
+    assert np.allclose(np.array(A.fk_htm_chain(c, list(q))), fk_htm(c, q), atol=FK_TOL)
+    Q, Q_ref = np.array(A.fk_dq_chain(c, list(q))), fk_dq(c, q)
+    Q_ref = Q_ref if np.dot(Q[:4], Q_ref[:4]) >= 0 else -Q_ref
+    assert np.allclose(Q, Q_ref, atol=FK_TOL)
