@@ -10,6 +10,28 @@ import numpy as np
 from pipeline.kinematics.chain import Chain
 
 
+def _hamilton_tensor() -> np.ndarray:
+    """H[i, j, k]: coefficient of basis k in (basis i)(basis j), basis (1, i, j, k)."""
+    H = np.zeros((4, 4, 4))
+    table = {  # e_a e_b = sign * e_c
+        (0, 0): (1, 0), (0, 1): (1, 1), (0, 2): (1, 2), (0, 3): (1, 3),
+        (1, 0): (1, 1), (1, 1): (-1, 0), (1, 2): (1, 3), (1, 3): (-1, 2),
+        (2, 0): (1, 2), (2, 1): (-1, 3), (2, 2): (-1, 0), (2, 3): (1, 1),
+        (3, 0): (1, 3), (3, 1): (1, 2), (3, 2): (-1, 1), (3, 3): (-1, 0),
+    }
+    for (a, b), (sign, c) in table.items():
+        H[a, b, c] = sign
+    return H
+
+
+_H = _hamilton_tensor()
+# dual-quaternion product as one bilinear map on 8-vectors: (pr qr, pr qd + pd qr)
+_D = np.zeros((8, 8, 8))
+_D[:4, :4, :4] = _H
+_D[:4, 4:, 4:] = _H
+_D[4:, :4, 4:] = _H
+
+
 def q_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product (eq. 18 of 000_7e3cb7ad5ee98ff0.txt).
 
@@ -21,17 +43,9 @@ def q_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (..., 4)
     """
-    pw, px, py, pz = np.moveaxis(np.asarray(p, dtype=float), -1, 0)
-    qw, qx, qy, qz = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
-    return np.stack(
-        [
-            pw * qw - px * qx - py * qy - pz * qz,
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-        ],
-        axis=-1,
-    )
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    return np.einsum("...i,ijk,...j->...k", p, _H, q)
 
 
 def q_conj(q: np.ndarray) -> np.ndarray:
@@ -43,9 +57,7 @@ def dq_mul(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """Dual-quaternion product (eq. 28 of 000): ``(p_r q_r, p_r q_d + p_d q_r)``; shapes (..., 8)."""
     P = np.asarray(P, dtype=float)
     Q = np.asarray(Q, dtype=float)
-    real = q_mul(P[..., :4], Q[..., :4])
-    dual = q_mul(P[..., :4], Q[..., 4:]) + q_mul(P[..., 4:], Q[..., :4])
-    return np.concatenate([real, dual], axis=-1)
+    return np.einsum("...i,ijk,...j->...k", P, _D, Q)
 
 
 def dq_conj(Q: np.ndarray) -> np.ndarray:
@@ -183,7 +195,11 @@ def fk_dq(chain: Chain, q: np.ndarray) -> np.ndarray:
     """
     theta, d = chain.joint_dh(q)
     links = dq_from_dh(chain.a, chain.alpha, d, theta, chain.convention)
-    Q = np.broadcast_to(dq_from_transform(chain.base), theta.shape[:-1] + (8,))
+    identity = np.array([1.0, 0, 0, 0, 0, 0, 0, 0])
+    base = dq_from_transform(chain.base) if np.any(chain.base != np.eye(4)) else identity
+    Q = np.broadcast_to(base, theta.shape[:-1] + (8,))
     for i in range(chain.n):
         Q = dq_mul(Q, links[..., i, :])
-    return dq_mul(Q, dq_from_transform(chain.tool))
+    if np.any(chain.tool != np.eye(4)):
+        Q = dq_mul(Q, dq_from_transform(chain.tool))
+    return Q
