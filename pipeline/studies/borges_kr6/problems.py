@@ -1,0 +1,99 @@
+"""Problem sets of 002_56eb235931bf5f5d.txt: the alpha sweep (Table 2), single points (Table 3), paths (Figs. 5-7).
+
+Every random function takes an explicit ``numpy.random.Generator``. Lengths in mm, angles in rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.kinematics import fk_htm
+from pipeline.robots import RobotModel
+
+CURVES = ("lemniscate", "rhodonea", "circle")
+
+
+def lemniscate(t: np.ndarray) -> np.ndarray:
+    """Eq. 12 (lemniscate of Bernoulli in the plane y = -700 mm). ``t`` (k,) [rad] -> (k, 3) [mm]."""
+    t = np.asarray(t, float)
+    den = np.sin(t) ** 2 + 1
+    x = 100 * np.sqrt(2) * np.cos(t) / den
+    z = 100 * np.sqrt(2) * np.cos(t) * np.sin(t) / den + 430
+    return np.stack([x, np.full_like(t, -700.0), z], axis=-1)
+
+
+def rhodonea(t: np.ndarray) -> np.ndarray:
+    """Eq. 13 (four-petal rose, k = 2). ``t`` (k,) [rad] -> (k, 3) [mm]."""
+    t = np.asarray(t, float)
+    r = np.cos(2 * t)
+    return np.stack([100 * r * np.cos(t), 50 * r * np.cos(t) - 700, 100 * r * np.sin(t) + 430], axis=-1)
+
+
+def circle(t: np.ndarray, swap_yz: bool = True) -> np.ndarray:
+    """Eq. 14. As printed (``swap_yz=False``): x = 100 cos t, y = 100 sin t + 430, z = 50 cos t - 700,
+    about 1120-1230 mm from the shoulder, beyond the 762 mm reach. ``swap_yz=True`` (the curve the
+    authors evidently ran): y = 50 cos t - 700, z = 100 sin t + 430. ``t`` (k,) -> (k, 3) [mm]."""
+    t = np.asarray(t, float)
+    y = 100 * np.sin(t) + 430
+    z = 50 * np.cos(t) - 700
+    if swap_yz:
+        y, z = z, y
+    return np.stack([100 * np.cos(t), y, z], axis=-1)
+
+
+def curve_points(name: str, t: np.ndarray, swap_yz: bool = True) -> np.ndarray:
+    if name == "lemniscate":
+        return lemniscate(t)
+    if name == "rhodonea":
+        return rhodonea(t)
+    if name == "circle":
+        return circle(t, swap_yz)
+    raise ValueError(f"unknown curve {name!r} (have: {', '.join(CURVES)})")
+
+
+def path_parameter(t_start: float, t_step: float, count: int) -> np.ndarray:
+    """t = t_start, t_start + t_step, ... (``count`` values; 0, 0.1, ..., 6.2 for 63 points), rounded to 1e-12."""
+    return np.round(t_start + t_step * np.arange(count), 12)
+
+
+@dataclass(frozen=True)
+class Pair:
+    """One alpha-sweep problem: start angles, goal position, the target distance class."""
+
+    distance_class: float      # [mm] 300, 960 or 1160
+    q_start: np.ndarray        # (6,) [rad]
+    q_goal: np.ndarray         # (6,) [rad] (only used to make the goal reachable)
+    p_goal: np.ndarray         # (3,) [mm]
+    distance: float            # [mm] actual |p_goal - p(q_start)|
+
+
+def distance_pairs(model: RobotModel, distances, count: int, tolerance: float, rng: np.random.Generator,
+                   batch: int = 20000, max_batches: int = 200) -> list[Pair]:
+    """``count`` start/goal pairs per distance, both configurations uniform within the joint limits,
+    kept when ``| |p(q_goal) - p(q_start)| - distance | <= tolerance`` (rejection sampling, in draw order).
+
+    Raises
+    ------
+    ValueError
+        When ``max_batches`` batches do not yield enough pairs (a distance beyond twice the reach).
+    """
+    lim = model.limits
+    want = {float(d): [] for d in distances}
+    for _ in range(max_batches):
+        qs = rng.uniform(lim[:, 0], lim[:, 1], size=(batch, model.n))
+        qg = rng.uniform(lim[:, 0], lim[:, 1], size=(batch, model.n))
+        ps = fk_htm(model.chain, qs)[:, :3, 3]
+        pg = fk_htm(model.chain, qg)[:, :3, 3]
+        dist = np.linalg.norm(pg - ps, axis=1)
+        for dclass, got in want.items():
+            for i in np.flatnonzero(np.abs(dist - dclass) <= tolerance):
+                if len(got) < count:
+                    got.append(Pair(dclass, qs[i], qg[i], pg[i], float(dist[i])))
+        if all(len(g) >= count for g in want.values()):
+            break
+    short = [d for d, g in want.items() if len(g) < count]
+    if short:
+        raise ValueError(f"alpha sweep: could not draw {count} pairs at distances {short} mm")
+    return [p for d in want for p in want[d]]
