@@ -207,7 +207,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     bars = [("fig20_mean_iterations", "Figure 20 — mean iterations per method", ok.groupby("method")["iterations"].mean(), "iterations", 1.0),
             ("fig21_mean_ik_time", "Figure 21 — mean IK-block time per iteration", (ok["ik_time_s"] / ok["iterations"].clip(lower=1)).groupby(ok["method"]).mean(), "IK-block time [µs]", 1e6),
             ("fig22_mean_problem_time", "Figure 22 — mean problem time", ok.groupby("method")["solve_time_s"].mean(), "problem time [ms]", 1e3)]
-    pub = published(Path("data/published"), STUDY, "table08_11")
+    pub = published(study.path.parent.parent / "published", STUDY, "table08_11")  # data_dir/published
     for stem, title, series, ylabel, scale in bars:
         fig, ax = plt.subplots(figsize=(5.5, 3.5))
         vals = [series.get(m, np.nan) * scale for m in methods]
