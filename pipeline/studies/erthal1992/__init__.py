@@ -1,0 +1,24 @@
+"""Erthal (1992), 001_7601717b50b5e768.txt: robot catalogue with DH <-> zero-position conversion,
+Zero-Position IK with its 10 weight strategies, Newton-Raphson with Whitney step control, the
+analytic PUMA solution, the iterative geometric method for planar arms, path tasks (RES layout)
+and Tests 1-6 of Chapter 6.
+
+Modules: :mod:`.model` (Appendix 1 conversions, report layout), :mod:`.kernels` (compiled ZP/NR
+loops), :mod:`.solvers` (IKResult wrappers), :mod:`.puma` (analytic PUMA), :mod:`.tasks` (task files,
+interpolation, RES files), :mod:`.runs` (problem sets -> MCAP archives), :mod:`.report` (tables,
+figures), :mod:`.cli` (``python -m pipeline`` verbs).
+"""
+
+from __future__ import annotations
+
+
+def build_tables(study, archives, published_dir):
+    from pipeline.studies.erthal1992.report import build_tables as _bt
+
+    return _bt(study, archives, published_dir)
+
+
+def build_figures(study, archives, out_dir):
+    from pipeline.studies.erthal1992.report import build_figures as _bf
+
+    return _bf(study, archives, out_dir)

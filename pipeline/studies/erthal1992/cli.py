@@ -1,0 +1,152 @@
+"""``python -m pipeline`` verbs of study erthal1992 (each also a Snakemake rule of the same name).
+
+robot                       convert and print a robot in the SCARA.TXT report layout (from a
+                            robot file, DH -> PZ; or from a joint-point input, Appendix 1 Case 1)
+erthal_catalogue            conversions + jog FK of the catalogue -> catalogue.mcap and TXT reports
+erthal_solve_test           one IK problem set (Tests 1, 2, 3, 6) -> <test>.mcap
+erthal_solve_path           one path task -> path_<run>.mcap + RES file
+erthal_puma_analytic        analytic PUMA on random reachable poses -> puma_analytic.mcap
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def _cli_error(exc):
+    from pipeline.cli import CLIError
+
+    return CLIError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+
+
+def _known_errors():
+    from pipeline.studies.erthal1992.model import ConversionError
+    from pipeline.studies.erthal1992.puma import PumaGeometryError
+    from pipeline.studies.erthal1992.runs import RunError
+    from pipeline.studies.erthal1992.solvers import StrategyError
+    from pipeline.studies.erthal1992.tasks import TaskFileError
+
+    return (ConversionError, PumaGeometryError, RunError, StrategyError, TaskFileError, KeyError)
+
+
+def cmd_robot(args) -> None:
+    import numpy as np
+    import yaml
+
+    from pipeline.robots import load_robot
+    from pipeline.studies.erthal1992 import model as M
+
+    try:
+        path = Path(args.robot)
+        doc = yaml.safe_load(path.read_text()) if path.is_file() else None
+        if isinstance(doc, dict) and "effector" in doc and "joints" in doc and "position" in (doc["joints"] or [{}])[0]:
+            j, e = doc["joints"], doc["effector"]
+            pts, axes = [x["position"] for x in j], [x["axis"] for x in j]
+            dh = M.dh_from_joint_points([x["type"] for x in j], pts, axes, e["position"], e["u_a"], e["u_t"])
+            pz = M.pz_from_dh(dh.chain(), dh.types, dh.q0)
+            text = M.report_txt(doc["name"], dh, pz, pts, axes)
+            if args.write_robot:
+                Path(args.write_robot).write_text(M.robot_yaml(doc["name"], dh, f"converted from {path}"))
+        else:
+            model = load_robot(path)
+            types = ["p" if p else "r" for p in model.chain.prismatic]
+            if args.q0:
+                vals = [float(v) for v in args.q0.split(",")]
+                if len(vals) != model.n:
+                    raise ValueError(f"--q0: expected {model.n} values, got {len(vals)}")
+                q0 = np.where(model.chain.prismatic, vals, np.radians(vals))
+            else:
+                q0 = np.zeros(model.n)
+            dh = M.dh_model_from_chain(model.chain, types, q0)
+            pz = M.pz_from_dh(model.chain, types, q0)
+            text = M.report_txt(model.name, dh, pz, limits=model.limits)
+    except _known_errors() + (ValueError,) as exc:
+        raise _cli_error(exc) from None
+    if args.out:
+        Path(args.out).write_text(text)
+        print(f"wrote {args.out}")
+    else:
+        print(text, end="")
+
+
+def _study(args):
+    from pipeline.settings import load_study
+
+    return load_study(args.study)
+
+
+def cmd_catalogue(args) -> None:
+    from pipeline.studies.erthal1992.runs import run_catalogue
+
+    try:
+        n = run_catalogue(_study(args), Path(args.data), Path(args.out), Path(args.report_dir))
+    except _known_errors() as exc:
+        raise _cli_error(exc) from None
+    print(f"wrote {args.out}: {n} catalogue records; reports in {args.report_dir}")
+
+
+def cmd_solve_test(args) -> None:
+    from pipeline.studies.erthal1992.runs import run_test
+
+    try:
+        n = run_test(_study(args), args.test, Path(args.data), Path(args.out))
+    except _known_errors() as exc:
+        raise _cli_error(exc) from None
+    print(f"wrote {args.out}: {n} solves")
+
+
+def cmd_solve_path(args) -> None:
+    from pipeline.studies.erthal1992.runs import run_path
+
+    try:
+        n = run_path(_study(args), args.run, Path(args.data), Path(args.out), Path(args.res) if args.res else None)
+    except _known_errors() as exc:
+        raise _cli_error(exc) from None
+    print(f"wrote {args.out}: {n} IK solves" + (f"; {args.res}" if args.res else ""))
+
+
+def cmd_puma_analytic(args) -> None:
+    from pipeline.studies.erthal1992.runs import run_puma_analytic
+
+    study = _study(args)
+    block = study.settings["puma_analytic"]
+    try:
+        n = run_puma_analytic(study, int(block["count"][args.scale]), int(block["seed"]), Path(args.data), Path(args.out))
+    except _known_errors() as exc:
+        raise _cli_error(exc) from None
+    print(f"wrote {args.out}: {n} analytic solutions")
+
+
+def register_cli(sub) -> None:
+    p = sub.add_parser("robot", help="erthal1992: convert a robot (DH <-> zero-position) and print its report")
+    p.add_argument("robot", help="data/robots/<name>.yaml or a joint-point input (data/erthal1992/*_input.yaml)")
+    p.add_argument("--q0", help="zero position for a robot file, comma-separated deg | mm (default all 0)")
+    p.add_argument("--write-robot", metavar="YAML", help="joint-point input: also write the converted robot file")
+    p.add_argument("--out", help="write the report here instead of stdout")
+    p.set_defaults(func=cmd_robot)
+
+    def common(p):
+        p.add_argument("--study", required=True, help="data/studies/erthal1992.yaml")
+        p.add_argument("--data", default="data", help="data folder (robots/, erthal1992/)")
+        p.add_argument("--out", required=True, help="output .mcap")
+
+    p = sub.add_parser("erthal_catalogue", help="erthal1992: conversions and jog FK of the catalogue")
+    common(p)
+    p.add_argument("--report-dir", required=True, help="folder for the TXT reports")
+    p.set_defaults(func=cmd_catalogue)
+
+    p = sub.add_parser("erthal_solve_test", help="erthal1992: one IK test (study_settings.tests.<name>)")
+    common(p)
+    p.add_argument("--test", required=True)
+    p.set_defaults(func=cmd_solve_test)
+
+    p = sub.add_parser("erthal_solve_path", help="erthal1992: one path task (study_settings.paths.<name>)")
+    common(p)
+    p.add_argument("--run", required=True)
+    p.add_argument("--res", help="RES file to write")
+    p.set_defaults(func=cmd_solve_path)
+
+    p = sub.add_parser("erthal_puma_analytic", help="erthal1992: analytic PUMA, 8 solutions per random pose")
+    common(p)
+    p.add_argument("--scale", choices=["full", "quick"], default="full")
+    p.set_defaults(func=cmd_puma_analytic)
