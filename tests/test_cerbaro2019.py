@@ -130,3 +130,21 @@ def test_unit_reading_changes_the_tolerance_meaning(lwr):
     goal_m[:3, 3] /= 100
     assert verify(lwr.in_unit("m"), goal_m, qg, SolverSettings(length_unit="m"))[0]
     assert not verify(lwr, goal_cm, qg, SolverSettings(length_unit="cm"))[0]
+
+
+def test_same_seed_same_archive_columns(tmp_path):
+    """Two solve jobs on the same problem file: identical success, iteration and stop-code columns."""
+    from pipeline.cli import main
+    from pipeline.io.archive import read_archive
+
+    study, robot = str(DATA / "studies" / "cerbaro2019.yaml"), str(DATA / "robots" / "kuka_lwr.yaml")
+    problems = tmp_path / "p.csv"
+    assert main(["make_problems", "--study", study, "--robot", robot, "--scale", "quick", "--out", str(problems)]) == 0
+    frames = []
+    for k in range(2):
+        out = tmp_path / f"a{k}.mcap"
+        assert main(["solve_problems", "--study", study, "--robot", robot, "--solver", "sdls", "--problems",
+                     str(problems), "--scale", "quick", "--limit", "40", "--out", str(out)]) == 0
+        frames.append(read_archive(out).frame())
+    cols = ["problem_id", "success", "iterations", "stop_reason", "q_solution", "final_error"]
+    assert frames[0][cols].equals(frames[1][cols])
