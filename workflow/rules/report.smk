@@ -14,6 +14,7 @@ rule aggregate_tables:
         ),
     params:
         settings=study_file,
+        study=lambda w: STUDIES[w.study].doc,  # any settings change re-runs the tables
         published=f"{DATA}/published",
     log:
         f"{RESULTS}/{{study}}/logs/aggregate_tables.log",
@@ -35,6 +36,7 @@ rule plot_figures:
         ),
     params:
         settings=study_file,
+        study=lambda w: STUDIES[w.study].doc,
     log:
         f"{RESULTS}/{{study}}/logs/plot_figures.log",
     shell:

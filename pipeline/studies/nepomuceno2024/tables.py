@@ -1,0 +1,270 @@
+"""Tabelas 5.1 and 5.2 of 004_957b32c2b06ea31d.txt, continuity, extra runs and the published orderings,
+computed from the archives only (plus data/published/nepomuceno2024/)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pipeline.studies import TableSpec
+from pipeline.studies.common import published
+
+STUDY = "nepomuceno2024"
+MOTION_LABEL = {"home": "Teste 1 (home)", "pick_and_place": "Teste 2 (pick-and-place)"}
+
+
+def load_runs(archives) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(points, repetitions) frames of every archive.
+
+    points: one row per point of repetition 0 (solve record + study point record + motion/method);
+    repetitions: one row per repetition (total time, successes, identical to repetition 0).
+    """
+    from pipeline.studies.nepomuceno2024.runner import POINT_TOPIC, REP_TOPIC
+
+    pts, reps = [], []
+    for a in archives:
+        motion, method = a.metadata["motion"], a.metadata["solver"]
+        df = a.frame()
+        extra = pd.DataFrame(list(a.messages(POINT_TOPIC)))
+        df = df.merge(extra.drop(columns=[c for c in extra.columns if c in df.columns and c != "problem_id"]),
+                      on="problem_id")
+        df["motion"] = motion
+        df["method"] = method
+        df["archive"] = str(a.path)
+        df["test"] = int(a.metadata.get("test", 0))
+        pts.append(df)
+        for r in a.messages(REP_TOPIC):
+            reps.append({"motion": motion, "method": method, "repetition": r["repetition"],
+                         "total_time_s": r["total_time_s"], "points": len(r["solve_time_s"]),
+                         "successes": int(np.sum(r["success"])), "same": r["same_as_repetition_0"],
+                         "max_position_error": float(np.max(r["position_error"])) if r["position_error"] else np.nan})
+    return pd.concat(pts, ignore_index=True), pd.DataFrame(reps)
+
+
+def joint_jumps(g: pd.DataFrame) -> np.ndarray:
+    """Per point, the largest |Δq| over joints between the warm start (previous solution) and the solution."""
+    q0 = np.array(g["q_start"].tolist())
+    q1 = np.array(g["q_solution"].tolist())
+    return np.abs(q1 - q0)
+
+
+def _label(settings: dict, method: str) -> str:
+    return settings["methods"].get(method, {}).get("label", method)
+
+
+def _pub(pub: pd.DataFrame | None, name: str, col: str):
+    if pub is None or not name:
+        return np.nan
+    r = pub[pub["method"] == name]
+    return r.iloc[0][col] if len(r) else np.nan
+
+
+def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+    st = study.settings
+    pts, reps = load_runs(archives)
+    methods = [m for m in st["table_methods"] if m in set(pts["method"])]
+    motions = [m for m in st["motions"] if m in set(pts["motion"])]
+    pub1 = published(published_dir, STUDY, "table5_1")
+    pub2 = published(published_dir, STUDY, "table5_2")
+    out = []
+
+    # Tabela 5.1 -----------------------------------------------------------------------------
+    rows = []
+    mean_t = {}
+    for m in methods:
+        pname = st["methods"][m].get("published_as", "")
+        row = {"method": _label(st, m)}
+        for mo in motions:
+            r = reps[(reps["method"] == m) & (reps["motion"] == mo)]
+            mean_t[(m, mo)] = float(r["total_time_s"].mean())
+            col = "test1_duration_s" if mo == "home" else "test2_duration_s"
+            row[f"{MOTION_LABEL.get(mo, mo)}: points"] = int(r["points"].iloc[0])
+            row[f"{MOTION_LABEL.get(mo, mo)}: IK time [s] (ours, mean of {len(r)})"] = mean_t[(m, mo)]
+            row[f"{MOTION_LABEL.get(mo, mo)}: IK time std [s] (ours)"] = float(r["total_time_s"].std(ddof=1)) if len(r) > 1 else np.nan
+            row[f"{MOTION_LABEL.get(mo, mo)}: duration [s] (published)"] = _pub(pub1, pname, col)
+        rows.append(row)
+    t51 = pd.DataFrame(rows)
+    for mo in motions:
+        col = "test1_duration_s" if mo == "home" else "test2_duration_s"
+        if "analytic" in methods:
+            t51[f"{MOTION_LABEL.get(mo, mo)}: × analytic (ours)"] = [mean_t[(m, mo)] / mean_t[("analytic", mo)] for m in methods]
+            pa = _pub(pub1, st["methods"]["analytic"].get("published_as", ""), col)
+            t51[f"{MOTION_LABEL.get(mo, mo)}: × analytic (published)"] = [
+                _pub(pub1, st["methods"][m].get("published_as", ""), col) / pa for m in methods]
+    out.append(TableSpec(
+        "table5_1_motion_time", "Tabela 5.1 — IK time of each whole motion per method", t51,
+        "Ours: sum of the per-point solve times of the whole motion (IK only), mean over repetitions; "
+        "every repetition gives bit-identical solutions (checked). Published: duration of the motion in "
+        "ROS/Gazebo on an i7-11800H, which also contains the simulated execution of every point "
+        "(notes §5.7) — so absolute values differ by orders of magnitude; compare orderings and ratios. "
+        "Our trajectories are designed (the document gives none), so point counts differ too."))
+
+    # Tabela 5.2 -----------------------------------------------------------------------------
+    rows = []
+    for m in methods:
+        g = pts[pts["method"] == m]
+        pname = st["methods"][m].get("published_as", "")
+        cfg = st["methods"][m]
+        rows.append({
+            "method": _label(st, m),
+            "points (ours)": len(g),
+            "document's error measure": g["doc_measure"].iloc[0],
+            "mean error, document's measure (ours)": g["doc_error"].mean(),
+            "mean error (published)": _pub(pub2, pname, "mean_error"),
+            "mean position error [m] (ours)": g["position_error"].mean(),
+            "max position error [m] (ours)": g["position_error"].max(),
+            "mean orientation error [rad] (ours)": g["orientation_error"].mean(),
+            "FK-verified successes [%] (ours)": 100.0 * g["success"].mean(),
+            "mean iterations per point (ours)": g["iterations"].mean() if cfg["kind"] != "analytic" else np.nan,
+            "mean iterations per point (published)": _pub(pub2, pname, "iterations_per_point_text"),
+            "mean function evaluations per point (ours)": g["nfev"].mean(),
+            "'custo computacional por iteração' (published)": _pub(pub2, pname, "cost_per_iteration"),
+            "mean solve time per point [ms] (ours)": 1e3 * g["solve_time_s"].mean(),
+            "'tempo médio para convergência de uma iteração', no unit (published)": _pub(pub2, pname, "time_per_iteration"),
+        })
+    out.append(TableSpec(
+        "table5_2_error_iterations", "Tabela 5.2 — mean error, iterations, evaluations and time per point",
+        pd.DataFrame(rows),
+        "Pooled over every point of both motions (repetition 0). Common measure for every method: position "
+        "error and rotation angle between goal and reached pose by an independent numpy FK. The document's "
+        "own 'Erro médio' is a different quantity per method (‖e‖ for the descent, cost A for BFGS, cost B "
+        "for L-BFGS-B and Nelder-Mead) and is shown beside it. Function evaluations: SciPy's nfev "
+        "(finite-difference gradient evaluations included), FK evaluations for the descent, the 8 FK "
+        "checks of the closed form. The published 'custo computacional' and 'tempo ... de uma iteração' "
+        "columns are undefined and unitless in the document (notes §6.4-6.5)."))
+
+    # Continuity -----------------------------------------------------------------------------
+    rows = []
+    for m in methods:
+        for mo in motions:
+            g = pts[(pts["method"] == m) & (pts["motion"] == mo)].sort_values("problem_id")
+            jj = joint_jumps(g)
+            per_point = jj.max(axis=1)
+            k = int(np.argmax(per_point))
+            rows.append({"method": _label(st, m), "motion": MOTION_LABEL.get(mo, mo),
+                         "largest joint jump [rad] (ours)": float(per_point[k]),
+                         "at point": int(g["problem_id"].iloc[k]), "segment": g["segment"].iloc[k],
+                         "joint": int(np.argmax(jj[k])) + 1,
+                         "median per-point jump [rad] (ours)": float(np.median(per_point)),
+                         "points with a jump > 0.5 rad (ours)": int((per_point > 0.5).sum()),
+                         "failed points (ours)": int((~g["success"].astype(bool)).sum())})
+    out.append(TableSpec(
+        "continuity", "Continuity — largest joint jump between consecutive points", pd.DataFrame(rows),
+        "Jump = max over joints of |q_k − q_(k−1)| (the first point against the motion's start joints). "
+        "A branch flip mid-trajectory shows as a jump of the order of 1 rad or more; consecutive "
+        "points are at most a few millimetres apart at full scale. Not reported by the document."))
+
+    # Extra runs: Jacobian model and squared cost ---------------------------------------------
+    extra = [m for m in st["methods"] if m not in st["table_methods"] and m in set(pts["method"])]
+    if extra:
+        rows = []
+        pairs = [("pinv", "pinv_rtb_jacobian"), ("bfgs", "bfgs_squared_cost")]
+        shown = [m for p in pairs for m in p if m in set(pts["method"])]
+        shown += [m for m in extra if m not in shown]
+        partner = {b: a for a, b in pairs}
+        for m in shown:
+            for mo in motions:
+                g = pts[(pts["method"] == m) & (pts["motion"] == mo)].sort_values("problem_id")
+                r = reps[(reps["method"] == m) & (reps["motion"] == mo)]
+                base = pts[(pts["method"] == partner.get(m, "")) & (pts["motion"] == mo)].sort_values("problem_id")
+                dq = (float(np.abs(np.array(g["q_solution"].tolist()) - np.array(base["q_solution"].tolist())).max())
+                      if len(base) == len(g) and len(g) else np.nan)
+                rows.append({"method": _label(st, m), "motion": MOTION_LABEL.get(mo, mo),
+                             f"max |q − q(listing/consistent variant)| [rad]": dq,
+                             "mean iterations per point": g["iterations"].mean(),
+                             "max iterations": int(g["iterations"].max()),
+                             "mean function evaluations per point": g["nfev"].mean(),
+                             "mean position error [m]": g["position_error"].mean(),
+                             "max position error [m]": g["position_error"].max(),
+                             "mean orientation error [rad]": g["orientation_error"].mean(),
+                             "FK-verified successes [%]": 100.0 * g["success"].mean(),
+                             "IK time of the motion [s]": r["total_time_s"].mean()})
+        out.append(TableSpec(
+            "extra_runs", "Effect of the document's Jacobian model and of its non-squared cost", pd.DataFrame(rows),
+            "J⁺ descent with the geometric Jacobian of the FK model vs the roboticstoolbox UR5 model the "
+            "listing calls (d1 = 0.089459, d6 = 0.0823 instead of 0.089159 and 0.2531: the Jacobian of the "
+            "flange, not of the gripper TCP). d1 does not enter a geometric Jacobian, and J_TCP = M J_flange "
+            "with M = [[I, −[r]×], [0, I]], r = (0.2531 − 0.0823) z6: the error map I − 0.05 M has every "
+            "eigenvalue 0.95, the same linear rate as the exact Jacobian; the mismatch only couples the "
+            "orientation error into the position step, and our tool-down paths have almost no orientation "
+            "error between consecutive points, so the effect is negligible here (last column: largest joint "
+            "difference to the consistent variant). BFGS on the listing's cost A (norms not squared) vs the "
+            "squared form of the theory chapter: with the listing's cost BFGS stalls (0 iterations, "
+            "'precision loss') on pure-translation segments, where the warm start already has the exact "
+            "orientation and the forward-difference gradient of ‖ΔR‖_F at its kink points uphill."))
+
+    # Published orderings ----------------------------------------------------------------------
+    out.append(_orderings(st, pts, mean_t, methods, motions))
+    return out
+
+
+def _orderings(st, pts, mean_t, methods, motions) -> TableSpec:
+    num = [m for m in methods if st["methods"][m]["kind"] != "analytic"]
+    per = pts[pts["method"].isin(methods)].groupby("method")
+    it = per["iterations"].mean()
+    pos = per["position_error"].mean()
+    ang = per["orientation_error"].mean()
+    doc = per["doc_error"].mean()
+    rows = []
+
+    def add(claim, holds, ours):
+        rows.append({"published claim": claim, "holds (ours)": "yes" if holds else "no", "our values": ours})
+
+    for mo in motions:
+        t = {m: mean_t[(m, mo)] for m in methods}
+        lab = MOTION_LABEL.get(mo, mo)
+        vals = ", ".join(f"{_label(st, m)} {t[m]:.3g} s" for m in sorted(t, key=t.get))
+        if "analytic" in t and num:
+            fastest_num = min(num, key=t.get)
+            add(f"{lab}: analytic fastest by far (≥ 3× faster than any numerical method)",
+                all(t["analytic"] * 3 <= t[m] for m in num), vals)
+            if "lbfgsb" in t:
+                add(f"{lab}: L-BFGS-B fastest numerical method", fastest_num == "lbfgsb", vals)
+            if "nelder_mead" in t:
+                add(f"{lab}: Nelder-Mead slowest", max(num, key=t.get) == "nelder_mead", vals)
+            sp = [m for m in num if st["methods"][m]["kind"] == "scipy"]
+            if "lbfgsb" in sp and len(sp) > 1:
+                add(f"{lab}: L-BFGS-B fastest of the SciPy methods (same interpreted machinery)",
+                    min(sp, key=t.get) == "lbfgsb", ", ".join(f"{_label(st, m)} {t[m]:.3g} s" for m in sorted(sp, key=t.get)))
+    ivals = ", ".join(f"{_label(st, m)} {it[m]:.1f}" for m in sorted(num, key=lambda m: it[m]))
+    if "lbfgsb" in num:
+        add("L-BFGS-B fewest iterations per point", min(num, key=lambda m: it[m]) == "lbfgsb", ivals)
+    if "nelder_mead" in num:
+        add("Nelder-Mead most iterations per point", max(num, key=lambda m: it[m]) == "nelder_mead", ivals)
+    if "bfgs" in num:
+        pv = ", ".join(f"{_label(st, m)} {pos[m]:.2e} m / {ang[m]:.2e} rad" for m in num)
+        add("BFGS smallest error of the numerical methods (common measure: position and angle)",
+            min(num, key=lambda m: pos[m]) == "bfgs" and min(num, key=lambda m: ang[m]) == "bfgs", pv)
+        dv = ", ".join(f"{_label(st, m)} {doc[m]:.2e}" for m in num)
+        add("BFGS smallest error of the numerical methods (each method's own measure, as published)",
+            min(num, key=lambda m: doc[m]) == "bfgs", dv)
+        # the same comparison restricted to the points where BFGS iterated at all (no stall at the kink)
+        b = pts[pts["method"] == "bfgs"]
+        rot = []
+        for (mo, seg), g in b.groupby(["motion", "segment"]):
+            o = [g.sort_values("problem_id")["goal"].iloc[i]["orientation"] for i in (0, -1)]
+            if max(abs(o[0][k] - o[1][k]) for k in "wxyz") > 1e-9:
+                rot.append((mo, seg))
+        b = b[[(mo, seg) in rot for mo, seg in zip(b["motion"], b["segment"])]][["motion", "problem_id"]]
+        sub = pts[pts["method"].isin(num)].merge(b, on=["motion", "problem_id"])
+        if len(sub):
+            sp_ = sub.groupby("method")["position_error"].mean()
+            sa_ = sub.groupby("method")["orientation_error"].mean()
+            pv = ", ".join(f"{_label(st, m)} {sp_[m]:.2e} m / {sa_[m]:.2e} rad" for m in num)
+            add(f"BFGS smallest error, on the {len(b)} points of segments that turn the tool (common measure)",
+                min(num, key=lambda m: sp_[m]) == "bfgs" and min(num, key=lambda m: sa_[m]) == "bfgs", pv)
+    return TableSpec(
+        "orderings", "Published orderings, checked on our archives", pd.DataFrame(rows),
+        "Why an ordering can fail here: our descent loop and costs are compiled (numba), so an iteration of "
+        "the J⁺ descent or a Nelder-Mead cost evaluation costs microseconds, while every SciPy quasi-Newton "
+        "iteration pays Python overhead for ~7 finite-difference evaluations; the document ran everything in "
+        "interpreted Python with roboticstoolbox's jacob0 and timed the motion in Gazebo. Iterations of the "
+        "descent grow with the error at the warm start, ≈ ln(e0/1e-6)/0.0513 (notes §4.5), while Nelder-Mead's "
+        "depend mostly on its initial simplex (5 % of each joint angle): with closely spaced points (full scale, "
+        "~3 mm apart) the descent needs more iterations than Nelder-Mead, with sparse points (quick scale) fewer. "
+        "BFGS on the listing's cost stalls on pure-translation segments (extra-runs table), so its mean error "
+        "is dominated by those stalls; where it iterates it is the most accurate. L-BFGS-B with ftol = 1e-6 "
+        "(an absolute decrease test when the cost is below 1) and the 0.1 rotation weight tracks the position "
+        "to micrometres but lets the orientation drift along the path.")
