@@ -29,8 +29,17 @@ CLIP_TOL = 1e-9
 
 
 @njit(cache=True)
-def fk(dh, q, T):
-    """``T_0n`` of a standard-DH chain into ``T`` (4, 4); ``dh`` (4 n,), ``q`` (n,) [rad]."""
+def _link(a, al, d, th, A):
+    ct, st, ca, sa = math.cos(th), math.sin(th), math.cos(al), math.sin(al)
+    A[0, 0] = ct; A[0, 1] = -st * ca; A[0, 2] = st * sa; A[0, 3] = a * ct
+    A[1, 0] = st; A[1, 1] = ct * ca; A[1, 2] = -ct * sa; A[1, 3] = a * st
+    A[2, 0] = 0.0; A[2, 1] = sa; A[2, 2] = ca; A[2, 3] = d
+    A[3, 0] = 0.0; A[3, 1] = 0.0; A[3, 2] = 0.0; A[3, 3] = 1.0
+
+
+@njit(cache=True)
+def _chain(dh, q, T, Z, O):
+    """Standard-DH chain: ``T_0n`` into ``T`` (4, 4); joint axes/origins into ``Z``/``O`` (n, 3)."""
     n = q.shape[0]
     for r in range(4):
         for c in range(4):
@@ -38,15 +47,10 @@ def fk(dh, q, T):
     A = np.empty((4, 4))
     M = np.empty((4, 4))
     for i in range(n):
-        a = dh[i]
-        al = dh[n + i]
-        d = dh[2 * n + i]
-        th = q[i] + dh[3 * n + i]
-        ct, st, ca, sa = math.cos(th), math.sin(th), math.cos(al), math.sin(al)
-        A[0, 0] = ct; A[0, 1] = -st * ca; A[0, 2] = st * sa; A[0, 3] = a * ct
-        A[1, 0] = st; A[1, 1] = ct * ca; A[1, 2] = -ct * sa; A[1, 3] = a * st
-        A[2, 0] = 0.0; A[2, 1] = sa; A[2, 2] = ca; A[2, 3] = d
-        A[3, 0] = 0.0; A[3, 1] = 0.0; A[3, 2] = 0.0; A[3, 3] = 1.0
+        for r in range(3):
+            Z[i, r] = T[r, 2]
+            O[i, r] = T[r, 3]
+        _link(dh[i], dh[n + i], dh[2 * n + i], q[i] + dh[3 * n + i], A)
         for r in range(3):
             for c in range(4):
                 s = 0.0
@@ -59,36 +63,20 @@ def fk(dh, q, T):
 
 
 @njit(cache=True)
+def fk(dh, q, T):
+    """``T_0n`` of a standard-DH chain into ``T`` (4, 4); ``dh`` (4 n,), ``q`` (n,) [rad]."""
+    n = q.shape[0]
+    _chain(dh, q, T, np.empty((n, 3)), np.empty((n, 3)))
+
+
+@njit(cache=True)
 def jacobian(dh, q, J):
     """Geometric Jacobian (6, n) of the chain's last frame, base frame, rows (v, ω)."""
     n = q.shape[0]
     Z = np.empty((n, 3))
     O = np.empty((n, 3))
-    T = np.eye(4)
-    A = np.empty((4, 4))
-    M = np.empty((4, 4))
-    for i in range(n):
-        for r in range(3):
-            Z[i, r] = T[r, 2]
-            O[i, r] = T[r, 3]
-        a = dh[i]
-        al = dh[n + i]
-        d = dh[2 * n + i]
-        th = q[i] + dh[3 * n + i]
-        ct, st, ca, sa = math.cos(th), math.sin(th), math.cos(al), math.sin(al)
-        A[0, 0] = ct; A[0, 1] = -st * ca; A[0, 2] = st * sa; A[0, 3] = a * ct
-        A[1, 0] = st; A[1, 1] = ct * ca; A[1, 2] = -ct * sa; A[1, 3] = a * st
-        A[2, 0] = 0.0; A[2, 1] = sa; A[2, 2] = ca; A[2, 3] = d
-        A[3, 0] = 0.0; A[3, 1] = 0.0; A[3, 2] = 0.0; A[3, 3] = 1.0
-        for r in range(3):
-            for c in range(4):
-                s = 0.0
-                for k in range(4):
-                    s += T[r, k] * A[k, c]
-                M[r, c] = s
-        for r in range(3):
-            for c in range(4):
-                T[r, c] = M[r, c]
+    T = np.empty((4, 4))
+    _chain(dh, q, T, Z, O)
     px, py, pz = T[0, 3], T[1, 3], T[2, 3]
     for i in range(n):
         zx, zy, zz = Z[i, 0], Z[i, 1], Z[i, 2]
@@ -217,15 +205,6 @@ def _wrap(x):
     if y <= -math.pi:
         return y + 2.0 * math.pi
     return y
-
-
-@njit(cache=True)
-def _link(a, al, d, th, A):
-    ct, st, ca, sa = math.cos(th), math.sin(th), math.cos(al), math.sin(al)
-    A[0, 0] = ct; A[0, 1] = -st * ca; A[0, 2] = st * sa; A[0, 3] = a * ct
-    A[1, 0] = st; A[1, 1] = ct * ca; A[1, 2] = -ct * sa; A[1, 3] = a * st
-    A[2, 0] = 0.0; A[2, 1] = sa; A[2, 2] = ca; A[2, 3] = d
-    A[3, 0] = 0.0; A[3, 1] = 0.0; A[3, 2] = 0.0; A[3, 3] = 1.0
 
 
 @njit(cache=True)
