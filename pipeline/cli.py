@@ -32,13 +32,26 @@ def _progress(done: int, total: int, t0: float, extra: str = "") -> None:
     print(f"[{time.monotonic() - t0:7.1f} s] {done}/{total} {extra}", file=sys.stderr, flush=True)
 
 
+def _load_config(args) -> dict:
+    """The run config file with ``--set KEY=VALUE`` overrides (values parsed as YAML)."""
+    from pipeline.settings import ConfigError
+
+    try:
+        config = yaml.safe_load(Path(args.config).read_text()) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f"{args.config}: cannot read the config ({exc})") from None
+    for kv in args.set or []:
+        k, sep, v = kv.partition("=")
+        if not sep:
+            raise CLIError(f"--set {kv!r}: expected KEY=VALUE")
+        config[k] = yaml.safe_load(v)
+    return config
+
+
 def cmd_check_inputs(args) -> None:
     from pipeline.settings import check_inputs
 
-    config = yaml.safe_load(Path(args.config).read_text()) or {}
-    for kv in args.set or []:
-        k, _, v = kv.partition("=")
-        config[k] = yaml.safe_load(v)
+    config = _load_config(args)
     studies = check_inputs(config)
     print(f"ok: {len(studies)} studies, scale={config['scale']}: " + ", ".join(s.id for s in studies))
 
@@ -175,10 +188,7 @@ def cmd_render_report(args) -> None:
     from pipeline.report.html import render_report
     from pipeline.settings import check_inputs
 
-    config = yaml.safe_load(Path(args.config).read_text()) or {}
-    for kv in args.set or []:
-        k, _, v = kv.partition("=")
-        config[k] = yaml.safe_load(v)
+    config = _load_config(args)
     studies = check_inputs(config)
     render_report(studies, config, Path(config["results_dir"]), Path(args.out))
     print(f"wrote {args.out}")
