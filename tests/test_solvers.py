@@ -130,3 +130,20 @@ def test_verify_matches_reference_error_helpers(seed, lwr):
     assert ok and abs(dp - np.linalg.norm(Tg[:3, 3] - T[:3, 3])) < 1e-12
     assert abs(ang - orientation_error_angle(Tg, T)) < 1e-9
     assert not verify(lwr, Tg, q, SolverSettings(tol_dq=norm * (1 - 1e-9)))[0]
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), m=st.integers(1, 7), n=st.integers(1, 8), rank_drop=st.integers(0, 2))
+def test_small_svd_matches_lapack(seed, m, n, rank_drop):
+    rng = np.random.default_rng(seed)
+    J = rng.normal(size=(m, n))
+    k = min(m, n)
+    if rank_drop and k > rank_drop:  # exact rank deficiency, as at a singular configuration
+        J = rng.normal(size=(m, k - rank_drop)) @ rng.normal(size=(k - rank_drop, n))
+    U, S, Vt = _jit.small_svd(J)
+    assert U.shape == (m, k) and S.shape == (k,) and Vt.shape == (k, n)
+    np.testing.assert_allclose(S, np.linalg.svd(J, compute_uv=False), atol=1e-12 * (1 + S[0]))
+    np.testing.assert_allclose(U @ np.diag(S) @ Vt, J, atol=1e-12 * (1 + S[0]))
+    big = S > 1e-10 * (1 + S[0])
+    np.testing.assert_allclose(U[:, big].T @ U[:, big], np.eye(big.sum()), atol=1e-10)
+    np.testing.assert_allclose(Vt[big] @ Vt[big].T, np.eye(big.sum()), atol=1e-10)

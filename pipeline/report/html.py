@@ -25,6 +25,11 @@ def _img(path: Path) -> str:
     return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode()
 
 
+def _fmt(x) -> str:
+    """Settings values as typed (full precision: 1 + 1e-12 must not print as 1.0)."""
+    return repr(x) if isinstance(x, float) else str(x)
+
+
 def _table_html(path: Path) -> str:
     df = pd.read_csv(path)
     return df.to_html(index=False, na_rep="—", float_format=lambda x: f"{x:.4g}", classes="data", border=0)
@@ -52,8 +57,17 @@ def study_context(study: Study, results: Path) -> dict:
     prov_file = folder / "tables" / "provenance.json"
     provenance = json.loads(prov_file.read_text()) if prov_file.is_file() else []
     if study.solvers:
-        solvers = pd.DataFrame({k: v.as_dict() for k, v in study.solvers.items()})
+        solvers = pd.DataFrame({k: {f: _fmt(x) for f, x in study.solvers[k].as_dict().items()}
+                                for k in study.default_solvers()})
         solvers_html = solvers.to_html(border=0, classes="data")
+        variants = study.doc.get("readings", {}).get("variants", {})
+        if variants:
+            rows = [{"reading": study.doc["readings"]["default"], "overrides": "(the solvers above)"}]
+            rows += [{"reading": k, "overrides": ", ".join(f"{f} = {_fmt(x)}" for f, x in v.items())}
+                     for k, v in variants.items()]
+            solvers_html += ("<p>Readings of the open questions (each runs every solver above, as "
+                             "<code>&lt;solver&gt;_&lt;reading&gt;</code>):</p>"
+                             + pd.DataFrame(rows).to_html(index=False, border=0, classes="data"))
     else:
         solvers_html = "<pre>" + html_escape(yaml.safe_dump(study.settings, sort_keys=False, allow_unicode=True)) + "</pre>"
     return {
