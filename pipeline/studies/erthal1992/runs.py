@@ -43,6 +43,42 @@ class RunError(ValueError):
     """A run cannot start (bad settings, unknown test/run name); one line."""
 
 
+ROBOT_BASES_FILE = "robot_bases.yaml"  # data/erthal1992/: DH frame 0 in the document's robot base frame
+
+
+def robot_base(data_dir: Path, name: str) -> list | None:
+    """Position [mm] of ``name``'s DH frame 0 in the document's base frame (A4.2), or None if not listed."""
+    import yaml
+
+    path = Path(data_dir) / "erthal1992" / ROBOT_BASES_FILE
+    if not path.exists():
+        return None
+    doc = yaml.safe_load(path.read_text()) or {}
+    entry = doc.get(name)
+    if entry is None:
+        return None
+    try:
+        pos = [float(v) for v in entry["position"]]
+    except (TypeError, KeyError, ValueError):
+        raise RunError(f"{path}: field '{name}/position': expected 3 numbers [mm]") from None
+    if len(pos) != 3:
+        raise RunError(f"{path}: field '{name}/position': expected 3 numbers [mm]")
+    return pos
+
+
+def study_robot(data_dir: Path, name: str) -> RobotModel:
+    """Catalogue robot placed as in the document's IK tests and tasks (``robot_bases.yaml``)."""
+    from dataclasses import replace
+
+    model = load_robot(Path(data_dir) / "robots" / f"{name}.yaml")
+    pos = robot_base(data_dir, name)
+    if pos is None:
+        return model
+    B = np.eye(4)
+    B[:3, 3] = pos
+    return replace(model, chain=replace(model.chain, base=B @ np.asarray(model.chain.base)))
+
+
 def q_from_settings(model: RobotModel, values) -> np.ndarray:
     """Joint values from settings: degrees for revolute joints, length for prismatic."""
     v = np.array(values, dtype=float)
@@ -102,11 +138,11 @@ def run_test(study, test: str, data_dir: Path, out: Path) -> int:
     if test not in tests:
         raise RunError(f"{study.path}: field 'study_settings/tests/{test}': no such test (have: {', '.join(tests)})")
     block = tests[test]
-    model = load_robot(Path(data_dir) / "robots" / f"{block['robot']}.yaml")
+    model = study_robot(data_dir, block["robot"])
     q_start = q_from_settings(model, block["q_start"])
     position_only = bool(block.get("position_only", False))
     variants = _expand(block["methods"])
-    meta = _meta(study.id, model.name, "mixed", block)
+    meta = _meta(study.id, model.name, "mixed", {**block, "robot_base": robot_base(data_dir, block["robot"])})
     pid = 0
     with ArchiveWriter(out, meta) as w:
         w.add_channel(PROBLEM_TOPIC, {"title": "erthal1992.Problem", **_OBJ})
@@ -140,7 +176,7 @@ def run_path(study, run: str, data_dir: Path, out: Path, res_out: Path | None) -
     overrides = {}
     task = load_task(Path(data_dir) / "erthal1992" / spec["task"])
     robot = spec.get("robot", task.robot)
-    model = load_robot(Path(data_dir) / "robots" / f"{robot}.yaml")
+    model = study_robot(data_dir, robot)
     if "auxiliary_position" in spec:
         T_aux = task.T_aux.copy()
         T_aux[:3, 3] = spec["auxiliary_position"]
@@ -156,7 +192,8 @@ def run_path(study, run: str, data_dir: Path, out: Path, res_out: Path | None) -
          "max_iterations": spec["max_iterations"]}
     k = task.points_per_segment
     interp = spec["interpolation"]
-    meta = _meta(study.id, model.name, f"zp_s{spec['strategy']}", {**spec, "task_name": task.name})
+    meta = _meta(study.id, model.name, f"zp_s{spec['strategy']}",
+                 {**spec, "task_name": task.name, "robot_base": robot_base(data_dir, robot)})
     rows = []
     pid = 0
     with ArchiveWriter(out, meta) as w:

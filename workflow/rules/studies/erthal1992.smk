@@ -36,6 +36,7 @@ if "erthal1992" in STUDIES:
     rule erthal_solve_test:
         input:
             robot=lambda w: f"{DATA}/robots/{_ER_SET['tests'][w.er_test]['robot']}.yaml",
+            bases=f"{DATA}/erthal1992/robot_bases.yaml",
         output:
             f"{_ER_RUNS}/{{er_test}}.mcap",
         params:
@@ -53,6 +54,7 @@ if "erthal1992" in STUDIES:
         input:
             task=lambda w: f"{DATA}/erthal1992/{_ER_SET['paths'][w.er_run]['task']}",
             robots=[f"{DATA}/robots/{r}.yaml" for r in _ER.doc["robots"]],
+            bases=f"{DATA}/erthal1992/robot_bases.yaml",
         output:
             archive=f"{_ER_RUNS}/path_{{er_run}}.mcap",
             res=f"{_ER_RUNS}/{{er_run}}.RES",
