@@ -303,3 +303,17 @@ def test_task_file_error_is_one_line(tmp_path):
     with pytest.raises(TaskFileError, match=r"field 'points'") as exc:
         load_task(bad)
     assert "\n" not in str(exc.value)
+
+
+def test_cartesiano_axes_are_decoupled():
+    """Assumed CARTESIANO: carriages along world x, y, z; flange 100 mm above the carriage at q = 0."""
+    from pipeline.kinematics import fk_htm
+    from pipeline.robots import load_robot
+
+    m = load_robot(Path(__file__).resolve().parent.parent / "data" / "robots" / "cartesiano.yaml")
+    q = np.array([1000.0, 800.0, 650.0, 0.0, 0.0, np.pi])  # Table 6.13 initial configuration
+    np.testing.assert_allclose(fk_htm(m.chain, q)[:3, 3], [1000, 800, 750], atol=1e-9)
+    for i in range(3):
+        dq = np.zeros(6)
+        dq[i] = 10.0
+        np.testing.assert_allclose(fk_htm(m.chain, q + dq)[:3, 3] - fk_htm(m.chain, q)[:3, 3], 10.0 * np.eye(3)[i], atol=1e-9)

@@ -282,7 +282,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                      "max iterations": int(df["iterations"].max()), "max final |dp| [mm]": df["position_error"].max(),
                      **{f"travel joint {k + 1} [rad | mm]": float(np.ptp(q[:, k])) for k in range(q.shape[1])}})
     if rows:
-        out.append(TableSpec("test5_robots", "Test 5 — PUMA, Stanford and ELBOW on the same two-segment task",
+        out.append(TableSpec("test5_robots", "Test 5 — PUMA, Stanford, ELBOW and CARTESIANO on the same two-segment task",
                              pd.DataFrame(rows), "ZP strategy 5, ε = 0.1, Cartesian interpolation, 9 points per segment; "
                                                  "stage 2 = auxiliary frame moved to Table 6.14. The CARTESIANO robot has no geometry "
                                                  "in the document and is not run. The document shows only plots (Figs 6.28–6.29). "
