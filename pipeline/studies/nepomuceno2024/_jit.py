@@ -208,6 +208,17 @@ def _wrap(x):
 
 
 @njit(cache=True)
+def _matmul4(X, Y, out):
+    """``out = X @ Y`` for 4 x 4 arrays without allocating."""
+    for r in range(4):
+        for c in range(4):
+            acc = 0.0
+            for k in range(4):
+                acc += X[r, k] * Y[k, c]
+            out[r, c] = acc
+
+
+@njit(cache=True)
 def _inv_rigid(A, out):
     for r in range(3):
         for c in range(3):
@@ -293,28 +304,13 @@ def ur_ik_all(dh, Tg, q6_ref, wrist_eps, tol_pos, tol_rot, Q, valid, err):
             # T14 = A1^-1 Tg A6^-1 A5^-1
             _link(dh[0], dh[n + 0], d1, th1, A)
             _inv_rigid(A, Ai)
-            for r in range(4):
-                for cc in range(4):
-                    s = 0.0
-                    for k in range(4):
-                        s += Ai[r, k] * Tg[k, cc]
-                    B[r, cc] = s
+            _matmul4(Ai, Tg, B)
             _link(dh[5], dh[n + 5], d6, th6, A)
             _inv_rigid(A, Ai)
-            for r in range(4):
-                for cc in range(4):
-                    s = 0.0
-                    for k in range(4):
-                        s += B[r, k] * Ai[k, cc]
-                    C[r, cc] = s
+            _matmul4(B, Ai, C)
             _link(dh[4], dh[n + 4], d5, th5, A)
             _inv_rigid(A, Ai)
-            for r in range(4):
-                for cc in range(4):
-                    s = 0.0
-                    for k in range(4):
-                        s += C[r, k] * Ai[k, cc]
-                    B[r, cc] = s
+            _matmul4(C, Ai, B)
             x, y = B[0, 3], B[1, 3]
             c3 = (x * x + y * y - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
             ok3 = ok1
