@@ -141,40 +141,31 @@ def fk_htm_chain(chain, q, general: bool = True, parts: list | None = None) -> M
     ``parts``, when a list, receives ``(stage, index, OpCounts)`` per link and per product while
     counting (Gráficos 2-3).
     """
+    return _fk_chain(htm_link, htm_mul, chain, q, general, parts)
+
+
+def fk_dq_chain(chain, q, general: bool = True, parts: list | None = None) -> list:
+    """Tip pose of the DH chain (no base/tool) as a unit DQ list of 8 (see :func:`fk_htm_chain`)."""
+    return _fk_chain(dq_link, dq_mul, chain, q, general, parts)
+
+
+def _fk_chain(link, mul, chain, q, general: bool, parts: list | None):
+    """Product of the chain's link transforms in one algebra (``link`` builds one, ``mul`` multiplies)."""
     mod = chain.convention == "modified"
     T = None
     for i, (a, alpha, d, theta) in enumerate(_params(chain, q, general)):
         c0 = K.snapshot() if parts is not None else None
-        L = htm_link(a, alpha, d, theta, mod)
+        L = link(a, alpha, d, theta, mod)
         if parts is not None:
             parts.append(("transformation", i + 1, K.snapshot() - c0))
         if T is None:
             T = L
             continue
         c0 = K.snapshot() if parts is not None else None
-        T = htm_mul(T, L, general)
+        T = mul(T, L, general)
         if parts is not None:
             parts.append(("product", i, K.snapshot() - c0))
     return T
-
-
-def fk_dq_chain(chain, q, general: bool = True, parts: list | None = None) -> list:
-    """Tip pose of the DH chain (no base/tool) as a unit DQ list of 8 (see :func:`fk_htm_chain`)."""
-    mod = chain.convention == "modified"
-    Q = None
-    for i, (a, alpha, d, theta) in enumerate(_params(chain, q, general)):
-        c0 = K.snapshot() if parts is not None else None
-        L = dq_link(a, alpha, d, theta, mod)
-        if parts is not None:
-            parts.append(("transformation", i + 1, K.snapshot() - c0))
-        if Q is None:
-            Q = L
-            continue
-        c0 = K.snapshot() if parts is not None else None
-        Q = dq_mul(Q, L, general)
-        if parts is not None:
-            parts.append(("product", i, K.snapshot() - c0))
-    return Q
 
 
 def general_chain_counts(m: int, algebra: str) -> "K.OpCounts":
