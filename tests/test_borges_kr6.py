@@ -175,6 +175,29 @@ def test_pso_finds_known_minimum(prep, study, model):
     assert np.all(np.diff(r.trace[:, 0]) <= 0)  # the global best never gets worse
 
 
+def test_pso_velocity_clamp_bounds_every_move(prep, study):
+    """pso-cpp's maxVel clamps every velocity: with maxVel = 1e-9 rad no personal best can move more than
+    sqrt(6)*1e-9 rad in one iteration, so the library's x-stop (mean move <= 1e-6 rad) fires at once and
+    the best error is unchanged to within the FK change of such a move; without the clamp the same
+    seeded swarm keeps going."""
+    s = study.settings
+    goal = np.array(s["points"]["targets_mm"]["P2"])
+    base = dict(s["methods"]["pso"], inertia=1.0)
+    frozen = M.solve_pso(prep, goal, prep.limits, dict(base, max_velocity=1e-9), s, seed=11)
+    free = M.solve_pso(prep, goal, prep.limits, dict(base, max_velocity=0.0), s, seed=11)
+    assert frozen.iterations == 1
+    assert abs(frozen.trace[1, 0] - frozen.trace[0, 0]) < 1e-5
+    assert free.iterations > 5
+
+
+def test_pso_settings_follow_the_document(study):
+    """w = 1, c1 = c2 = 2, 100 particles, library stop tolerances; maxVel > 0 (random initial velocities, §3.6)."""
+    p = study.settings["methods"]["pso"]
+    assert (p["particles"], p["inertia"], p["c1"], p["c2"]) == (100, 1.0, 2.0, 2.0)
+    assert (p["feps"], p["xeps"]) == (1e-6, 1e-6) and p["max_velocity"] > 0
+    assert M.method_config(study.settings, "pso_v0")[1]["max_velocity"] == 0.0
+
+
 def test_pso_same_seed_same_result(prep, study):
     s = study.settings
     goal = np.array(s["points"]["targets_mm"]["P1"])
@@ -261,17 +284,46 @@ def test_cli_rejects_method_not_run_on_set(tmp_path, capsys):
 
 
 def test_workflow_dry_run_lists_one_archive_per_method_and_set(tmp_path):
-    """`snakemake -n borges_kr6`: alpha sweep (JI) + points and paths x (JI, LM, PSO, variants)."""
+    """`snakemake -n borges_kr6`: alpha sweep (JI) + points and paths x (JI, LM, PSO) + each variant on its sets."""
     import subprocess
     import sys
 
     study = load_study(STUDY)
-    variants = list(study.settings["methods"].get("pso_variants") or {})
+    variants = study.settings["methods"].get("pso_variants") or {}
+    runs_of = {k: len(v.get("problem_sets", ["points", "paths"])) for k, v in variants.items()}
     out = subprocess.run(
         [sys.executable, "-m", "snakemake", "borges_kr6", "-n", "--nolock", "--cores", "1", "--config",
          "studies=[borges_kr6]", "scale=quick", f"results_dir={tmp_path}"],
         cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
-    expected = 1 + 2 * (3 + len(variants))
+    expected = 1 + 2 * 3 + sum(runs_of.values())
     line = next(ln for ln in out.stdout.splitlines() if ln.startswith("solve_borges_kr6"))
     assert int(line.split()[-1]) == expected
+
+
+# --- PSO readings table ----------------------------------------------------------------------------
+
+def _points_frame(iters: dict[str, list[int]]):
+    import pandas as pd
+
+    rows = [{"problem_set": "points", "label": "P1", "method": m, "iterations": i, "position_error": 0.1 * k,
+             "success": False, "time_ms": float(i), "cpu_ms": float(i)}
+            for m, its in iters.items() for k, i in enumerate(its)]
+    return pd.DataFrame(rows)
+
+
+@pytest.mark.parametrize("pso_iters, closest", [([210, 220], "pso"), ([30, 40], "pso_vmax002")])
+def test_pso_readings_mark_the_reading_closest_to_table3(study, pso_iters, closest):
+    """The table recomputes the selection rule (w = 1 reading with the mean iteration count nearest the
+    published 215.9) from whatever the archives hold, and says so when it is not the used reading."""
+    from pipeline.studies.borges_kr6.report import table_pso_readings
+
+    df = _points_frame({"ji": [20, 20], "pso": pso_iters, "pso_v0": [35, 37], "pso_vmax002": [300, 320],
+                        "pso_w07": [215, 216]})
+    t = table_pso_readings(study, df, ROOT / "data/published").frame
+    marked = t[t["closest w = 1 reading"] == "yes"]["method key"].tolist()
+    assert marked == [closest]  # pso_w07 is nearer 215.9 but has w = 0.7: never chosen
+    assert t["reading"].iloc[-1] == "Table 3 PSO (published)"
+    assert t["i mean"].iloc[-1] == pytest.approx((241.656 + 193.906 + 212.125) / 3)
+    caption = table_pso_readings(study, df, ROOT / "data/published").note
+    assert ("MISMATCH" in caption) == (closest != "pso")

@@ -68,6 +68,17 @@ def test_deleting_an_archive_rebuilds_only_its_dependents(built):
                          "all", "cerbaro2019"}
 
 
+def test_deleting_a_tables_folder_rebuilds_it_and_the_report(built):
+    import shutil
+
+    shutil.rmtree(built / "borges_kr6" / "tables")
+    proc = _snakemake(built, "-n")
+    jobs = _jobs(proc)
+    assert jobs.get("aggregate_tables", 0) >= 1 and jobs.get("render_report") == 1
+    assert f"output: {built / 'borges_kr6' / 'tables'}" in proc.stdout + proc.stderr
+    assert "solve_borges_kr6" not in jobs  # its archives are intact
+
+
 def test_bad_config_fails_before_any_job(tmp_path):
     proc = _snakemake(tmp_path / "r", "-n", check=False, scale="huge")
     assert proc.returncode != 0

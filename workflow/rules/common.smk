@@ -52,7 +52,9 @@ def study_targets(sid):
 
 
 def all_targets():
-    """The report and every archive. Archives are listed as targets on purpose: since Snakemake 7.7
-    a deleted intermediate file is not rebuilt while its consumers are present, and deleting an
-    archive must rebuild it and exactly what depends on it."""
-    return [f"{RESULTS}/report.html"] + [a for sid in STUDIES for a in STUDY_ARCHIVES.get(sid, [])]
+    """The report, every study's tables and figures, and every archive. Intermediates are listed as
+    targets on purpose: since Snakemake 7.7 a deleted intermediate file is not rebuilt while its
+    consumers are present, and deleting an archive, a tables or a figures folder must rebuild it and
+    exactly what depends on it."""
+    return ([f"{RESULTS}/report.html"] + [t for sid in STUDIES for t in study_targets(sid)]
+            + [a for sid in STUDIES for a in STUDY_ARCHIVES.get(sid, [])])

@@ -146,13 +146,20 @@ def method_config(settings: dict, method: str) -> tuple[str, dict]:
         return method, mcfg[method]
     variants = mcfg.get("pso_variants", {}) or {}
     if method in variants:
-        return "pso", {**mcfg["pso"], **variants[method]}
+        over = {k: v for k, v in variants[method].items() if k != "problem_sets"}
+        return "pso", {**mcfg["pso"], **over}
     raise MethodError(f"unknown method {method!r} (have: {', '.join(all_methods(settings))})")
 
 
 def all_methods(settings: dict) -> tuple[str, ...]:
     """The three methods of the document, then the PSO sensitivity variants of the settings."""
     return METHODS + tuple((settings["methods"].get("pso_variants") or {}).keys())
+
+
+def variant_sets(settings: dict, method: str) -> tuple[str, ...]:
+    """Problem sets a method runs on among points and paths (a variant's ``problem_sets``, else both)."""
+    over = (settings["methods"].get("pso_variants") or {}).get(method, {})
+    return tuple(over.get("problem_sets", ("points", "paths")))
 
 
 def run_seed(rng: np.random.Generator) -> int:

@@ -35,11 +35,19 @@ def label_of(study, m: str) -> str:
         return LABEL[m]
     over = (study.settings["methods"].get("pso_variants") or {}).get(m, {})
     names = {"inertia": "w", "c1": "c1", "c2": "c2", "max_velocity": "vmax", "particles": "n"}
-    return "PSO " + ", ".join(f"{names.get(k, k)}={v:g}" for k, v in over.items()) if over else m
+    shown = [(k, v) for k, v in over.items() if k != "problem_sets"]
+    return "PSO " + ", ".join(f"{names.get(k, k)}={v:g}" for k, v in shown) if shown else m
 
 
-def _color(m: str) -> str:
-    return COLORS.get(m, "tab:red")
+VARIANT_COLORS = ("tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:gray")
+
+
+def _color(m: str, study=None) -> str:
+    if m in COLORS or study is None:
+        return COLORS.get(m, VARIANT_COLORS[0])
+    variants = list((study.settings["methods"].get("pso_variants") or {}))
+    k = variants.index(m) if m in variants else 0
+    return VARIANT_COLORS[k % len(VARIANT_COLORS)]
 
 
 def frame(archives) -> pd.DataFrame:
@@ -105,7 +113,7 @@ QUANTITIES = [("i max", "iterations", "max", "i_max"), ("i min", "iterations", "
 def table3(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
     pub = published(published_dir, STUDY, "table03")
     pts = df[df["problem_set"] == "points"]
-    methods = methods_in(pts)
+    methods = [m for m in methods_in(pts) if m in LABEL]  # variants: see the PSO-readings table
     labels = {m: label_of(study, m) for m in methods}
     rows = []
     for label in pts["label"].drop_duplicates():
@@ -131,8 +139,9 @@ def table3(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
         rows.append(row)
     return TableSpec("table03_points", "Table 3 — single points P1–P3: iterations i, time t, error e per method", pd.DataFrame(rows),
                      "Our P1–P3 are our own reachable points (the document shows its points only in Figure 4), so "
-                     "rows are comparable in order of magnitude and ranking, not value by value. Columns without a "
-                     "published twin are our PSO sensitivity variants (not in the document). JI and LM start every "
+                     "rows are comparable in order of magnitude and ranking, not value by value. Our PSO is w = 1, "
+                     "c1 = c2 = 2 with pso-cpp's velocity clamp maxVel = 0.03 rad (see the PSO-readings table for "
+                     "why, and for the library-default reading without a clamp). JI and LM start every "
                      "run from the same configuration and are deterministic: their i and e are identical over the "
                      "runs (std 0), only t varies; the document's runs start from wherever the simulated robot "
                      "settled. e std is the sample standard deviation (ddof = 1). " + KINEMATIC_NOTE)
@@ -219,33 +228,85 @@ def table_shape(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
                  "published": pm("lm", "t_mean_ms", "mean") / pm("ji", "t_mean_ms", "mean"), "holds": "—"})
     rows.append({"check": "PSO mean iterations (all points)", "ours": m("pso", "iterations"),
                  "published": pm("pso", "i_mean", "mean"), "holds": "—"})
-    for v in [k for k in methods_in(pts) if k not in METHOD_ORDER]:
-        lab = label_of(study, v)
-        vr = m(v, "time_ms") / m("ji", "time_ms")
-        rows.append({"check": f"{lab} (variant): mean time / JI mean time >= {rmin:g}", "ours": vr, "published": pratio,
-                     "holds": "yes" if vr >= rmin else "no"})
-        vc = m(v, "cpu_ms") / m("ji", "cpu_ms")
-        rows.append({"check": f"{lab} (variant): mean CPU time / JI mean CPU time >= {rmin:g}", "ours": vc,
-                     "published": pratio, "holds": "yes" if vc >= rmin else "no"})
-        rows.append({"check": f"{lab} (variant): mean iterations (all points)", "ours": m(v, "iterations"),
-                     "published": pm("pso", "i_mean", "mean"), "holds": "—"})
-        vmax = m(v, "position_error", "max")
-        rows.append({"check": f"{lab} (variant): maximum error [mm], largest of all methods", "ours": vmax,
-                     "published": pm("pso", "e_max_mm", "max"),
-                     "holds": "yes" if vmax >= max(emax["ji"], emax["lm"]) else "no"})
-        rows.append({"check": f"{lab} (variant): mean error [mm]", "ours": m(v, "position_error"),
-                     "published": pm("pso", "e_mean_mm", "mean"), "holds": "—"})
     return TableSpec("shape_checks", "Shape of the published result (the issue's acceptance bands)", pd.DataFrame(rows),
                      "'ours' and 'published' pool the three points (published = mean of the document's per-point means). "
-                     "PSO is transcribed from pso-cpp with the document's w = 1, c1 = c2 = 2 and the library's stop rule "
-                     "(stop at the first iteration in which the personal bests barely move): with w = 1 and no velocity "
-                     "clamp the particles pile up on the bounds and the run stops after a few tens of iterations with "
-                     "errors of tens of mm, fewer iterations and larger errors than the document reports; the time ratio "
-                     "PSO/JI follows the iteration count. JI and LM converge to ~1e-6 mm (kinematic only) where the "
+                     "PSO is transcribed from pso-cpp with the document's w = 1, c1 = c2 = 2, the library's stop rule "
+                     "and a velocity clamp maxVel = 0.03 rad; the PSO-readings table gives the iterations, errors and "
+                     "time ratios of the library-default reading without a clamp (which fails the time ratio: its "
+                     "swarm stops after a few tens of iterations) and of the other readings. Our time ratio exceeds the "
+                     "document's because one PSO iteration (100 FK evaluations) costs about 11 JI iterations (7 FK "
+                     "evaluations and a 3x3 solve) in compiled code, where the document's JI iteration took 0.66 ms "
+                     "against 2.63 ms per PSO iteration (Table 3 t/i), about 4 to 1. JI and LM converge to ~1e-6 mm (kinematic only) where the "
                      "document's simulated robot settles to ~1e-4 mm. Times were measured on a 2-core machine shared with "
                      "other jobs: wall-clock maxima and means carry scheduler outliers, so the CPU-time rows (thread CPU "
                      "clock around the same compiled solve) are given too; ratios of wall means move by tens of percent "
                      "between runs, iterations and errors do not (same seed, same values).")
+
+
+def _pso_params(study, m: str) -> dict:
+    from pipeline.studies.borges_kr6.methods import method_config
+
+    return method_config(study.settings, m)[1]
+
+
+def table_pso_readings(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
+    """Every PSO reading run on the single points, pooled over P1-P3, beside Table 3's PSO columns.
+
+    The last column marks the w = 1 reading whose mean iteration count is closest to the published
+    one (the stated rule for choosing maxVel), recomputed from the archives on every build.
+    """
+    pts = df[df["problem_set"] == "points"]
+    pub = published(published_dir, STUDY, "table03")
+    ji = pts[pts["method"] == "ji"]
+    pub_i = float(pub[pub["method"] == "PSO"]["i_mean"].mean()) if pub is not None else np.nan
+    rows = []
+    for m in (k for k in methods_in(pts) if k not in ("ji", "lm")):
+        g = pts[pts["method"] == m]
+        cfg = _pso_params(study, m)
+        e = g["position_error"]
+        rows.append({"reading": "PSO (used)" if m == "pso" else label_of(study, m), "method key": m,
+                     "w [-]": float(cfg["inertia"]), "maxVel [rad/iteration]": float(cfg["max_velocity"]), "runs": len(g),
+                     "i min": float(g["iterations"].min()), "i mean": float(g["iterations"].mean()),
+                     "i max": float(g["iterations"].max()), "e min [mm]": float(e.min()),
+                     "e median [mm]": float(e.median()), "e mean [mm]": float(e.mean()), "e max [mm]": float(e.max()),
+                     "FK-verified successes [%]": 100.0 * float(g["success"].mean()),
+                     "t mean / JI t mean [-]": float(g["time_ms"].mean() / ji["time_ms"].mean()),
+                     "CPU t mean / JI CPU t mean [-]": float(g["cpu_ms"].mean() / ji["cpu_ms"].mean())})
+    t = pd.DataFrame(rows)
+    closest = ""
+    if len(t) and np.isfinite(pub_i):
+        t["|i mean − published i mean|"] = (t["i mean"] - pub_i).abs()
+        w1 = t[np.isclose(t["w [-]"], 1.0)]
+        closest = str(t.loc[w1["|i mean − published i mean|"].idxmin(), "method key"]) if len(w1) else ""
+        t["closest w = 1 reading"] = np.where(t["method key"] == closest, "yes", "")
+    if pub is not None and len(t):
+        pp = pub[pub["method"] == "PSO"]
+        t = pd.concat([t, pd.DataFrame([{
+            "reading": "Table 3 PSO (published)", "method key": "", "w [-]": 1.0, "runs": 3 * 32,
+            "i min": float(pp["i_min"].min()), "i mean": pub_i, "i max": float(pp["i_max"].max()),
+            "e min [mm]": float(pp["e_min_mm"].min()), "e mean [mm]": float(pp["e_mean_mm"].mean()),
+            "e max [mm]": float(pp["e_max_mm"].max()),
+            "t mean / JI t mean [-]": float(pp["t_mean_ms"].mean() / pub[pub["method"] == "JI"]["t_mean_ms"].mean())}])],
+            ignore_index=True)
+    if closest == "pso":
+        verdict = "The used maxVel is the grid value closest to the published mean iteration count."
+    elif closest:
+        verdict = (f"MISMATCH: on this build the closest w = 1 reading is {closest!r}, not the used one, so the "
+                   "settings' maxVel no longer follows its stated selection rule.")
+    else:
+        verdict = ""
+    return TableSpec(
+        "pso_readings", "PSO readings on the single points P1–P3 (pooled), beside Table 3's PSO", t,
+        "Same seeds for every reading; only w and maxVel differ. In pso-cpp, maxVel > 0 makes the initial velocities "
+        "random and clamps every velocity to ±maxVel; maxVel = 0 (the library default and the issue's literal reading) "
+        "starts them at zero and never clamps. The document states w = 1 and c1 = c2 = 2 but not maxVel; it says the "
+        "particles start with a random velocity and converge, and Table 3 shows ~200 iterations and sub-mm typical "
+        "errors, which the unclamped w = 1 swarm cannot give: its velocities grow, the particles pile up on the joint "
+        "limits and the library's stop fires after a few tens of iterations with errors of tens of mm. maxVel is the "
+        "w = 1 grid value whose mean iteration count is closest to the published one (the mean of Table 3's three "
+        "means); errors and times are not fitted. " + verdict + " Published row: i min, i max, e min and e max are "
+        "extremes over P1–P3, the means are means of the three means, the time ratio is PSO over JI mean time. The "
+        "w = 0.7 reading contradicts the document's w = 1 and is shown for contrast only.")
 
 
 def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
@@ -255,6 +316,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         out.append(table2(df, published_dir))
     if (df["problem_set"] == "points").any():
         out.append(table3(study, df, published_dir))
+        out.append(table_pso_readings(study, df, published_dir))
         out.append(table_shape(study, df, published_dir))
     if (df["problem_set"] == "paths").any():
         out.append(table_paths(study, df))
@@ -283,12 +345,13 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
         ax = fig.add_subplot(projection="3d")
         ref = _reference(study, curve)
         ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k-", lw=1, label="reference")
-        # variants first and JI last (hollow, larger) so that the exact methods stay visible on top
-        for m in reversed(methods_in(g)):
+        # the document's three methods only (variants: path table and error plot); JI last (hollow, larger)
+        for m in reversed([k for k in methods_in(g) if k in LABEL]):
             gm = g[g["method"] == m].sort_values("index")
             r = np.array(gm["reached_mm"].tolist())
             e = describe(gm["position_error"])
-            style = {"facecolors": "none", "edgecolors": _color(m), "s": 40} if m == "ji" else {"color": _color(m), "s": 12}
+            style = ({"facecolors": "none", "edgecolors": _color(m), "s": 40} if m == "ji"
+                     else {"color": _color(m, study), "s": 12})
             ax.scatter(r[:, 0], r[:, 1], r[:, 2], marker=markers.get(m, "s"), depthshade=False, **style,
                        label=f"{label_of(study, m)}: ε = {e['mean']:.3g} mm, σ = {e['std']:.3g} mm")
         ax.set_xlabel("x [mm]")
@@ -329,7 +392,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
                 gm = pa[(pa["label"] == curve) & (pa["method"] == m)].sort_values("index")
                 if len(gm):
                     ax.semilogy(gm["t"], np.maximum(gm["position_error"], 1e-12), marker=markers.get(m, "s"), ms=3,
-                                color=_color(m), label=label_of(study, m))
+                                color=_color(m, study), label=label_of(study, m))
             ax.set_ylabel(f"{curve}\nerror [mm]")
             ax.grid(alpha=0.3, which="both")
         axes[0, 0].legend(ncol=3, fontsize=8)

@@ -46,9 +46,11 @@ class RunError(ValueError):
 
 
 def set_methods(pset: str, settings: dict) -> tuple[str, ...]:
-    """Methods run on a problem set (the alpha sweep is the JI tuning of Table 2; PSO variants run on
-    the points and paths like the three methods)."""
-    return ("ji",) if pset == "alpha_sweep" else M.all_methods(settings)
+    """Methods run on a problem set (the alpha sweep is the JI tuning of Table 2; the three methods run
+    on the points and paths, each PSO variant on the sets of its ``problem_sets``)."""
+    if pset == "alpha_sweep":
+        return ("ji",)
+    return tuple(m for m in M.all_methods(settings) if pset in M.variant_sets(settings, m))
 
 
 def job_settings(settings: dict, pset: str, method: str, scale: str) -> dict:

@@ -1,10 +1,12 @@
 # Study borges_kr6 (002_56eb235931bf5f5d.txt): one archive per method per problem set
-# (alpha_sweep: JI only; points and paths: JI, LM, PSO and the PSO sensitivity variants), then the generic tables/figures/report rules.
+# (alpha_sweep: JI only; points and paths: JI, LM, PSO; each PSO sensitivity variant on its problem_sets), then the generic tables/figures/report rules.
 if "borges_kr6" in STUDIES:
     _KR6 = STUDIES["borges_kr6"]
     _KR6_ROBOT = _KR6.doc["robots"][0]
-    _KR6_METHODS = ["ji", "lm", "pso"] + list(_KR6.settings["methods"].get("pso_variants") or {})
-    _KR6_JOBS = [("alpha_sweep", "ji")] + [(s, m) for s in ("points", "paths") for m in _KR6_METHODS]
+    from pipeline.studies.borges_kr6.run import PROBLEM_SETS as _KR6_SETS, set_methods as _kr6_set_methods
+
+    _KR6_JOBS = [(s, m) for s in _KR6_SETS for m in _kr6_set_methods(s, _KR6.settings)]
+    _KR6_METHODS = list(dict.fromkeys(m for _, m in _KR6_JOBS))
 
     STUDY_ARCHIVES["borges_kr6"] = [
         f"{RESULTS}/borges_kr6/runs/{s}__{m}.mcap" for s, m in _KR6_JOBS
