@@ -111,6 +111,11 @@ QUANTITIES = [("i max", "iterations", "max", "i_max"), ("i min", "iterations", "
               ("e mean [mm]", "position_error", "mean", "e_mean_mm"), ("e std [mm]", "position_error", "std", "e_std_mm")]
 
 
+def _vmax(study) -> float:
+    """The PSO velocity clamp in use [rad per iteration]."""
+    return float(study.settings["methods"]["pso"]["max_velocity"])
+
+
 def table3(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
     pub = published(published_dir, STUDY, "table03")
     pts = df[df["problem_set"] == "points"]
@@ -141,7 +146,7 @@ def table3(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
     return TableSpec("table03_points", "Table 3 — single points P1–P3: iterations i, time t, error e per method", pd.DataFrame(rows),
                      "Our P1–P3 are our own reachable points (the document shows its points only in Figure 4), so "
                      "rows are comparable in order of magnitude and ranking, not value by value. Our PSO is w = 1, "
-                     "c1 = c2 = 2 with pso-cpp's velocity clamp maxVel = 0.03 rad (see the PSO-readings table for "
+                     f"c1 = c2 = 2 with pso-cpp's velocity clamp maxVel = {_vmax(study):g} rad (see the PSO-readings table for "
                      "why, and for the library-default reading without a clamp). JI and LM start every "
                      "run from the same configuration and are deterministic: their i and e are identical over the "
                      "runs (std 0), only t varies; the document's runs start from wherever the simulated robot "
@@ -232,7 +237,7 @@ def table_shape(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
     return TableSpec("shape_checks", "Shape of the published result (the issue's acceptance bands)", pd.DataFrame(rows),
                      "'ours' and 'published' pool the three points (published = mean of the document's per-point means). "
                      "PSO is transcribed from pso-cpp with the document's w = 1, c1 = c2 = 2, the library's stop rule "
-                     "and a velocity clamp maxVel = 0.03 rad; the PSO-readings table gives the iterations, errors and "
+                     f"and a velocity clamp maxVel = {_vmax(study):g} rad; the PSO-readings table gives the iterations, errors and "
                      "time ratios of the library-default reading without a clamp (which fails the time ratio: its "
                      "swarm stops after a few tens of iterations) and of the other readings. Our time ratio exceeds the "
                      "document's because one PSO iteration (100 FK evaluations) costs about 11 JI iterations (7 FK "
@@ -300,7 +305,7 @@ def table_pso_readings(study, df: pd.DataFrame, published_dir: Path) -> TableSpe
         verdict = ""
     return TableSpec(
         "pso_readings", "PSO readings on the single points P1–P3 (pooled), beside Table 3's PSO", t,
-        "Same seeds for every reading; only w and maxVel differ. In pso-cpp, maxVel > 0 makes the initial velocities "
+        "Same seeds for every reading; only w, maxVel and (where 'stop' says off) the stop rule differ. In pso-cpp, maxVel > 0 makes the initial velocities "
         "random and clamps every velocity to ±maxVel; maxVel = 0 (the library default and the issue's literal reading) "
         "starts them at zero and never clamps. The document states w = 1 and c1 = c2 = 2 but not maxVel; it says the "
         "particles start with a random velocity and converge, and Table 3 shows ~200 iterations and sub-mm typical "
