@@ -29,14 +29,25 @@ def _schema(name: str) -> dict:
     return yaml.safe_load((SCHEMAS / name).read_text())
 
 
-def _load_yaml(path: Path) -> dict:
+def read_yaml(path, error: type[Exception] = ConfigError, what: str = ""):
+    """Parse a YAML file, turning an unreadable file or bad YAML into one line that names the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    error : exception class
+        Raised with the one-line message (each file kind has its own).
+    what : str
+        Noun for the message, e.g. ``"task file"``: "cannot read task file (...)".
+    """
     try:
-        doc = yaml.safe_load(Path(path).read_text())
+        return yaml.safe_load(Path(path).read_text())
     except OSError as exc:
-        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from None
+        noun = f" {what}" if what else ""
+        raise error(f"{path}: cannot read{noun} ({exc.strerror})") from None
     except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
-    return doc
+        raise error(f"{path}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
 
 
 def validate_against(doc, schema: dict, path: str) -> None:
@@ -103,7 +114,7 @@ class Study:
 def load_study(path: str | Path) -> Study:
     """Read and validate ``data/studies/<id>.yaml`` (schema, then every solver's settings)."""
     path = Path(path)
-    doc = _load_yaml(path)
+    doc = read_yaml(path)
     validate_against(doc, _schema("study.schema.yaml"), str(path))
     if doc["study"] != path.stem:
         raise ConfigError(f"{path}: field 'study': {doc['study']!r} must equal the file name {path.stem!r}")

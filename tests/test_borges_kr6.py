@@ -320,10 +320,10 @@ def test_pso_readings_mark_the_reading_closest_to_table3(study, pso_iters, close
 
     df = _points_frame({"ji": [20, 20], "pso": pso_iters, "pso_v0": [35, 37], "pso_vmax002": [300, 320],
                         "pso_w07": [215, 216], "pso_v0_nostop": [216, 216]})
-    t = table_pso_readings(study, df, ROOT / "data/published").frame
+    spec = table_pso_readings(study, df, ROOT / "data/published")
+    t = spec.frame
     marked = t[t["closest w = 1 reading"] == "yes"]["method key"].tolist()
     assert marked == [closest]  # pso_w07 (w = 0.7) and pso_v0_nostop (stop off) are nearer 215.9: never chosen
     assert t["reading"].iloc[-1] == "Table 3 PSO (published)"
     assert t["i mean"].iloc[-1] == pytest.approx((241.656 + 193.906 + 212.125) / 3)
-    caption = table_pso_readings(study, df, ROOT / "data/published").note
-    assert ("MISMATCH" in caption) == (closest != "pso")
+    assert ("MISMATCH" in spec.note) == (closest != "pso")

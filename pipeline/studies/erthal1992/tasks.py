@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from pipeline.robots import _number
+from pipeline.settings import read_yaml
 
 
 class TaskFileError(ValueError):
@@ -70,12 +70,7 @@ def _frame_field(doc, path, key) -> np.ndarray:
 def load_task(path: str | Path, overrides: dict | None = None) -> Task:
     """Read a task file; ``overrides`` may replace fields (e.g. the auxiliary frame of Test 5)."""
     path = Path(path)
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise TaskFileError(f"{path}: cannot read task file ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
-        raise TaskFileError(f"{path}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+    doc = read_yaml(path, TaskFileError, "task file")
     if not isinstance(doc, dict):
         raise TaskFileError(f"{path}: expected a mapping")
     doc = {**doc, **(overrides or {})}

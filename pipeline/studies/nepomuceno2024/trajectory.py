@@ -28,9 +28,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from pipeline.kinematics import matrix_from_quat, quat_from_matrix
+from pipeline.settings import read_yaml
 
 
 class MotionFileError(ValueError):
@@ -123,12 +123,7 @@ def interpolate(T0: np.ndarray, T1: np.ndarray, n: int, z_raise: float = 0.0) ->
 def load_motions(path: str | Path) -> dict:
     """Read and check a motion file; returns the parsed document."""
     path = Path(path)
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise MotionFileError(f"{path}: cannot read motion file ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
-        raise MotionFileError(f"{path}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+    doc = read_yaml(path, MotionFileError, "motion file")
     if not isinstance(doc, dict) or "poses" not in doc or "motions" not in doc:
         raise MotionFileError(f"{path}: field 'poses'/'motions': both are required")
     for name, spec in doc["poses"].items():
