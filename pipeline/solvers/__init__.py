@@ -1,13 +1,41 @@
-"""IK solvers: one settings type, one result type, one ``solve`` call for every method."""
+"""IK solvers: one registry, one settings base, one result type, one ``solve`` call for every method.
+
+    from pipeline.solvers import solve, names
+    res = solve("dls", robot, T_goal, q_start, {"damping": 0.05})
+
+Layout
+------
+``base``      StopReason, Settings (+ ``setting`` fields), Prepared robot, Raw kernel output,
+              IKResult, the independent FK check (``finish``), joint-limit test
+``registry``  name -> Solver (settings type, applicability, kernel call); ``solve``, ``prepare``
+``timing``    the one timing definition (solve_time_s, ik_time_s, call_time_s)
+``_kin``      the compiled kinematics layer (numba) every iterative method uses
+``jacobian``  Jacobian transpose, pseudoinverse, DLS, SDLS (000)
+``fd_jacobian``, ``lm``, ``pso``            inverse Jacobian (finite differences), Levenberg-Marquardt, PSO (002)
+``optimizers`` J+ gradient descent, BFGS, L-BFGS-B, Nelder-Mead (004); ``analytic_ur`` UR closed form (004)
+``zero_position``, ``newton_raphson``, ``geometric``, ``analytic_puma``   (001)
+``analytic_4dof``  the closed form of the 4-DOF arm (003)
+
+Importing this package registers every method (kernels compile lazily, on first use).
+"""
 
 from pipeline.solvers.base import (
     STOP_REASONS,
     IKResult,
-    PreparedRobot,
+    NotApplicableError,
+    Prepared,
+    Raw,
+    Settings,
     SettingsError,
-    SolverSettings,
-    solve,
+    StopReason,
+    finish,
     verify,
+    within_limits,
 )
+from pipeline.solvers.registry import Solver, catalogue, get, make_settings, names, prepare, register, solve, warm_up
+from pipeline.solvers import jacobian  # noqa: F401  (registers the four Jacobian methods)
+from pipeline.solvers import _methods  # noqa: F401  (registers the methods of the other studies)
 
-__all__ = ["STOP_REASONS", "IKResult", "PreparedRobot", "SettingsError", "SolverSettings", "solve", "verify"]
+__all__ = ["STOP_REASONS", "IKResult", "NotApplicableError", "Prepared", "Raw", "Settings", "SettingsError",
+           "Solver", "StopReason", "catalogue", "finish", "get", "make_settings", "names", "prepare", "register",
+           "solve", "verify", "warm_up", "within_limits"]

@@ -1,143 +1,315 @@
-"""One result type and one call shape for every IK method.
+"""What every IK method shares: stop reasons, settings, the prepared robot, the result, the FK check.
 
-``solve(model, T_goal, q_start, settings) -> IKResult``. The compiled loop in
-:mod:`pipeline.solvers._jit` does the iterations; this module validates settings, times nothing
-itself (the kernel times each solve with a monotonic clock), and verifies every claimed success by
-an independent forward kinematics (numpy, homogeneous matrices) before the flag is set.
+Call shape (see :mod:`pipeline.solvers.registry`)::
+
+    solve(name, robot, T_goal, q_start, settings=None, *, seed=0) -> IKResult
+
+A registered method supplies only its kernel call, ``run(prep, T_goal, q_start, settings, seed) ->
+Raw``; :func:`finish` turns that raw output into an :class:`IKResult`: it re-checks the returned
+angles with the numpy reference forward kinematics (never the kernel's own FK), sets ``success``
+only when the method claimed success *and* that check passes, marks a contradicted claim as
+:attr:`StopReason.FK_CHECK_FAILED`, and records whether the solution lies within the robot file's
+joint limits.
+
+Units. Settings are written in SI (m, rad) whatever the robot file's unit. ``length_unit`` names the
+unit the method computes in (default m); the robot and the goal are converted to it once per job
+(:class:`Prepared`) and every length-valued setting once per job (:meth:`Settings.converted`). A
+study that needs a document's own unit (cerbaro2019's cm reading, borges_kr6's mm) sets
+``length_unit`` and still writes its tolerances in metres. Results (``position_error``, traces) are
+in ``length_unit``, which the result and the archive record.
+
+Timing (one definition for every method, :mod:`pipeline.solvers.timing`): ``solve_time_s`` is the
+method's own computation, from its first to its last operation on this problem, on the monotonic
+clock; ``call_time_s`` is the whole Python call of :func:`pipeline.solvers.solve`, input conversion
+and the FK check included.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import MISSING, asdict, dataclass, field, fields, replace
+from enum import IntEnum
 
 import numpy as np
 
 from pipeline.kinematics import fk_htm
-from pipeline.robots import RobotModel
-from pipeline.solvers import _jit
-
-STOP_REASONS = {
-    _jit.SUCCESS: "success",
-    _jit.STALLED: "stalled (pose change below the stall threshold)",
-    _jit.DIVERGING: "error grew on consecutive iterations",
-    _jit.ITERATION_CAP: "iteration cap",
-    _jit.NON_FINITE: "non-finite value (numerical failure)",
-    _jit.FK_CHECK_FAILED: "claimed success contradicted by forward kinematics",
-}
+from pipeline.robots import LENGTH_UNITS, RobotModel
 
 
 class SettingsError(ValueError):
     """A solver setting is missing, unknown or out of range (message names the field)."""
 
 
-@dataclass(frozen=True)
-class SolverSettings:
-    """Settings of the Jacobian IK loop (constants from 000_7e3cb7ad5ee98ff0.txt §4.1 by default).
+class NotApplicableError(ValueError):
+    """A solver does not apply to a robot (one line: the robot file, the solver, why)."""
 
-    Attributes
+
+class StopReason(IntEnum):
+    """Why a solve stopped; one enum for every method (values are archived, never renumber)."""
+
+    SUCCESS = 1
+    STALLED = 2          # the method's own stop test fired (step, pose change or optimiser tolerance) above tolerance
+    DIVERGING = 3        # the error grew on consecutive iterations
+    ITERATION_CAP = 4
+    NON_FINITE = 5
+    FK_CHECK_FAILED = 6  # the method claimed success; an independent FK contradicts it
+    NO_SOLUTION = 7      # analytic: no real solution (goal out of reach) or none passes the FK check
+
+    @property
+    def text(self) -> str:
+        return _STOP_TEXT[self]
+
+
+_STOP_TEXT = {
+    StopReason.SUCCESS: "success",
+    StopReason.STALLED: "stalled (the method's own stop test fired above the tolerance)",
+    StopReason.DIVERGING: "error grew on consecutive iterations",
+    StopReason.ITERATION_CAP: "iteration cap",
+    StopReason.NON_FINITE: "non-finite value (numerical failure)",
+    StopReason.FK_CHECK_FAILED: "claimed success contradicted by forward kinematics",
+    StopReason.NO_SOLUTION: "no solution (analytic: goal out of reach)",
+}
+STOP_REASONS = {int(r): r.text for r in StopReason}
+
+CRITERIA = ("pos_orient", "position", "dq_norm", "dq_norm_body")
+TRACE_COLS = 8  # per iterate: the method's scalar error, e = (v, omega) (6), |dp| [length_unit]
+
+
+def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, above=None, maximum=None,
+            length: bool = False):
+    """A settings field with its documentation and checks (read by ``from_dict`` and ``json_schema``).
+
+    Parameters
     ----------
-    method : {"jacobian_transpose", "pseudoinverse", "dls", "sdls"}
-    max_iterations : int
-        Stop code 4 after this many iterations (500 in 000).
-    criterion : {"dq_norm", "dq_norm_body", "pos_orient"}
-        ``dq_norm``: success when the 8-coefficient norm of ``Q_goal Q*`` is at most ``tol_dq``
-        (1 + 1e-6), stall when the norm of ``Q_k Q_{k-1}*`` is below ``stall_dq`` (1 + 1e-12).
-        ``dq_norm_body``: the same with ``Q* Q_goal``, whose translation is ``R^T (p_goal - p)``:
-        the norm then sees the position error only.
-        ``pos_orient``: success when |dp| <= ``tol_pos`` [length] and angle <= ``tol_rot`` [rad];
-        stall when the pose moves less than ``stall_pos`` and ``stall_rot``.
-    orientation_error : {"quat_vec", "axis_angle"}
-        Angular half of the 6-vector: ``orientation_gain * vec(q_goal q*)`` or the rotation vector.
-    grow_limit : int
-        Stop code 3 after the error grew this many iterations in a row (5 in 000).
-    damping : float
-        DLS lambda (0.1 in 000).
-    gamma_max : float [rad]
-        SDLS maximum joint step (3 pi / 2 in 000).
-    sdls_norm : {"maxabs", "one", "two"}
-        Norm used by the SDLS clamps.
-    sdls_blocks : {1, 2}
-        SDLS end-effector blocks: 1 = the 6-vector as one block, 2 = position and orientation.
-    disable_stall, disable_grow : bool
-        Turn stop codes 2 and 3 off (the Table 16 rerun of 000).
+    unit : str
+        Unit shown in ``python -m pipeline solvers`` (e.g. ``m``, ``rad``).
+    choices : sequence, optional
+        Allowed values.
+    minimum, above, maximum : float, optional
+        Inclusive lower bound, exclusive lower bound, inclusive upper bound.
+    length : bool
+        The value is a length written in metres and converted to ``length_unit`` once per job.
+    """
+    meta = {"doc": doc, "unit": unit, "choices": tuple(choices) if choices is not None else None,
+            "minimum": minimum, "above": above, "maximum": maximum, "length": length}
+    return field(default=default, metadata=meta)
+
+
+_PY_TYPES = {"int": int, "float": float, "bool": bool, "str": str}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Settings every method has: working unit and the success test its FK check applies.
+
+    Subclasses add their own fields with :func:`setting` and may override :meth:`check` for
+    cross-field rules. Everything is validated by :meth:`from_dict`; errors are one line naming
+    the field.
     """
 
-    method: str = "dls"
-    max_iterations: int = 500
-    criterion: str = "dq_norm"
-    orientation_error: str = "quat_vec"
-    orientation_gain: float = 1.0
-    grow_limit: int = 5
-    damping: float = 0.1
-    gamma_max: float = 3 * math.pi / 2
-    sdls_norm: str = "maxabs"
-    sdls_blocks: int = 1
-    tol_dq: float = 1 + 1e-6
-    stall_dq: float = 1 + 1e-12
-    tol_pos: float = 1e-3
-    tol_rot: float = 1e-3
-    stall_pos: float = 1e-9
-    stall_rot: float = 1e-9
-    disable_stall: bool = False
-    disable_grow: bool = False
-    length_unit: str | None = None  # None = the robot file's own unit
+    length_unit: str = setting("m", "unit the method computes in (robot and goal converted once); "
+                               "length settings are still written in m", choices=tuple(LENGTH_UNITS))
+    criterion: str = setting("pos_orient", "success test of the FK check: pos_orient (|dp| <= tol_pos and "
+                             "angle <= tol_rot), position (|dp| only), dq_norm (8-coefficient norm of "
+                             "Q_goal Q* <= tol_dq), dq_norm_body (norm of Q* Q_goal: position only)",
+                             choices=CRITERIA)
+    tol_pos: float = setting(1e-4, "position tolerance", unit="m", minimum=0.0, length=True)
+    tol_rot: float = setting(1e-3, "orientation tolerance (rotation angle)", unit="rad", minimum=0.0)
+    tol_dq: float = setting(1 + 1e-6, "dual-quaternion norm tolerance (1 + epsilon; dq_norm criteria only)",
+                            minimum=1.0)
 
+    # ---- construction and validation -------------------------------------------------------
     @classmethod
-    def from_dict(cls, d: dict, where: str = "solver settings") -> "SolverSettings":
-        """Build from a mapping, naming the bad field in a one-line ``SettingsError``."""
-        known = {f: v for f, v in cls.__dataclass_fields__.items()}
+    def from_dict(cls, d: dict | None, where: str = "solver settings") -> "Settings":
+        """Build from a mapping, naming the bad field in a one-line :class:`SettingsError`."""
+        d = dict(d or {})
+        known = {f.name: f for f in fields(cls)}
         for k in d:
             if k not in known:
                 raise SettingsError(f"{where}: field '{k}': unknown setting (allowed: {', '.join(known)})")
+        for k, v in d.items():
+            d[k] = _coerce(known[k], v, where)
         out = cls(**d)
         out.validate(where)
         return out
 
     def validate(self, where: str = "solver settings") -> None:
-        choices = {"method": _jit.METHODS, "criterion": _jit.CRITERIA, "orientation_error": _jit.ORIENT_ERRORS,
-                   "sdls_norm": _jit.NORMS, "sdls_blocks": {1: 1, 2: 2}}
-        for k, allowed in choices.items():
-            if getattr(self, k) not in allowed:
-                raise SettingsError(f"{where}: field '{k}': {getattr(self, k)!r} is not one of {list(allowed)}")
-        for k in ("max_iterations", "grow_limit"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise SettingsError(f"{where}: field '{k}': expected a positive integer, got {v!r}")
-        for k in ("orientation_gain", "damping", "gamma_max", "tol_dq", "stall_dq", "tol_pos", "tol_rot", "stall_pos", "stall_rot"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise SettingsError(f"{where}: field '{k}': expected a finite number >= 0, got {v!r}")
-        if self.tol_dq < 1 or self.stall_dq < 1:
-            raise SettingsError(f"{where}: field 'tol_dq'/'stall_dq': a DQ-norm threshold is 1 + epsilon (>= 1)")
-        if self.length_unit not in (None, "m", "cm", "mm"):
-            raise SettingsError(f"{where}: field 'length_unit': {self.length_unit!r} is not one of m, cm, mm")
+        for f in fields(self):
+            v = getattr(self, f.name)
+            _coerce(f, v, where)
+            m = f.metadata
+            if m.get("choices") is not None and v not in m["choices"]:
+                raise SettingsError(f"{where}: field '{f.name}': {v!r} is not one of {list(m['choices'])}")
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                if not math.isfinite(v):
+                    raise SettingsError(f"{where}: field '{f.name}': must be finite, got {v!r}")
+                if m.get("minimum") is not None and v < m["minimum"]:
+                    raise SettingsError(f"{where}: field '{f.name}': must be >= {m['minimum']}, got {v!r}")
+                if m.get("above") is not None and v <= m["above"]:
+                    raise SettingsError(f"{where}: field '{f.name}': must be > {m['above']}, got {v!r}")
+                if m.get("maximum") is not None and v > m["maximum"]:
+                    raise SettingsError(f"{where}: field '{f.name}': must be <= {m['maximum']}, got {v!r}")
+        self.check(where)
+
+    def check(self, where: str) -> None:
+        """Cross-field rules of a method (override; raise :class:`SettingsError`)."""
 
     def as_dict(self) -> dict:
         return asdict(self)
 
-    def packed(self) -> tuple[np.ndarray, np.ndarray]:
-        ip = np.zeros(_jit.N_IP, np.int64)
-        fp = np.zeros(_jit.N_FP)
-        ip[_jit.I_METHOD] = _jit.METHODS[self.method]
-        ip[_jit.I_MAX_ITER] = self.max_iterations
-        ip[_jit.I_CRITERION] = _jit.CRITERIA[self.criterion]
-        ip[_jit.I_ORIENT] = _jit.ORIENT_ERRORS[self.orientation_error]
-        ip[_jit.I_GROW_LIMIT] = self.grow_limit
-        ip[_jit.I_SDLS_NORM] = _jit.NORMS[self.sdls_norm]
-        ip[_jit.I_SDLS_BLOCKS] = self.sdls_blocks
-        ip[_jit.I_NO_STALL] = int(self.disable_stall)
-        ip[_jit.I_NO_GROW] = int(self.disable_grow)
-        fp[_jit.F_LAMBDA] = self.damping
-        fp[_jit.F_GAMMA_MAX] = self.gamma_max
-        fp[_jit.F_TOL_DQ] = self.tol_dq
-        fp[_jit.F_STALL_DQ] = self.stall_dq
-        fp[_jit.F_TOL_POS] = self.tol_pos
-        fp[_jit.F_TOL_ROT] = self.tol_rot
-        fp[_jit.F_STALL_POS] = self.stall_pos
-        fp[_jit.F_STALL_ROT] = self.stall_rot
-        fp[_jit.F_ORIENT_GAIN] = self.orientation_gain
-        return ip, fp
+    def converted(self) -> "Settings":
+        """A copy whose length-valued fields are in ``length_unit`` instead of metres."""
+        f = 1.0 / LENGTH_UNITS[self.length_unit]
+        if f == 1.0:
+            return self
+        return replace(self, **{x.name: getattr(self, x.name) * f for x in fields(self) if x.metadata.get("length")})
+
+    @classmethod
+    def describe(cls) -> list[dict]:
+        """One row per field: name, type, default, unit, allowed values / range, documentation."""
+        rows = []
+        for f in fields(cls):
+            m = f.metadata
+            rng = []
+            if m.get("choices") is not None:
+                rng.append("one of " + ", ".join(map(str, m["choices"])))
+            for key, sym in (("minimum", ">="), ("above", ">"), ("maximum", "<=")):
+                if m.get(key) is not None:
+                    rng.append(f"{sym} {m[key]}")
+            rows.append({"name": f.name, "type": f.type, "default": f.default if f.default is not MISSING else None,
+                         "unit": m.get("unit", ""), "range": "; ".join(rng), "doc": m.get("doc", "")})
+        return rows
+
+    @classmethod
+    def json_schema(cls) -> dict:
+        """JSON schema of the settings mapping (every field optional; defaults given)."""
+        kinds = {"int": "integer", "float": "number", "bool": "boolean", "str": "string"}
+        props = {}
+        for f in fields(cls):
+            m = f.metadata
+            p = {"type": kinds.get(f.type, "string"), "default": f.default, "description": m.get("doc", "")}
+            if m.get("choices") is not None:
+                p["enum"] = list(m["choices"])
+            if m.get("minimum") is not None:
+                p["minimum"] = m["minimum"]
+            if m.get("above") is not None:
+                p["exclusiveMinimum"] = m["above"]
+            if m.get("maximum") is not None:
+                p["maximum"] = m["maximum"]
+            props[f.name] = p
+        return {"type": "object", "additionalProperties": False, "properties": props}
+
+
+def _coerce(f, v, where: str):
+    """Type check of one field value (ints accepted where floats are expected)."""
+    want = _PY_TYPES.get(f.type)
+    if want is None:
+        return v
+    if want is float and isinstance(v, int) and not isinstance(v, bool):
+        return float(v)
+    if want in (int, float) and isinstance(v, bool) or not isinstance(v, want):
+        raise SettingsError(f"{where}: field '{f.name}': expected {f.type}, got {v!r}")
+    return v
+
+
+# ---- the robot, prepared once per job ---------------------------------------------------------
+class Prepared:
+    """A robot converted to a working length unit and unpacked into the kernels' arrays.
+
+    Attributes
+    ----------
+    source : RobotModel             the model as given (goals are passed in its unit)
+    model : RobotModel              the model in ``unit``
+    unit : str                      working length unit
+    goal_scale : float              factor from ``source``'s unit to ``unit``
+    args : tuple                    ``a, alpha, d, offs, prism, modified, base, tool`` for :mod:`._kin`
+    limits : ndarray, shape (n, 2)  joint limits [rad | unit]; +-inf where the file gives none
+    """
+
+    def __init__(self, model: RobotModel, unit: str | None = None):
+        if isinstance(model, Prepared):
+            model = model.source
+        unit = unit or "m"
+        self.source = model
+        self.unit = unit
+        self.model = model.in_unit(unit) if unit != model.length_unit else model
+        self.goal_scale = LENGTH_UNITS[model.length_unit] / LENGTH_UNITS[unit]
+        c = self.model.chain
+        self.args = (np.ascontiguousarray(c.a, dtype=float), np.ascontiguousarray(c.alpha, dtype=float),
+                     np.ascontiguousarray(c.d, dtype=float), np.ascontiguousarray(c.theta_offset, dtype=float),
+                     np.ascontiguousarray(c.prismatic, dtype=np.bool_), bool(c.modified),
+                     np.ascontiguousarray(c.base, dtype=float), np.ascontiguousarray(c.tool, dtype=float))
+        self.limits = np.ascontiguousarray(self.model.limits, dtype=float)
+        self.prismatic = np.asarray(c.prismatic, dtype=bool)
+        self._cache: dict = {}  # per-method data derived once per job (e.g. an analytic solver's geometry)
+
+    @property
+    def n(self) -> int:
+        return self.model.n
+
+    def working_goal(self, T_goal: np.ndarray) -> np.ndarray:
+        """``T_goal`` (4, 4) in the source model's unit -> the working unit (C-contiguous copy)."""
+        T = np.array(T_goal, dtype=float, order="C")
+        if self.goal_scale != 1.0:
+            T[:3, 3] *= self.goal_scale
+        return T
+
+    def bare_goal(self, T_goal: np.ndarray) -> np.ndarray:
+        """Goal of the bare DH chain: ``base^-1 T_goal tool^-1`` (for analytic solvers)."""
+        c = self.model.chain
+        return _inv_rigid(c.base) @ T_goal @ _inv_rigid(c.tool)
+
+    def search_box(self, default_half_width: float = math.pi) -> np.ndarray:
+        """Finite joint box (n, 2): the limits, with ``[-w, w]`` for unbounded revolute joints.
+
+        Raises
+        ------
+        NotApplicableError
+            An unbounded prismatic joint (no finite box to search).
+        """
+        box = self.limits.copy()
+        for i in range(self.n):
+            if not np.all(np.isfinite(box[i])):
+                if self.prismatic[i]:
+                    raise NotApplicableError(f"{self.source.path or self.source.name}: joint {i + 1}: a prismatic "
+                                             "joint without limits gives no finite search box")
+                box[i] = (-default_half_width, default_half_width)
+        return box
+
+
+def _inv_rigid(T: np.ndarray) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, :3] = T[:3, :3].T
+    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return out
+
+
+# ---- raw kernel output and the one result type ------------------------------------------------
+@dataclass
+class Raw:
+    """What a method's kernel call returns (before the FK check).
+
+    Attributes
+    ----------
+    q : ndarray, shape (n,)                 final joint values [rad | working unit]
+    code : int                              the method's own stop code (a :class:`StopReason` value)
+    iterations : int
+    solve_ns : int                          the method's computation on the monotonic clock [ns]
+    trace : ndarray, shape (k, 8), optional per iterate: scalar error, e (6), |dp|
+    ik_ns : int                             time of the IK block (step) alone [ns], 0 if not measured
+    solutions : ndarray, shape (m, n), optional
+        Analytic methods: every solution found (``q`` is the one chosen).
+    info : dict                             method-specific counters (JSON scalars), archived as is
+    """
+
+    q: np.ndarray
+    code: int
+    iterations: int
+    solve_ns: int
+    trace: np.ndarray | None = None
+    ik_ns: int = 0
+    solutions: np.ndarray | None = None
+    info: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -146,15 +318,21 @@ class IKResult:
 
     Attributes
     ----------
-    q : ndarray, shape (n,) [rad | length]      final joint values
+    q : ndarray, shape (n,) [rad | length_unit]  final joint values (the chosen solution)
     success : bool                              FK-verified success
-    stop_reason : int                           1 success, 2 stall, 3 error grew, 4 cap, 5 non-finite, 6 FK contradicts
+    stop_reason : int                           a :class:`StopReason` value
     iterations : int
-    trace : ndarray, shape (iterations + 1, 8)  per iteration: scalar error, e (6), |dp| [length]
-    solve_time_s : float [s]                    whole solve, one monotonic-clock interval
-    ik_time_s : float [s]                       sum of the IK-block (step) times
-    position_error : float [length]             |p_goal - p| by independent FK
-    orientation_error : float [rad]             rotation angle between goal and reached orientation
+    trace : ndarray, shape (iterations + 1, 8)  per iterate: scalar error, e (6), |dp| [length_unit]
+    solve_time_s : float [s]                    the method's own computation (see module docstring)
+    ik_time_s : float [s]                       the IK-block (step) time alone where measured, else 0
+    position_error : float [length_unit]        |p_goal - p| by independent FK
+    orientation_error : float [rad]             rotation angle goal vs reached (NaN for position-only goals)
+    claimed_success : bool                      the method's own stop test said success
+    within_limits : bool                        ``q`` lies within the joint limits (revolute joints wrapped by 2 pi first)
+    call_time_s : float [s]                     the whole ``solve()`` call
+    length_unit : str
+    solutions : ndarray, shape (m, n) or None   analytic methods: all solutions
+    info : dict                                 method-specific counters
     """
 
     q: np.ndarray
@@ -166,27 +344,16 @@ class IKResult:
     ik_time_s: float
     position_error: float
     orientation_error: float
-    claimed_success: bool = field(default=False)
+    claimed_success: bool = False
+    within_limits: bool = True
+    call_time_s: float = float("nan")
+    length_unit: str = "m"
+    solutions: np.ndarray | None = None
+    info: dict = field(default_factory=dict)
 
 
-class PreparedRobot:
-    """A robot's chain unpacked into the arrays the kernel takes (done once per job)."""
-
-    def __init__(self, model: RobotModel, unit: str | None = None):
-        self.model = model.in_unit(unit) if unit and unit != model.length_unit else model
-        c = self.model.chain
-        self.args = (np.ascontiguousarray(c.a), np.ascontiguousarray(c.alpha), np.ascontiguousarray(c.d),
-                     np.ascontiguousarray(c.theta_offset), np.ascontiguousarray(c.prismatic),
-                     bool(c.modified), np.ascontiguousarray(c.base), np.ascontiguousarray(c.tool))
-
-
-def verify(model: RobotModel, T_goal: np.ndarray, q: np.ndarray, settings: SolverSettings) -> tuple[bool, float, float]:
-    """Independent FK check of a solution: (meets the success criterion, |dp| [length], angle [rad]).
-
-    Uses the numpy reference FK (not the compiled kernel). The DQ norm of ``Q_goal Q*`` is taken in
-    its closed form ``sqrt(1 + |t|^2 / 4)``, t the translation of ``T_goal T^-1`` (tested against the
-    explicit dual-quaternion product in tests/test_kinematics.py).
-    """
+def pose_errors(model: RobotModel, T_goal: np.ndarray, q: np.ndarray) -> tuple[float, float, float]:
+    """Independent FK of ``q``: (|dp| [unit], rotation angle [rad], |t| of ``T_goal T^-1`` [unit])."""
     T = fk_htm(model.chain, q)
     Rg, R = T_goal[:3, :3], T[:3, :3]
     dpv = T_goal[:3, 3] - T[:3, 3]
@@ -195,53 +362,79 @@ def verify(model: RobotModel, T_goal: np.ndarray, q: np.ndarray, settings: Solve
     c = (np.trace(Rrel) - 1.0) / 2.0
     s = 0.5 * math.sqrt((Rrel[2, 1] - Rrel[1, 2]) ** 2 + (Rrel[0, 2] - Rrel[2, 0]) ** 2 + (Rrel[1, 0] - Rrel[0, 1]) ** 2)
     ang = float(math.atan2(s, c)) if math.isfinite(c) and math.isfinite(s) else math.nan
-    if not (math.isfinite(dp) and math.isfinite(ang)):
-        return False, dp, ang
-    if settings.criterion == "dq_norm":
-        t = T_goal[:3, 3] - Rrel @ T[:3, 3]
-        ok = math.sqrt(1 + (t @ t) / 4) <= settings.tol_dq * (1 + 1e-12)
-    elif settings.criterion == "dq_norm_body":
-        ok = math.sqrt(1 + dp * dp / 4) <= settings.tol_dq * (1 + 1e-12)
-    else:
-        ok = dp <= settings.tol_pos * (1 + 1e-9) and ang <= settings.tol_rot * (1 + 1e-9)
-    return ok, dp, ang
+    tv = T_goal[:3, 3] - Rrel @ T[:3, 3]
+    return dp, ang, float(math.sqrt(tv @ tv))
 
 
-def solve(robot: RobotModel | PreparedRobot, T_goal: np.ndarray, q_start: np.ndarray,
-          settings: SolverSettings, _kernel=None) -> IKResult:
-    """Solve one IK problem.
+def meets(settings: Settings, dp: float, ang: float, t: float) -> bool:
+    """The success test of ``settings.criterion`` on FK errors (tolerances in the working unit)."""
+    if not math.isfinite(dp) or (settings.criterion != "position" and not math.isfinite(ang)):
+        return False
+    crit = settings.criterion
+    if crit == "dq_norm":
+        return math.sqrt(1 + t * t / 4) <= settings.tol_dq * (1 + 1e-12)
+    if crit == "dq_norm_body":
+        return math.sqrt(1 + dp * dp / 4) <= settings.tol_dq * (1 + 1e-12)
+    if crit == "position":
+        return dp <= settings.tol_pos * (1 + 1e-9)
+    return dp <= settings.tol_pos * (1 + 1e-9) and ang <= settings.tol_rot * (1 + 1e-9)
+
+
+def verify(model: RobotModel, T_goal: np.ndarray, q: np.ndarray, settings: Settings) -> tuple[bool, float, float]:
+    """Independent FK check of a solution: (meets the success criterion, |dp| [length], angle [rad]).
+
+    Uses the numpy reference FK (not a compiled kernel). The DQ norm of ``Q_goal Q*`` is taken in
+    its closed form ``sqrt(1 + |t|^2 / 4)``, t the translation of ``T_goal T^-1`` (tested against the
+    explicit dual-quaternion product in tests/test_kinematics.py). ``settings`` must already be in
+    the model's unit (:meth:`Settings.converted`).
+    """
+    dp, ang, t = pose_errors(model, T_goal, q)
+    return meets(settings, dp, ang, t), dp, ang
+
+
+def within_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray, tol: float = 1e-9) -> bool:
+    """True when every joint lies within its limits; a revolute joint may first be wrapped by 2 pi."""
+    q = np.asarray(q, dtype=float)
+    lo, hi = limits[:, 0], limits[:, 1]
+    if not np.all(np.isfinite(q)):
+        return False
+    wrap = ~prismatic & np.isfinite(lo)
+    wrapped = q.copy()
+    wrapped[wrap] = lo[wrap] + np.mod(q[wrap] - lo[wrap], 2 * math.pi)
+    # a value just below lo wraps to just below lo + 2 pi: accept it as lo
+    near_lo = ~prismatic & np.isfinite(lo) & (np.abs(wrapped - 2 * math.pi - lo) <= tol)
+    wrapped = np.where(near_lo, lo, wrapped)
+    return bool(np.all(wrapped >= lo - tol) and np.all(wrapped <= hi + tol))
+
+
+def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, call_ns: int = 0) -> IKResult:
+    """Turn a kernel's raw output into the result: FK check, stop reason, limits, timings.
 
     Parameters
     ----------
-    robot : RobotModel or PreparedRobot
-        Lengths are taken in ``settings.length_unit`` (the robot's own when None); ``T_goal`` must
-        be in that same unit.
-    T_goal : ndarray, shape (4, 4)
-    q_start : ndarray, shape (n,) [rad | length]
-    settings : SolverSettings
-
-    Returns
-    -------
-    IKResult
-        ``success`` is True only when an independent FK of the returned angles meets the
-        criterion; a kernel claim that FK contradicts becomes stop reason 6.
+    prep : Prepared
+    T_goal : ndarray, shape (4, 4)   goal in the working unit
+    raw : Raw
+    settings : Settings              converted to the working unit
+    call_ns : int                    the whole call's duration so far [ns] (set again by the registry)
     """
-    prep = robot if isinstance(robot, PreparedRobot) else PreparedRobot(robot, settings.length_unit)
-    ip, fp = settings.packed()
-    q0 = np.ascontiguousarray(q_start, dtype=float)
-    Tg = np.ascontiguousarray(T_goal, dtype=float)
-    q = np.empty_like(q0)
-    trace = np.zeros((settings.max_iterations + 1, _jit.TRACE_COLS))
-    times = np.zeros(3, np.int64)
-    kernel = _kernel or _jit.solve_one
-    code, iters = kernel(*prep.args, Tg, q0, ip, fp, q, trace, times)
-    code, iters = int(code), int(iters)
-    ok, dp, ang = verify(prep.model, Tg, q, settings)
-    claimed = code == _jit.SUCCESS
+    q = np.asarray(raw.q, dtype=float)
+    ok, dp, ang = verify(prep.model, T_goal, q, settings)
+    code = int(raw.code)
+    claimed = code == StopReason.SUCCESS
     if claimed and not ok:
-        code = _jit.FK_CHECK_FAILED
+        code = int(StopReason.FK_CHECK_FAILED)
     if not np.all(np.isfinite(q)):
-        code = _jit.NON_FINITE
-    return IKResult(q=q, success=claimed and ok, stop_reason=code, iterations=iters,
-                    trace=trace[: iters + 1].copy(), solve_time_s=times[0] * 1e-9, ik_time_s=times[1] * 1e-9,
-                    position_error=dp, orientation_error=ang, claimed_success=claimed)
+        code = int(StopReason.NON_FINITE)
+    trace = raw.trace
+    if trace is None:
+        trace = np.full((1, TRACE_COLS), np.nan)
+        trace[0, 7] = dp
+    else:
+        trace = np.asarray(trace)[: raw.iterations + 1]
+    return IKResult(q=q, success=bool(claimed and ok and code == StopReason.SUCCESS), stop_reason=code,
+                    iterations=int(raw.iterations), trace=trace, solve_time_s=raw.solve_ns * 1e-9,
+                    ik_time_s=raw.ik_ns * 1e-9, position_error=dp,
+                    orientation_error=float("nan") if settings.criterion == "position" else ang,
+                    claimed_success=claimed, within_limits=within_limits(q, prep.limits, prep.prismatic),
+                    call_time_s=call_ns * 1e-9, length_unit=prep.unit, solutions=raw.solutions, info=dict(raw.info))

@@ -1,0 +1,104 @@
+"""Jacobian transpose, pseudoinverse, DLS and SDLS (000_7e3cb7ad5ee98ff0.txt §3, eqs. 47-61).
+
+One compiled loop (:func:`pipeline.solvers._jit.solve_one`) serves the four methods; each is
+registered under its own name with the settings it uses. The stop rules are the document's:
+success (code 1), pose change below the stall threshold (2), error grew ``grow_limit`` times in a
+row (3), iteration cap (4), non-finite value (5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.solvers import _jit
+from pipeline.solvers.base import Prepared, Raw, Settings, setting
+from pipeline.solvers.registry import Solver, register
+
+SOURCE = "000_7e3cb7ad5ee98ff0.txt (Cerbaro 2019) §3"
+_CRIT = {"dq_norm": 0, "pos_orient": 1, "dq_norm_body": 2, "position": 1}
+
+
+@dataclass(frozen=True)
+class JacobianSettings(Settings):
+    """Settings of the Jacobian-transpose loop (and the base of the other three)."""
+
+    max_iterations: int = setting(500, "stop code 4 after this many iterations", minimum=1, maximum=10_000_000)
+    grow_limit: int = setting(5, "stop code 3 after the error grew this many iterations in a row", minimum=1)
+    orientation_error: str = setting("quat_vec", "angular half of the error 6-vector: orientation_gain * "
+                                     "vec(q_goal q*) or the rotation vector", choices=("quat_vec", "axis_angle"))
+    orientation_gain: float = setting(1.0, "gain on vec(q_goal q*) (quat_vec only)", minimum=0.0)
+    stall_dq: float = setting(1 + 1e-12, "stall (code 2) when the DQ norm of the pose change is below this "
+                              "(dq_norm criteria)", minimum=1.0)
+    stall_pos: float = setting(1e-9, "stall when the position moves less than this ... (pos_orient)", unit="m",
+                               minimum=0.0, length=True)
+    stall_rot: float = setting(1e-9, "... and the orientation less than this (pos_orient)", unit="rad", minimum=0.0)
+    disable_stall: bool = setting(False, "turn stop code 2 off (the Table 16 rerun of 000)")
+    disable_grow: bool = setting(False, "turn stop code 3 off (the Table 16 rerun of 000)")
+
+
+@dataclass(frozen=True)
+class DLSSettings(JacobianSettings):
+    damping: float = setting(0.1, "damping lambda of J^T (J J^T + lambda^2 I)^-1", minimum=0.0)
+
+
+@dataclass(frozen=True)
+class SDLSSettings(JacobianSettings):
+    gamma_max: float = setting(3 * math.pi / 2, "maximum joint step", unit="rad", above=0.0)
+    sdls_norm: str = setting("maxabs", "norm of the SDLS clamps (Buss's code: maxabs; 000 §3 text: one)",
+                             choices=("maxabs", "one", "two"))
+    sdls_blocks: int = setting(1, "end-effector blocks: 1 = the 6-vector as one, 2 = position and orientation",
+                               choices=(1, 2))
+
+
+def packed(method: str, s: JacobianSettings) -> tuple[np.ndarray, np.ndarray]:
+    """The kernel's integer and float parameter vectors (settings already in the working unit)."""
+    ip = np.zeros(_jit.N_IP, np.int64)
+    fp = np.zeros(_jit.N_FP)
+    ip[_jit.I_METHOD] = _jit.METHODS[method]
+    ip[_jit.I_MAX_ITER] = s.max_iterations
+    ip[_jit.I_CRITERION] = _CRIT[s.criterion]
+    ip[_jit.I_ORIENT] = _jit.ORIENT_ERRORS[s.orientation_error]
+    ip[_jit.I_GROW_LIMIT] = s.grow_limit
+    ip[_jit.I_SDLS_NORM] = _jit.NORMS[getattr(s, "sdls_norm", "maxabs")]
+    ip[_jit.I_SDLS_BLOCKS] = getattr(s, "sdls_blocks", 1)
+    ip[_jit.I_NO_STALL] = int(s.disable_stall)
+    ip[_jit.I_NO_GROW] = int(s.disable_grow)
+    fp[_jit.F_LAMBDA] = getattr(s, "damping", 0.0)
+    fp[_jit.F_GAMMA_MAX] = getattr(s, "gamma_max", 0.0)
+    fp[_jit.F_TOL_DQ] = s.tol_dq
+    fp[_jit.F_STALL_DQ] = s.stall_dq
+    fp[_jit.F_TOL_POS] = s.tol_pos
+    fp[_jit.F_TOL_ROT] = math.inf if s.criterion == "position" else s.tol_rot
+    fp[_jit.F_STALL_POS] = s.stall_pos
+    fp[_jit.F_STALL_ROT] = math.inf if s.criterion == "position" else s.stall_rot
+    fp[_jit.F_ORIENT_GAIN] = s.orientation_gain
+    return ip, fp
+
+
+def _runner(method: str):
+    def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: JacobianSettings, seed: int) -> Raw:
+        key = ("jacobian_packed", method, s)
+        pk = prep._cache.get(key)
+        if pk is None:
+            pk = prep._cache[key] = packed(method, s)
+        ip, fp = pk
+        q = np.empty_like(q_start)
+        trace = np.zeros((s.max_iterations + 1, _jit.TRACE_COLS))
+        times = np.zeros(3, np.int64)
+        code, iters = _jit.solve_one(*prep.args, T_goal, q_start, ip, fp, q, trace, times)
+        return Raw(q=q, code=int(code), iterations=int(iters), solve_ns=int(times[0]), trace=trace,
+                   ik_ns=int(times[1]))
+
+    return run
+
+
+for _name, _title, _cls in (
+    ("jacobian_transpose", "Jacobian transpose with the adaptive step of eq. 48", JacobianSettings),
+    ("pseudoinverse", "Jacobian pseudoinverse J^T (J J^T)^-1 e (eq. 49; SVD pseudoinverse when singular)", JacobianSettings),
+    ("dls", "damped least squares J^T (J J^T + lambda^2 I)^-1 e (eq. 50)", DLSSettings),
+    ("sdls", "selectively damped least squares (Buss & Kim 2004; eqs. 56-61)", SDLSSettings),
+):
+    register(Solver(_name, _title, "local", _cls, _runner(_name), source=SOURCE))

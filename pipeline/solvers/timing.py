@@ -1,0 +1,24 @@
+"""The one timing definition of every solve (written down once; README "Timing" says the same).
+
+``solve_time_s``
+    The method's own computation for one problem: from its first to its last operation, excluding
+    the conversion of inputs and the independent FK check, on the monotonic clock
+    (``CLOCK_MONOTONIC``). Compiled methods read the clock inside the kernel
+    (:func:`pipeline.solvers._kin.now_ns`); methods whose loop is a library call (SciPy's
+    optimisers) read it around that call with :func:`clock_ns`, which is the same clock on Linux.
+    It is wall time on one core: a job runs one solve at a time with one BLAS thread.
+``ik_time_s``
+    The part of ``solve_time_s`` spent in the method's update step (the "IK block" of
+    000_7e3cb7ad5ee98ff0.txt) where a method measures it, else 0.
+``call_time_s``
+    The whole :func:`pipeline.solvers.solve` call as a user sees it: settings lookup, unit
+    conversion, the kernel, the FK check and building the result.
+
+Every archive's ``/ik/solve`` records carry all three; tables say which one they use.
+"""
+
+from __future__ import annotations
+
+import time
+
+clock_ns = time.perf_counter_ns  # CLOCK_MONOTONIC on Linux, like the kernels' now_ns
