@@ -4,7 +4,8 @@ Verbs (each one is also a Snakemake rule of the same name):
 
 check_inputs      validate config, study settings and robot files (one line per problem)
 make_problems     write a study's seeded problem set for one robot
-solve_problems    solve every problem with one solver, write an MCAP archive
+solve_problems    solve every problem of a set with one registered solver, write an MCAP archive
+solvers           list the registered IK solvers, their settings, defaults and units
 rerun_failures    rerun one archive's failed problems with changed stop rules (Table 16 of 000)
 aggregate_tables  compute a study's tables from its archives, beside the published values
 plot_figures      render a study's figures from its archives
@@ -56,67 +57,89 @@ def cmd_check_inputs(args) -> None:
     print(f"ok: {len(studies)} studies, scale={config['scale']}: " + ", ".join(s.id for s in studies))
 
 
+def _problem_set(study, args) -> dict:
+    if args.problem_set not in study.problem_sets:
+        raise CLIError(f"{args.study}: field 'problem_sets/{args.problem_set}': no such problem set "
+                       f"(have: {', '.join(study.problem_sets) or 'none'})")
+    return study.problem_sets[args.problem_set]
+
+
 def cmd_make_problems(args) -> None:
     from pipeline.io.problems import write_problems
-    from pipeline.problems import random_joint_pairs
+    from pipeline.problems import ProblemSpecError, make_problem_set
     from pipeline.robots import load_robot
-    from pipeline.settings import file_sha256, load_study
+    from pipeline.settings import ConfigError, file_sha256, load_study
 
     study = load_study(args.study)
+    spec = _problem_set(study, args)
     model = load_robot(args.robot)
-    p = study.doc["problems"]
-    count = study.count(args.scale)
-    # one independent stream per robot, derived from the study seed
-    rng = np.random.default_rng([p["seed"], sum(model.name.encode())])
-    ps = random_joint_pairs(model, count, rng, p.get("low", 0.0), p.get("high", 2 * np.pi))
-    write_problems(args.out, ps, {"study": study.id, "seed": p["seed"], "scale": args.scale, "count": count,
+    if model.name not in study.set_robots(args.problem_set):
+        raise CLIError(f"{args.study}: field 'problem_sets/{args.problem_set}/robots': {model.name!r} is not one "
+                       f"of {study.set_robots(args.problem_set)}")
+    count = study.count(args.problem_set, args.scale)
+    # one independent stream per robot, derived from the set's seed
+    rng = np.random.default_rng([spec["seed"], sum(model.name.encode())])
+    try:
+        ps = make_problem_set(spec, model, count, rng, Path(args.data))
+    except ProblemSpecError as exc:
+        raise ConfigError(f"{args.study}: problem_sets/{args.problem_set}: {exc}") from None
+    if ps.robot != model.name or ps.q_start.shape[1:] != (model.n,):
+        raise CLIError(f"problem set {args.problem_set}: the generator returned problems for {ps.robot!r} "
+                       f"with {ps.q_start.shape[1]} joints, not {model.name!r} with {model.n}")
+    write_problems(args.out, ps, {"study": study.id, "problem_set": args.problem_set, "kind": spec["kind"],
+                                  "seed": spec["seed"], "scale": args.scale, "count": len(ps),
                                   "robot_sha256": file_sha256(args.robot)[:16]})
-    print(f"wrote {count} problems for {model.name} to {args.out}")
+    print(f"wrote {len(ps)} problems of set {args.problem_set} for {model.name} to {args.out}")
 
 
-def _solve_to_archive(args, settings, select=None, extra_meta=None) -> None:
+def _solve_to_archive(args, entry, select=None, extra_meta=None) -> None:
     """Solve the problems of ``args.problems`` (all, or the ids in ``select``) into ``args.out``."""
     import pipeline
     from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter, solve_record
     from pipeline.io.problems import read_problems
     from pipeline.robots import LENGTH_UNITS, load_robot
+    from pipeline.runner import solve_set
     from pipeline.settings import file_sha256, git_commit, load_study
-    from pipeline.solvers import PreparedRobot, solve
 
     study = load_study(args.study)
+    spec = _problem_set(study, args)
     model = load_robot(args.robot)
     ps, _ = read_problems(args.problems)
     if ps.robot != model.name:
         raise CLIError(f"{args.problems}: header field 'robot': {ps.robot!r} but the robot file is {model.name!r}")
     if getattr(args, "limit", 0):
         ps = ps.head(args.limit)
-    idx = np.arange(len(ps)) if select is None else np.flatnonzero(np.isin(ps.problem_id, list(select)))
-    prep = PreparedRobot(model, settings.length_unit)
-    unit = prep.model.length_unit
-    T_goals = ps.goal_transforms()
-    T_goals[:, :3, 3] *= LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[unit]
+    reps = study.repetitions(args.problem_set, args.scale)
+    settings = entry.settings
+    unit = settings.length_unit
+    to_unit = LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[unit]
+    n_sel = len(ps) if select is None else int(np.isin(ps.problem_id, list(select)).sum())
     meta = {
-        "format_version": FORMAT_VERSION, "study": study.id, "robot": model.name, "solver": args.solver,
-        "settings": json.dumps(settings.as_dict(), sort_keys=True), "settings_hash": study.solver_hash(args.solver, args.scale),
-        "seed": str(study.doc["problems"]["seed"]), "scale": args.scale, "problems": str(len(idx)),
+        "format_version": FORMAT_VERSION, "study": study.id, "problem_set": args.problem_set, "robot": model.name,
+        "solver": entry.label, "method": entry.method, "reading": entry.reading,
+        "settings": json.dumps(entry.as_dict(), sort_keys=True),
+        "settings_hash": study.solver_hash(args.problem_set, entry.label, args.scale),
+        "seed": str(spec["seed"]), "scale": args.scale, "problems": str(n_sel), "repetitions": str(reps),
         "problem_file": Path(args.problems).name, "problem_sha256": file_sha256(args.problems)[:16],
         "length_unit": unit, "package_version": pipeline.__version__, "git_commit": git_commit(),
+        "timing": "solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "
+                  "solve() call (pipeline/solvers/timing.py)",
         **(extra_meta or {}),
     }
-    if len(idx):
-        solve(prep, T_goals[idx[0]], ps.q_start[idx[0]], settings)  # compile or load the cached code before timing
     t0 = time.monotonic()
-    n_ok = 0
-    every = max(1, len(idx) // 10)
+    n_ok = done = 0
+    total = n_sel * reps
+    every = max(1, total // 10)
     with ArchiveWriter(args.out, meta) as w:
-        for k, i in enumerate(idx):
-            res = solve(prep, T_goals[i], ps.q_start[i], settings)
+        for i, r, q0, res in solve_set(entry.method, settings, model, ps, repetitions=reps, set_seed=spec["seed"],
+                                       select=select):
             n_ok += res.success
-            w.write(*solve_record(ps.problem_id[i], model.name, args.solver, unit, ps.q_start[i],
-                                  T_goals[i, :3, 3], ps.goal_quat[i], res))
-            if (k + 1) % every == 0 or k + 1 == len(idx):
-                _progress(k + 1, len(idx), t0, f"solved, {n_ok} successes")
-    print(f"wrote {args.out}: {len(idx)} problems, {n_ok} FK-verified successes")
+            done += 1
+            w.write(*solve_record(ps.problem_id[i], model.name, entry.label, unit, q0, ps.goal_position[i] * to_unit,
+                                  ps.goal_quat[i], res, method=entry.method, repetition=r, chain=int(ps.chain[i])))
+            if done % every == 0 or done == total:
+                _progress(done, total, t0, f"solved, {n_ok} FK-verified successes")
+    print(f"wrote {args.out}: {total} solves, {n_ok} FK-verified successes")
 
 
 def _study_solver(args):
@@ -129,8 +152,12 @@ def _study_solver(args):
 
 
 def cmd_solve_problems(args) -> None:
-    _, settings = _study_solver(args)
-    _solve_to_archive(args, settings)
+    study, entry = _study_solver(args)
+    _problem_set(study, args)
+    if args.solver not in study.set_solvers(args.problem_set):
+        raise CLIError(f"{args.study}: field 'problem_sets/{args.problem_set}/solvers': {args.solver!r} does not run "
+                       "on this set")
+    _solve_to_archive(args, entry)
 
 
 def cmd_rerun_failures(args) -> None:
@@ -139,12 +166,12 @@ def cmd_rerun_failures(args) -> None:
     from pipeline.io.archive import read_archive
     from pipeline.solvers import SettingsError
 
-    study, settings = _study_solver(args)
+    study, entry = _study_solver(args)
     overrides = study.settings.get("rerun")
     if not overrides:
         raise CLIError(f"{args.study}: field 'study_settings/rerun': missing (the rerun's setting overrides)")
     try:
-        rerun = replace(settings, **overrides)
+        rerun = replace(entry.settings, **overrides)
     except TypeError as exc:
         raise SettingsError(f"{args.study}: field 'study_settings/rerun': {exc}") from None
     rerun.validate(f"{args.study}: study_settings/rerun")
@@ -152,8 +179,30 @@ def cmd_rerun_failures(args) -> None:
     if original.metadata["solver"] != args.solver:
         raise CLIError(f"{args.archive}: metadata field 'solver' is {original.metadata['solver']!r}, expected {args.solver!r}")
     failed = [r["problem_id"] for r in original.solves if not r["success"]]
-    _solve_to_archive(args, rerun, select=failed, extra_meta={
+    _solve_to_archive(args, replace(entry, settings=rerun), select=failed, extra_meta={
         "rerun_of": Path(args.archive).name, "rerun_of_settings_hash": original.metadata["settings_hash"]})
+
+
+def cmd_solvers(args) -> None:
+    """Print every registered solver with its settings, defaults and units (or one, or as JSON)."""
+    from pipeline.solvers import catalogue, get
+
+    cat = catalogue()
+    if args.name:
+        get(args.name)  # one-line error for an unknown name
+        cat = [c for c in cat if c["name"] == args.name]
+    if args.json:
+        print(json.dumps(cat, indent=1, default=str))
+        return
+    for c in cat:
+        print(f"{c['name']}  [{c['kind']}]  {c['title']}")
+        if c["source"]:
+            print(f"    source: {c['source']}")
+        for row in c["settings"]:
+            unit = f" [{row['unit']}]" if row["unit"] else ""
+            rng = f" ({row['range']})" if row["range"] else ""
+            print(f"    {row['name']} = {row['default']!r}{unit}{rng}: {row['doc']}")
+        print()
 
 
 def cmd_aggregate_tables(args) -> None:
@@ -214,15 +263,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("make_problems", help="write a seeded problem set")
     p.add_argument("--study", required=True, help="data/studies/<id>.yaml")
+    p.add_argument("--problem-set", required=True, help="a key of the study's `problem_sets`")
     p.add_argument("--robot", required=True, help="data/robots/<name>.yaml")
     p.add_argument("--scale", choices=["full", "quick"], default="full")
+    p.add_argument("--data", default="data", help="data folder (generators may read files there)")
     p.add_argument("--out", required=True, help="output CSV")
     p.set_defaults(func=cmd_make_problems)
 
     p = sub.add_parser("solve_problems", help="solve a problem set with one solver into an MCAP archive")
     p.add_argument("--study", required=True)
+    p.add_argument("--problem-set", required=True)
     p.add_argument("--robot", required=True)
-    p.add_argument("--solver", required=True, help="a key of the study's `solvers`")
+    p.add_argument("--solver", required=True, help="a solver label of the study (`solvers` or a reading variant)")
     p.add_argument("--problems", required=True, help="problem-set CSV from make_problems")
     p.add_argument("--scale", choices=["full", "quick"], default="full")
     p.add_argument("--limit", type=int, default=0, help="solve only the first N problems (debugging)")
@@ -231,6 +283,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("rerun_failures", help="rerun a solver's failed problems with the study's rerun overrides")
     p.add_argument("--study", required=True)
+    p.add_argument("--problem-set", required=True)
     p.add_argument("--robot", required=True)
     p.add_argument("--solver", required=True)
     p.add_argument("--problems", required=True)
@@ -238,6 +291,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scale", choices=["full", "quick"], default="full")
     p.add_argument("--out", required=True)
     p.set_defaults(func=cmd_rerun_failures)
+
+    p = sub.add_parser("solvers", help="list the registered IK solvers with their settings and defaults")
+    p.add_argument("name", nargs="?", help="show one solver")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=cmd_solvers)
 
     for verb, fn, what in (("aggregate_tables", cmd_aggregate_tables, "tables (CSV)"),
                            ("plot_figures", cmd_plot_figures, "figures (PNG/SVG)")):
@@ -274,12 +332,13 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline.io.problems import ProblemFileError
     from pipeline.robots import RobotFileError
     from pipeline.settings import ConfigError
-    from pipeline.solvers import SettingsError
+    from pipeline.solvers import NotApplicableError, SettingsError
 
     args = build_parser().parse_args(argv)
     try:
         args.func(args)
-    except (CLIError, ArchiveError, ProblemFileError, RobotFileError, ConfigError, SettingsError) as exc:
+    except (CLIError, ArchiveError, ProblemFileError, RobotFileError, ConfigError, SettingsError,
+            NotApplicableError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

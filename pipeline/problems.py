@@ -1,13 +1,34 @@
-"""Seeded IK problem sets (pure: every random function takes a ``numpy.random.Generator``)."""
+"""Seeded IK problem sets (pure: every random function takes a ``numpy.random.Generator``).
+
+A study's ``problem_sets`` (data/studies/<id>.yaml) name a *kind*:
+
+``random_joint_pairs``  start and goal angles uniform in ``[low, high)`` (000's protocol)
+``warm_start``          goal angles uniform within the joint limits (``[low, high)`` where a joint
+                        has none); start = goal + uniform noise of half-width ``spread`` [rad]
+``generator``           a study's own function ``"pipeline.studies.<id>.<module>:<function>"``
+                        with the signature of :data:`Generator`
+
+Problems that share a ``chain`` id >= 0 are solved in file order, each starting from the previous
+problem's returned angles (path following); ``chain = -1`` marks an independent problem.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import importlib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from pipeline.kinematics import fk_htm, matrix_from_quat, quat_from_matrix
 from pipeline.robots import RobotModel
+
+KINDS = ("random_joint_pairs", "warm_start", "generator")
+
+
+class ProblemSpecError(ValueError):
+    """A problem-set specification cannot be used (one line naming the field)."""
 
 
 @dataclass(frozen=True)
@@ -17,10 +38,11 @@ class ProblemSet:
     Attributes
     ----------
     problem_id : ndarray of int, shape (m,)
-    q_start, q_goal : ndarray, shape (m, n) [rad | length]
+    q_start, q_goal : ndarray, shape (m, n) [rad | length]   ``q_goal`` may be NaN (goal angles unknown)
     goal_position : ndarray, shape (m, 3) [length_unit]
     goal_quat : ndarray, shape (m, 4)   w-first
     robot, length_unit : str
+    chain : ndarray of int, shape (m,)  -1 = independent; else warm-started from the previous problem of the chain
     """
 
     problem_id: np.ndarray
@@ -30,6 +52,11 @@ class ProblemSet:
     goal_quat: np.ndarray
     robot: str
     length_unit: str
+    chain: np.ndarray = field(default=None)
+
+    def __post_init__(self):
+        if self.chain is None:
+            object.__setattr__(self, "chain", np.full(len(self.problem_id), -1, dtype=int))
 
     def __len__(self) -> int:
         return int(self.problem_id.shape[0])
@@ -43,8 +70,27 @@ class ProblemSet:
         return T
 
     def head(self, m: int) -> "ProblemSet":
-        return ProblemSet(self.problem_id[:m], self.q_start[:m], self.q_goal[:m], self.goal_position[:m],
-                          self.goal_quat[:m], self.robot, self.length_unit)
+        return self.take(np.arange(min(m, len(self))))
+
+    def take(self, idx) -> "ProblemSet":
+        idx = np.asarray(idx, dtype=int)
+        return replace(self, problem_id=self.problem_id[idx], q_start=self.q_start[idx], q_goal=self.q_goal[idx],
+                       goal_position=self.goal_position[idx], goal_quat=self.goal_quat[idx], chain=self.chain[idx])
+
+
+def from_goal_angles(model: RobotModel, q_start: np.ndarray, q_goal: np.ndarray, chain=None) -> ProblemSet:
+    """A problem set whose goal poses are FK of ``q_goal`` (m, n)."""
+    T = fk_htm(model.chain, q_goal)
+    return ProblemSet(np.arange(q_goal.shape[0]), q_start, q_goal, T[:, :3, 3].copy(), quat_from_matrix(T),
+                      model.name, model.length_unit, None if chain is None else np.asarray(chain, dtype=int))
+
+
+def from_poses(model: RobotModel, q_start: np.ndarray, T_goal: np.ndarray, chain=None, q_goal=None) -> ProblemSet:
+    """A problem set from goal poses (m, 4, 4) in the robot's unit; ``q_goal`` NaN unless given."""
+    m = T_goal.shape[0]
+    qg = np.full((m, model.n), np.nan) if q_goal is None else np.asarray(q_goal, float)
+    return ProblemSet(np.arange(m), np.asarray(q_start, float), qg, T_goal[:, :3, 3].copy(), quat_from_matrix(T_goal),
+                      model.name, model.length_unit, None if chain is None else np.asarray(chain, dtype=int))
 
 
 def random_joint_pairs(model: RobotModel, count: int, rng: np.random.Generator,
@@ -71,6 +117,65 @@ def random_joint_pairs(model: RobotModel, count: int, rng: np.random.Generator,
     n = model.n
     q_start = rng.uniform(low, high, size=(count, n))
     q_goal = rng.uniform(low, high, size=(count, n))
-    T = fk_htm(model.chain, q_goal)
-    return ProblemSet(np.arange(count), q_start, q_goal, T[:, :3, 3].copy(), quat_from_matrix(T),
-                      model.name, model.length_unit)
+    return from_goal_angles(model, q_start, q_goal)
+
+
+def warm_start(model: RobotModel, count: int, rng: np.random.Generator, spread: float = 0.3,
+               low: float = -np.pi, high: float = np.pi) -> ProblemSet:
+    """Goal angles uniform within the joint limits; start angles within ``spread`` of them.
+
+    Parameters
+    ----------
+    spread : float [rad | length]
+        Half-width of the uniform start noise around each goal angle (for prismatic joints in
+        the robot's length unit).
+    low, high : float [rad | length]
+        Range of a joint without limits in the robot file.
+
+    Notes
+    -----
+    Goals are drawn first, then the noise, so ``spread`` changes only the starts. Start angles are
+    not clipped to the limits (a local method must cope with a start just outside them).
+    """
+    if count < 1:
+        raise ValueError(f"problem count must be >= 1, got {count}")
+    lim = np.array(model.limits, dtype=float)
+    lo = np.where(np.isfinite(lim[:, 0]), lim[:, 0], low)
+    hi = np.where(np.isfinite(lim[:, 1]), lim[:, 1], high)
+    q_goal = lo + (hi - lo) * rng.random((count, model.n))
+    q_start = q_goal + rng.uniform(-spread, spread, size=(count, model.n))
+    return from_goal_angles(model, q_start, q_goal)
+
+
+Generator = Callable[[RobotModel, int, np.random.Generator, dict, Path], ProblemSet]
+"""``fn(model, count, rng, params, data_dir) -> ProblemSet`` of a ``generator`` problem set."""
+
+
+def load_generator(ref: str) -> Generator:
+    """Import ``"package.module:function"`` (a study's problem generator)."""
+    mod, sep, fn = str(ref).partition(":")
+    if not sep or not mod.startswith("pipeline.") or not fn.isidentifier():
+        raise ProblemSpecError(f"field 'generator': {ref!r} is not 'pipeline.<module>:<function>'")
+    try:
+        f = getattr(importlib.import_module(mod), fn)
+    except (ImportError, AttributeError) as exc:
+        raise ProblemSpecError(f"field 'generator': cannot load {ref!r} ({exc})") from None
+    return f
+
+
+def make_problem_set(spec: dict, model: RobotModel, count: int, rng: np.random.Generator,
+                     data_dir: Path = Path("data")) -> ProblemSet:
+    """Draw one problem set of a study's ``problem_sets`` entry for one robot."""
+    kind = spec["kind"]
+    params = dict(spec.get("params") or {})
+    if kind == "random_joint_pairs":
+        return random_joint_pairs(model, count, rng, params.get("low", 0.0), params.get("high", 2 * np.pi))
+    if kind == "warm_start":
+        return warm_start(model, count, rng, params.get("spread", 0.3), params.get("low", -np.pi),
+                          params.get("high", np.pi))
+    if kind == "generator":
+        ps = load_generator(spec["generator"])(model, count, rng, params, Path(data_dir))
+        if not isinstance(ps, ProblemSet):
+            raise ProblemSpecError(f"field 'generator': {spec['generator']} returned {type(ps).__name__}, not a ProblemSet")
+        return ps
+    raise ProblemSpecError(f"field 'kind': {kind!r} is not one of {', '.join(KINDS)}")

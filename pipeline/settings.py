@@ -15,7 +15,7 @@ import jsonschema
 import yaml
 
 from pipeline.robots import load_robot
-from pipeline.solvers import SolverSettings
+from pipeline.solvers import Settings
 
 ROOT = Path(__file__).resolve().parent.parent
 SCHEMAS = ROOT / "workflow" / "schemas"
@@ -78,37 +78,86 @@ def validate_config(config: dict, path: str = "workflow/config/config.yaml") -> 
 
 
 @dataclass(frozen=True)
+class SolverEntry:
+    """One solver label of a study: a registered method with its validated settings."""
+
+    label: str
+    method: str
+    settings: Settings
+    reading: str = "default"
+
+    def as_dict(self) -> dict:
+        """``{"method": ..., **settings}`` (what the archive and the rule parameters record)."""
+        return {"method": self.method, **self.settings.as_dict()}
+
+
+@dataclass(frozen=True)
 class Study:
-    """A validated study: its settings document and resolved solver settings."""
+    """A validated study: its settings document, solver labels and problem sets."""
 
     id: str
     path: Path
     doc: dict
-    solvers: dict[str, SolverSettings]
-    readings: dict[str, str] = None  # solver name -> reading label (see `readings` in the schema)
+    solvers: dict[str, SolverEntry]
+    readings: dict[str, str] = None  # solver label -> reading label (see `readings` in the schema)
 
     def default_solvers(self) -> list[str]:
-        """Solvers of the default reading (the study's main tables)."""
+        """Solver labels of the default reading (the study's main tables)."""
         return list(self.doc.get("solvers", {}))
 
     @property
+    def problem_sets(self) -> dict[str, dict]:
+        return self.doc.get("problem_sets", {}) or {}
+
+    @property
     def generic(self) -> bool:
-        """True when the study uses the generic problem/solve rules (random problems + Jacobian solvers)."""
-        return "problems" in self.doc
+        """True when the study has problem sets solved by the generic solve rule."""
+        return bool(self.problem_sets)
 
     @property
     def settings(self) -> dict:
         """The study-specific settings block (``study_settings``), empty when absent."""
         return self.doc.get("study_settings", {})
 
-    def count(self, scale: str) -> int:
-        return int(self.doc["problems"]["count"][scale])
+    def count(self, pset: str, scale: str) -> int:
+        return int(self.problem_sets[pset]["count"][scale])
 
-    def solver_hash(self, solver: str, scale: str) -> str:
+    def repetitions(self, pset: str, scale: str) -> int:
+        rep = self.problem_sets[pset].get("repetitions")
+        return int(rep[scale]) if rep else 1
+
+    def set_robots(self, pset: str) -> list[str]:
+        return list(self.problem_sets[pset].get("robots") or self.doc["robots"])
+
+    def set_solvers(self, pset: str) -> list[str]:
+        return list(self.problem_sets[pset].get("solvers") or self.solvers)
+
+    def jobs(self) -> list[tuple[str, str, str]]:
+        """Every (problem set, robot, solver label) solve job of the study."""
+        return [(ps, r, s) for ps in self.problem_sets for r in self.set_robots(ps) for s in self.set_solvers(ps)]
+
+    def problem_hash(self, pset: str, scale: str) -> dict:
+        return {"problem_set": pset, "spec": self.problem_sets[pset], "scale": scale, "count": self.count(pset, scale)}
+
+    def solver_hash(self, pset: str, solver: str, scale: str) -> str:
         """Hash of everything that determines one solve job's archive (timings aside)."""
-        blob = {"problems": self.doc["problems"], "scale": scale, "count": self.count(scale),
+        blob = {**self.problem_hash(pset, scale), "repetitions": self.repetitions(pset, scale),
                 "solver": self.solvers[solver].as_dict()}
         return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _solver_entry(label: str, mapping, where: str, reading: str) -> SolverEntry:
+    from pipeline.solvers import make_settings, names
+
+    if not isinstance(mapping, dict):
+        raise ConfigError(f"{where}: expected a mapping of settings, got {type(mapping).__name__}")
+    d = dict(mapping)
+    method = d.pop("method", None)
+    if method is None:
+        raise ConfigError(f"{where}: field 'method': missing (a registered solver: {', '.join(names())})")
+    if method not in names():
+        raise ConfigError(f"{where}: field 'method': {method!r} is not a registered solver ({', '.join(names())})")
+    return SolverEntry(label, method, make_settings(method, d, where), reading)
 
 
 def load_study(path: str | Path) -> Study:
@@ -121,16 +170,25 @@ def load_study(path: str | Path) -> Study:
     own = SCHEMAS / "studies" / f"{doc['study']}.schema.yaml"
     if own.is_file():
         validate_against(doc.get("study_settings", {}), yaml.safe_load(own.read_text()), f"{path}: study_settings")
-    if ("problems" in doc) != ("solvers" in doc):
-        raise ConfigError(f"{path}: field 'problems'/'solvers': a generic study needs both (or neither)")
-    solvers = {name: SolverSettings.from_dict(s, f"{path}: solvers/{name}") for name, s in doc.get("solvers", {}).items()}
-    readings = {name: doc.get("readings", {}).get("default", "default") for name in solvers}
+    if bool(doc.get("problem_sets")) != bool(doc.get("solvers")):
+        raise ConfigError(f"{path}: field 'problem_sets'/'solvers': a study with solve jobs needs both (or neither)")
+    default = doc.get("readings", {}).get("default", "default")
+    solvers = {name: _solver_entry(name, s, f"{path}: solvers/{name}", default)
+               for name, s in (doc.get("solvers") or {}).items()}
     for variant, overrides in doc.get("readings", {}).get("variants", {}).items():
         for name, base in doc["solvers"].items():
-            solvers[f"{name}_{variant}"] = SolverSettings.from_dict({**base, **overrides},
-                                                                    f"{path}: readings/variants/{variant}")
-            readings[f"{name}_{variant}"] = variant
-    return Study(doc["study"], path, doc, solvers, readings)
+            label = f"{name}_{variant}"
+            if label in solvers:
+                raise ConfigError(f"{path}: field 'readings/variants/{variant}': label {label!r} clashes with a solver")
+            solvers[label] = _solver_entry(label, {**base, **overrides}, f"{path}: readings/variants/{variant}", variant)
+    for pset, spec in (doc.get("problem_sets") or {}).items():
+        where = f"{path}: problem_sets/{pset}"
+        if (spec["kind"] == "generator") != ("generator" in spec):
+            raise ConfigError(f"{where}: field 'generator': required exactly when kind is 'generator'")
+        for label in spec.get("solvers") or []:
+            if label not in solvers:
+                raise ConfigError(f"{where}: field 'solvers': {label!r} is not a solver label ({', '.join(solvers)})")
+    return Study(doc["study"], path, doc, solvers, {k: v.reading for k, v in solvers.items()})
 
 
 def check_inputs(config: dict, root: Path = Path(".")) -> list[Study]:
@@ -143,7 +201,8 @@ def check_inputs(config: dict, root: Path = Path(".")) -> list[Study]:
         if not spath.is_file():
             raise ConfigError(f"{spath}: no settings file for study '{sid}' (config field 'studies')")
         st = load_study(spath)
-        for robot in st.doc["robots"]:
+        robots = set(st.doc["robots"]) | {r for ps in st.problem_sets for r in st.set_robots(ps)}
+        for robot in sorted(robots):
             load_robot(data / "robots" / f"{robot}.yaml")
         studies.append(st)
     return studies

@@ -26,7 +26,7 @@ from typing import Iterator
 
 import numpy as np
 
-FORMAT_VERSION = "1"
+FORMAT_VERSION = "2"
 SOLVE_TOPIC = "/ik/solve"
 TRACE_TOPIC = "/ik/trace"
 REQUIRED_META = ("format_version", "study", "robot", "solver", "settings", "settings_hash", "seed",
@@ -44,10 +44,17 @@ SOLVE_SCHEMA = {
         "solver": {"type": "string"},
         "success": {"type": "boolean", "description": "FK-verified success"},
         "claimed_success": {"type": "boolean", "description": "the method's own stop test said success"},
-        "stop_reason": {"type": "integer", "description": "1 success, 2 stall, 3 error grew, 4 cap, 5 non-finite, 6 FK contradicts"},
+        "repetition": {"type": "integer", "description": "0-based repetition of the problem (timing studies)"},
+        "chain": {"type": "integer", "description": "-1 = independent; else warm-started from the previous problem of the chain"},
+        "method": {"type": "string", "description": "registered solver name"},
+        "stop_reason": {"type": "integer", "description": "pipeline.solvers.StopReason: 1 success, 2 stalled, 3 error grew, 4 cap, 5 non-finite, 6 FK contradicts, 7 no solution"},
+        "call_time_s": {"type": "number", "description": "the whole solve() call [s]"},
+        "within_limits": {"type": "boolean", "description": "q_solution within the robot file's joint limits (revolute wrapped by 2 pi)"},
+        "info": {"type": "object", "description": "method-specific counters"},
+        "solutions": {"type": "array", "items": _NUMS, "description": "analytic solvers: every solution"},
         "iterations": {"type": "integer"},
-        "solve_time_s": {"type": "number"},
-        "ik_time_s": {"type": "number", "description": "sum of IK-block (step) times"},
+        "solve_time_s": {"type": "number", "description": "the method's own computation, monotonic clock [s] (pipeline/solvers/timing.py)"},
+        "ik_time_s": {"type": "number", "description": "sum of IK-block (step) times [s], 0 where not measured"},
         "initial_error": {"type": "number"},
         "final_error": {"type": "number"},
         "position_error": {"type": "number", "description": "|p_goal - p| by independent FK [length_unit]"},
@@ -158,22 +165,33 @@ class ArchiveWriter:
 
 
 def solve_record(problem_id: int, robot: str, solver: str, length_unit: str, q_start, goal_position, goal_quat,
-                 result) -> tuple[dict, dict]:
-    """Encode one :class:`pipeline.solvers.IKResult` as (solve message, trace message)."""
+                 result, *, method: str = "", repetition: int = 0, chain: int = -1) -> tuple[dict, dict]:
+    """Encode one :class:`pipeline.solvers.IKResult` as (solve message, trace message).
+
+    ``goal_position`` must be in ``length_unit`` (the result's unit).
+    """
     tr = result.trace
     solve = {
-        "problem_id": int(problem_id), "robot": robot, "solver": solver,
+        "problem_id": int(problem_id), "repetition": int(repetition), "chain": int(chain), "robot": robot,
+        "solver": solver, "method": method,
         "success": bool(result.success), "claimed_success": bool(result.claimed_success),
         "stop_reason": int(result.stop_reason), "iterations": int(result.iterations),
         "solve_time_s": float(result.solve_time_s), "ik_time_s": float(result.ik_time_s),
+        "call_time_s": float(getattr(result, "call_time_s", float("nan"))),
+        "within_limits": bool(getattr(result, "within_limits", True)),
         "initial_error": float(tr[0, 0]), "final_error": float(tr[-1, 0]),
         "position_error": float(result.position_error), "orientation_error": float(result.orientation_error),
         "length_unit": length_unit,
         "q_start": [float(v) for v in q_start], "q_solution": [float(v) for v in result.q],
         "goal": _goal(goal_position, goal_quat),
+        "info": {k: (v if isinstance(v, (bool, int, str)) or v is None else float(v))
+                 for k, v in (getattr(result, "info", None) or {}).items()},
     }
-    trace = {"problem_id": int(problem_id), "error": tr[:, 0].tolist(), "error_vector": tr[:, 1:7].tolist(),
-             "position_error": tr[:, 7].tolist()}
+    sols = getattr(result, "solutions", None)
+    if sols is not None:
+        solve["solutions"] = np.asarray(sols, dtype=float).tolist()
+    trace = {"problem_id": int(problem_id), "repetition": int(repetition), "error": tr[:, 0].tolist(),
+             "error_vector": tr[:, 1:7].tolist(), "position_error": tr[:, 7].tolist()}
     return solve, trace
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from pipeline.problems import ProblemSet
 
-MAGIC = "# ik-pipeline problem set v1"
+MAGIC = "# ik-pipeline problem set v2"
 
 
 class ProblemFileError(ValueError):
@@ -22,7 +22,7 @@ class ProblemFileError(ValueError):
 
 
 def _columns(n: int) -> list[str]:
-    return (["problem_id"] + [f"q_start_{i + 1}" for i in range(n)] + [f"q_goal_{i + 1}" for i in range(n)]
+    return (["problem_id", "chain"] + [f"q_start_{i + 1}" for i in range(n)] + [f"q_goal_{i + 1}" for i in range(n)]
             + ["goal_x", "goal_y", "goal_z", "goal_qw", "goal_qx", "goal_qy", "goal_qz"])
 
 
@@ -36,8 +36,8 @@ def write_problems(path: str | Path, ps: ProblemSet, meta: dict[str, str]) -> No
     buf.write(MAGIC + " " + " ".join(f"{k}={v}" for k, v in head.items()) + "\n")
     buf.write(",".join(_columns(n)) + "\n")
     data = np.column_stack([ps.q_start, ps.q_goal, ps.goal_position, ps.goal_quat])
-    for pid, row in zip(ps.problem_id, data):
-        buf.write(str(int(pid)) + "," + ",".join(format(x, ".17g") for x in row) + "\n")
+    for pid, ch, row in zip(ps.problem_id, ps.chain, data):
+        buf.write(f"{int(pid)},{int(ch)}," + ",".join(format(x, ".17g") for x in row) + "\n")
     tmp = path.with_name(path.name + ".partial")
     tmp.write_text(buf.getvalue())
     os.replace(tmp, path)
@@ -57,15 +57,18 @@ def read_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str]]:
         if key not in meta:
             raise ProblemFileError(f"{path}: line 1: header field '{key}' missing")
     cols = lines[1].split(",") if len(lines) > 1 else []
-    n = (len(cols) - 8) // 2
+    n = (len(cols) - 9) // 2
     if n < 1 or cols != _columns(n):
         raise ProblemFileError(f"{path}: line 2: unexpected columns")
     try:
         data = np.array([[float(x) for x in ln.split(",")] for ln in lines[2:]], dtype=float).reshape(-1, len(cols))
     except ValueError as exc:
         raise ProblemFileError(f"{path}: malformed row ({exc})") from None
-    if data.shape[0] == 0 or not np.all(np.isfinite(data)):
+    qgoal = slice(2 + n, 2 + 2 * n)
+    finite = np.isfinite(data)
+    finite[:, qgoal] = True  # goal angles may be unknown (NaN): Cartesian path points
+    if data.shape[0] == 0 or not np.all(finite):
         raise ProblemFileError(f"{path}: no rows, or a non-finite value")
-    ps = ProblemSet(data[:, 0].astype(int), data[:, 1:1 + n], data[:, 1 + n:1 + 2 * n], data[:, 1 + 2 * n:4 + 2 * n],
-                    data[:, 4 + 2 * n:], meta["robot"], meta["length_unit"])
+    ps = ProblemSet(data[:, 0].astype(int), data[:, 2:2 + n], data[:, qgoal], data[:, 2 + 2 * n:5 + 2 * n],
+                    data[:, 5 + 2 * n:], meta["robot"], meta["length_unit"], data[:, 1].astype(int))
     return ps, meta

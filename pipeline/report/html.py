@@ -58,8 +58,10 @@ def study_context(study: Study, results: Path) -> dict:
     provenance = json.loads(prov_file.read_text()) if prov_file.is_file() else []
     if study.solvers:
         solvers = pd.DataFrame({k: {f: _fmt(x) for f, x in study.solvers[k].as_dict().items()}
-                                for k in study.default_solvers()})
-        solvers_html = solvers.to_html(border=0, classes="data")
+                                for k in study.default_solvers()}).fillna("—")
+        solvers_html = ("<p>Solver labels (columns): the registered method and its settings "
+                        "(lengths in m, angles in rad; — = not a setting of that method).</p>"
+                        + solvers.to_html(border=0, classes="data"))
         variants = study.doc.get("readings", {}).get("variants", {})
         if variants:
             rows = [{"reading": study.doc["readings"]["default"], "overrides": "(the solvers above)"}]
@@ -69,11 +71,14 @@ def study_context(study: Study, results: Path) -> dict:
                              "<code>&lt;solver&gt;_&lt;reading&gt;</code>):</p>"
                              + pd.DataFrame(rows).to_html(index=False, border=0, classes="data"))
     else:
-        solvers_html = "<pre>" + html_escape(yaml.safe_dump(study.settings, sort_keys=False, allow_unicode=True)) + "</pre>"
+        solvers_html = ""
+    if study.settings:
+        solvers_html += ("<p>Study settings:</p><pre>" + html_escape(yaml.safe_dump(study.settings, sort_keys=False,
+                                                                              allow_unicode=True)) + "</pre>")
     return {
         "id": study.id, "title": study.doc["title"], "document": study.doc["document"],
         "notes": study.doc.get("notes", ""), "robots": study.doc["robots"],
-        "problems_yaml": yaml.safe_dump(study.doc.get("problems", {}), sort_keys=False) if study.generic else "",
+        "problems_yaml": yaml.safe_dump(study.problem_sets, sort_keys=False) if study.generic else "",
         "solvers_html": solvers_html,
         "interpretations": study.doc["interpretations"], "tables": tables, "figures": figures,
         "provenance": provenance, "benchmarks": _benchmarks(folder / "benchmarks"),

@@ -19,28 +19,31 @@ SCALE = config["scale"]
 ENV = "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1"
 
 
+# ids never hold a double underscore, so "<robot>__<solver>" splits one way only
 wildcard_constraints:
     study="[a-z0-9_]+",
-    robot="[a-z0-9_]+",
-    solver="[a-z0-9_]+",
+    pset="[a-z0-9]+(?:_[a-z0-9]+)*",
+    robot="[a-z0-9]+(?:_[a-z0-9]+)*",
+    solver="[a-z0-9]+(?:_[a-z0-9]+)*",
 
 
 def study_file(wildcards):
     return f"{DATA}/studies/{wildcards.study}.yaml"
 
 
-# Archives each study's tables and figures are computed from. Generic studies get one archive
-# per (robot, solver); a study with its own rules (workflow/rules/studies/<id>.smk) sets its list.
+# Archives each study's tables and figures are computed from: one per (problem set, robot, solver
+# label) solve job; a study with rules of its own (workflow/rules/studies/<id>.smk) may append more.
 STUDY_ARCHIVES = {
-    sid: [
-        f"{RESULTS}/{sid}/runs/{robot}__{solver}.mcap"
-        for robot in st.doc["robots"]
-        for solver in st.solvers
-    ]
+    sid: [f"{RESULTS}/{sid}/runs/{pset}/{robot}__{solver}.mcap" for pset, robot, solver in st.jobs()]
     for sid, st in STUDIES.items()
-    if st.generic
 }
 GENERIC_STUDIES = "|".join(sid for sid, st in STUDIES.items() if st.generic) or "__none__"
+
+
+def problem_set_files(wildcards):
+    """Data files a problem set's generator reads (`files:` of the set), as rule inputs."""
+    spec = STUDIES[wildcards.study].problem_sets[wildcards.pset]
+    return [f"{DATA}/{f}" for f in spec.get("files", [])]
 
 
 def study_archives(wildcards):

@@ -3,29 +3,30 @@
 if "cerbaro2019" in STUDIES:
 
     _cerbaro = STUDIES["cerbaro2019"]
+    _CERBARO_SET = next(iter(_cerbaro.problem_sets))  # the study's one problem set
     STUDY_ARCHIVES["cerbaro2019"] = STUDY_ARCHIVES["cerbaro2019"] + [
-        f"{RESULTS}/cerbaro2019/reruns/{robot}__{solver}.mcap"
-        for robot in _cerbaro.doc["robots"]
+        f"{RESULTS}/cerbaro2019/reruns/{_CERBARO_SET}/{robot}__{solver}.mcap"
+        for robot in _cerbaro.set_robots(_CERBARO_SET)
         for solver in _cerbaro.default_solvers()
     ]
 
     rule rerun_failures:
         input:
-            problems=f"{RESULTS}/cerbaro2019/problems/{{robot}}.csv",
+            problems=f"{RESULTS}/cerbaro2019/problems/{{pset}}/{{robot}}.csv",
             robot=f"{DATA}/robots/{{robot}}.yaml",
-            archive=f"{RESULTS}/cerbaro2019/runs/{{robot}}__{{solver}}.mcap",
+            archive=f"{RESULTS}/cerbaro2019/runs/{{pset}}/{{robot}}__{{solver}}.mcap",
         output:
-            f"{RESULTS}/cerbaro2019/reruns/{{robot}}__{{solver}}.mcap",
+            f"{RESULTS}/cerbaro2019/reruns/{{pset}}/{{robot}}__{{solver}}.mcap",
         params:
             settings=f"{DATA}/studies/cerbaro2019.yaml",
             rerun=lambda w: _cerbaro.settings["rerun"],
             solver=lambda w: _cerbaro.solvers[w.solver].as_dict(),
             scale=SCALE,
         log:
-            f"{RESULTS}/cerbaro2019/logs/rerun_failures__{{robot}}__{{solver}}.log",
+            f"{RESULTS}/cerbaro2019/logs/rerun_failures__{{pset}}__{{robot}}__{{solver}}.log",
         benchmark:
-            f"{RESULTS}/cerbaro2019/benchmarks/rerun__{{robot}}__{{solver}}.tsv"
+            f"{RESULTS}/cerbaro2019/benchmarks/rerun__{{pset}}__{{robot}}__{{solver}}.tsv"
         shell:
-            "{ENV} python -m pipeline rerun_failures --study {params.settings} --robot {input.robot}"
-            " --solver {wildcards.solver} --problems {input.problems} --archive {input.archive}"
-            " --scale {params.scale} --out {output} > {log} 2>&1"
+            "{ENV} python -m pipeline rerun_failures --study {params.settings} --problem-set {wildcards.pset}"
+            " --robot {input.robot} --solver {wildcards.solver} --problems {input.problems}"
+            " --archive {input.archive} --scale {params.scale} --out {output} > {log} 2>&1"
