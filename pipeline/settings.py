@@ -191,6 +191,18 @@ def load_study(path: str | Path) -> Study:
     return Study(doc["study"], path, doc, solvers, {k: v.reading for k, v in solvers.items()})
 
 
+def _check_applicable(study: Study, models: dict) -> None:
+    """Every (problem set, robot, solver) job must fit: a solver that does not apply is one line."""
+    from pipeline.solvers import NotApplicableError, prepare
+
+    for pset, robot, label in study.jobs():
+        entry = study.solvers[label]
+        try:
+            prepare(entry.method, models[robot], entry.settings)
+        except NotApplicableError as exc:
+            raise ConfigError(f"{study.path}: problem_sets/{pset}: solver '{label}' on robot '{robot}': {exc}") from None
+
+
 def check_inputs(config: dict, root: Path = Path(".")) -> list[Study]:
     """Validate config, every study's settings and every robot file they name, before any job runs."""
     validate_config(config)
@@ -202,8 +214,8 @@ def check_inputs(config: dict, root: Path = Path(".")) -> list[Study]:
             raise ConfigError(f"{spath}: no settings file for study '{sid}' (config field 'studies')")
         st = load_study(spath)
         robots = set(st.doc["robots"]) | {r for ps in st.problem_sets for r in st.set_robots(ps)}
-        for robot in sorted(robots):
-            load_robot(data / "robots" / f"{robot}.yaml")
+        models = {robot: load_robot(data / "robots" / f"{robot}.yaml") for robot in sorted(robots)}
+        _check_applicable(st, models)
         studies.append(st)
     return studies
 

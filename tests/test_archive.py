@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from pipeline.cli import main
-from pipeline.io.archive import ArchiveError, ArchiveWriter, read_archive, solve_record
+from pipeline.io.archive import FORMAT_VERSION, ArchiveError, ArchiveWriter, read_archive, solve_record
 from pipeline.solvers import IKResult
 
-META = {"format_version": "1", "study": "s", "robot": "r", "solver": "dls", "settings": "{}",
+META = {"format_version": FORMAT_VERSION, "study": "s", "robot": "r", "solver": "dls", "settings": "{}",
         "settings_hash": "h", "seed": "1", "package_version": "0", "git_commit": "c"}
 
 

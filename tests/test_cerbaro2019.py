@@ -8,8 +8,8 @@ import pytest
 from pipeline.kinematics import fk_htm, geometric_jacobian
 from pipeline.robots import parse_robot
 from pipeline.settings import load_study
-from pipeline.solvers import SolverSettings, solve
-from pipeline.solvers import _jit
+from pipeline.solvers import _jit, make_settings, solve
+from pipeline.solvers.jacobian import packed
 from tests.conftest import DATA
 
 STEP_TOL = 1e-12  # closed forms vs the compiled step, same arithmetic up to rounding
@@ -20,8 +20,13 @@ def _planar(n):
                         "joints": [{"type": "revolute", "a": 1.0, "alpha": 0, "d": 0, "theta_offset": 0}] * n})
 
 
+def S(method="dls", **kw):
+    """The study's default reading of a method (DQ-norm criterion), with overrides."""
+    return make_settings(method, {"criterion": "dq_norm", **kw})
+
+
 def _step(method, J, e, **kw):
-    ip, fp = SolverSettings(method=method, **kw).packed()
+    ip, fp = packed(method, S(method, **kw))
     return _jit.step(_jit.METHODS[method], J, e, ip, fp)
 
 
@@ -68,7 +73,7 @@ def test_sdls_clamps_to_gamma_max(planar_case, norm, fn):
 
 
 def _goal_m(lwr, q):
-    """Goal pose in metres (solve takes the goal in the unit the solve runs in)."""
+    """Goal pose in metres (for the LWR converted to metres: ``lwr.in_unit("m")``)."""
     T = fk_htm(lwr.chain, q)
     T[:3, 3] /= 100
     return T
@@ -76,13 +81,13 @@ def _goal_m(lwr, q):
 
 def test_stop_code_1_success(lwr):
     qg = np.full(7, 0.7)
-    res = solve(lwr, _goal_m(lwr, qg), qg + 0.05, SolverSettings(length_unit="m"))
+    res = solve("dls", lwr.in_unit("m"), _goal_m(lwr, qg), qg + 0.05, S(length_unit="m"))
     assert res.stop_reason == 1 and res.success
 
 
 def test_stop_code_2_stall(lwr):
-    s = SolverSettings(length_unit="m", stall_dq=2.0)  # any move counts as "no progress"
-    res = solve(lwr, _goal_m(lwr, np.full(7, 0.7)), np.full(7, 0.2), s)
+    s = S(length_unit="m", stall_dq=2.0)  # any move counts as "no progress"
+    res = solve("dls", lwr.in_unit("m"), _goal_m(lwr, np.full(7, 0.7)), np.full(7, 0.2), s)
     assert res.stop_reason == 2 and res.iterations == 1 and not res.success
 
 
@@ -90,13 +95,13 @@ def test_stop_code_3_error_grows():
     m = _planar(3)
     T = np.eye(4)
     T[0, 3] = 5.0  # beyond the 3 m reach: the pseudoinverse overshoots back and forth
-    res = solve(m, T, np.array([0.0, 0.1, 0.1]), SolverSettings(method="pseudoinverse", grow_limit=1))
+    res = solve("pseudoinverse", m, T, np.array([0.0, 0.1, 0.1]), S("pseudoinverse", grow_limit=1))
     assert res.stop_reason == 3 and not res.success
 
 
 def test_stop_code_4_iteration_cap(lwr):
-    s = SolverSettings(method="jacobian_transpose", length_unit="m", max_iterations=3, grow_limit=100)
-    res = solve(lwr, _goal_m(lwr, np.full(7, 2.0)), np.zeros(7), s)
+    s = S("jacobian_transpose", length_unit="m", max_iterations=3, grow_limit=100)
+    res = solve("jacobian_transpose", lwr.in_unit("m"), _goal_m(lwr, np.full(7, 2.0)), np.zeros(7), s)
     assert res.stop_reason == 4 and res.iterations == 3 and res.trace.shape == (4, 8)
 
 
@@ -104,19 +109,20 @@ def test_disabling_codes_2_and_3():
     m = _planar(3)
     T = np.eye(4)
     T[0, 3] = 5.0
-    s = SolverSettings(method="pseudoinverse", grow_limit=1, disable_grow=True, disable_stall=True, max_iterations=50)
-    res = solve(m, T, np.array([0.0, 0.1, 0.1]), s)
+    s = S("pseudoinverse", grow_limit=1, disable_grow=True, disable_stall=True, max_iterations=50)
+    res = solve("pseudoinverse", m, T, np.array([0.0, 0.1, 0.1]), s)
     assert res.stop_reason == 4 and res.iterations == 50
 
 
 def test_readings_expand_and_switch_units():
     st = load_study(DATA / "studies" / "cerbaro2019.yaml")
     assert st.default_solvers() == ["jacobian_transpose", "pseudoinverse", "dls", "sdls"]
-    assert st.solvers["dls"].length_unit == "m" and st.solvers["dls_cm_dqnorm"].length_unit == "cm"
-    assert st.solvers["dls_cm_dqnorm"].damping == st.solvers["dls"].damping
-    assert st.solvers["sdls_m_posorient"].criterion == "pos_orient"
+    sv = {k: v.settings for k, v in st.solvers.items()}
+    assert sv["dls"].length_unit == "m" and sv["dls_cm_dqnorm"].length_unit == "cm"
+    assert sv["dls_cm_dqnorm"].damping == sv["dls"].damping
+    assert sv["sdls_m_posorient"].criterion == "pos_orient" and st.solvers["sdls_m_posorient"].method == "sdls"
     assert st.readings["sdls_m_axisangle"] == "m_axisangle" and st.readings["sdls"] == "m_dqnorm"
-    assert st.solver_hash("dls", "full") != st.solver_hash("dls_cm_dqnorm", "full")
+    assert st.solver_hash("random", "dls", "full") != st.solver_hash("random", "dls_cm_dqnorm", "full")
 
 
 def test_unit_reading_changes_the_tolerance_meaning(lwr):
@@ -128,8 +134,8 @@ def test_unit_reading_changes_the_tolerance_meaning(lwr):
     goal_cm[0, 3] += 0.1  # the goal is 1 mm (0.1 cm) away from FK(qg), same orientation
     goal_m = goal_cm.copy()
     goal_m[:3, 3] /= 100
-    assert verify(lwr.in_unit("m"), goal_m, qg, SolverSettings(length_unit="m"))[0]
-    assert not verify(lwr, goal_cm, qg, SolverSettings(length_unit="cm"))[0]
+    assert verify(lwr.in_unit("m"), goal_m, qg, S(length_unit="m").converted())[0]
+    assert not verify(lwr, goal_cm, qg, S(length_unit="cm").converted())[0]
 
 
 def test_same_seed_same_archive_columns(tmp_path):
@@ -139,11 +145,11 @@ def test_same_seed_same_archive_columns(tmp_path):
 
     study, robot = str(DATA / "studies" / "cerbaro2019.yaml"), str(DATA / "robots" / "kuka_lwr.yaml")
     problems = tmp_path / "p.csv"
-    assert main(["make_problems", "--study", study, "--robot", robot, "--scale", "quick", "--out", str(problems)]) == 0
+    assert main(["make_problems", "--study", study, "--problem-set", "random", "--robot", robot, "--scale", "quick", "--out", str(problems)]) == 0
     frames = []
     for k in range(2):
         out = tmp_path / f"a{k}.mcap"
-        assert main(["solve_problems", "--study", study, "--robot", robot, "--solver", "sdls", "--problems",
+        assert main(["solve_problems", "--study", study, "--problem-set", "random", "--robot", robot, "--solver", "sdls", "--problems",
                      str(problems), "--scale", "quick", "--limit", "40", "--out", str(out)]) == 0
         frames.append(read_archive(out).frame())
     cols = ["problem_id", "success", "iterations", "stop_reason", "q_solution", "final_error"]

@@ -18,7 +18,7 @@ ROBOT = str(DATA / "robots" / "kuka_lwr.yaml")
 def test_same_seed_same_file(tmp_path):
     a, b = tmp_path / "a.csv", tmp_path / "b.csv"
     for out in (a, b):
-        assert main(["make_problems", "--study", STUDY, "--robot", ROBOT, "--scale", "quick", "--out", str(out)]) == 0
+        assert main(["make_problems", "--study", STUDY, "--problem-set", "random", "--robot", ROBOT, "--scale", "quick", "--out", str(out)]) == 0
     assert a.read_bytes() == b.read_bytes()
 
 

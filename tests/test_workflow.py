@@ -50,7 +50,7 @@ def test_quick_run_builds_report(built):
     report = built / "report.html"
     html = report.read_text()
     assert "data:image/png;base64," in html and "Table 7" in html and "(published)" in html
-    assert (built / "cerbaro2019" / "runs" / "kuka_lwr__dls.mcap").is_file()
+    assert (built / "cerbaro2019" / "runs" / "random" / "kuka_lwr__dls.mcap").is_file()
     assert not list(built.rglob("*.partial"))
 
 
@@ -60,7 +60,7 @@ def test_rerun_has_nothing_to_do(built):
 
 
 def test_deleting_an_archive_rebuilds_only_its_dependents(built):
-    (built / "cerbaro2019" / "runs" / "kuka_lwr__dls.mcap").unlink()
+    (built / "cerbaro2019" / "runs" / "random" / "kuka_lwr__dls.mcap").unlink()
     jobs = _jobs(_snakemake(built, "-n"))
     # the archive itself, the rerun of its failures, the study's tables/figures, the report
     assert jobs.get("solve_problems") == 1 and "make_problems" not in jobs

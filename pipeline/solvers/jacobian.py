@@ -41,7 +41,8 @@ class JacobianSettings(Settings):
 
 @dataclass(frozen=True)
 class DLSSettings(JacobianSettings):
-    damping: float = setting(0.1, "damping lambda of J^T (J J^T + lambda^2 I)^-1", minimum=0.0)
+    damping: float = setting(0.01, "damping lambda of J^T (J J^T + lambda^2 I)^-1 (in the units of J: "
+                             "length_unit and rad; 000 uses 0.1)", minimum=0.0)
 
 
 @dataclass(frozen=True)

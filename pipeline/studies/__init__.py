@@ -1,6 +1,7 @@
 """Per-study aggregation: each study module turns archives into the document's tables and figures.
 
-A study module or package ``pipeline.studies.<id>`` provides::
+A study module or package ``pipeline.studies.<id>`` provides (a study written only in YAML has no
+module and gets the generic tables and figures of :mod:`pipeline.studies.generic`)::
 
     build_tables(study, archives, published_dir) -> list[TableSpec]
     build_figures(study, archives, out_dir) -> list[FigureSpec]
@@ -59,10 +60,11 @@ def study_cli_modules() -> list:
 
 
 def get_study_module(study_id: str):
-    try:
-        return importlib.import_module(f"pipeline.studies.{study_id}")
-    except ModuleNotFoundError as exc:
-        raise ValueError(f"no aggregation module pipeline/studies/{study_id}.py ({exc})") from None
+    """The study's own table/figure module, or :mod:`pipeline.studies.generic` for a YAML-only study."""
+    name = f"pipeline.studies.{study_id}"
+    if study_id == "generic" or importlib.util.find_spec(name) is None:
+        return importlib.import_module("pipeline.studies.generic")
+    return importlib.import_module(name)
 
 
 def write_tables(tables: list[TableSpec], out_dir: Path) -> None:

@@ -1,0 +1,130 @@
+"""Tables and figures for any study, computed from its archives alone.
+
+Used for a study written only in YAML (no ``pipeline/studies/<id>`` module), and available to any
+study that wants the same summary. One row per (problem set, robot, solver label): success,
+joint-limit compliance, stop reasons, iterations, solve-time and call-time percentiles, position and
+orientation error percentiles. Errors are converted to mm whatever the archive's working unit.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pipeline.io.archive import Archive
+from pipeline.robots import LENGTH_UNITS
+from pipeline.solvers import STOP_REASONS
+from pipeline.studies import FigureSpec, TableSpec
+
+
+def runs_frame(archives: list[Archive]) -> pd.DataFrame:
+    """Every solve record with ``problem_set``, ``method`` and errors in mm (``position_error_mm``)."""
+    frames = []
+    for a in archives:
+        df = a.frame()
+        if df.empty:
+            continue
+        df["problem_set"] = a.metadata.get("problem_set", "")
+        df["method"] = a.metadata.get("method", df.get("method", ""))
+        unit = a.metadata.get("length_unit", "m")
+        df["position_error_mm"] = df["position_error"].astype(float) * LENGTH_UNITS.get(unit, 1.0) * 1e3
+        frames.append(df)
+    if not frames:
+        return pd.DataFrame(columns=["problem_set", "robot", "solver", "method", "success"])
+    return pd.concat(frames, ignore_index=True)
+
+
+def _pct(x, q) -> float:
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    return float(np.percentile(x, q)) if x.size else float("nan")
+
+
+def summary_table(df: pd.DataFrame) -> pd.DataFrame:
+    """One row per (problem set, robot, solver): the generic benchmark summary (units in headers)."""
+    rows = []
+    for (pset, robot, solver), g in df.groupby(["problem_set", "robot", "solver"], sort=False):
+        ok = g[g["success"]]
+        within = g["within_limits"] if "within_limits" in g else pd.Series(True, index=g.index)
+        rows.append({
+            "problem set": pset, "robot": robot, "solver": solver, "method": g["method"].iloc[0],
+            "solves": len(g), "success [%]": 100 * g["success"].mean(),
+            "success within joint limits [%]": 100 * (g["success"] & within.astype(bool)).mean(),
+            "mean iterations (successes)": ok["iterations"].mean() if len(ok) else np.nan,
+            "solve time p50 [µs]": 1e6 * _pct(g["solve_time_s"], 50),
+            "solve time p95 [µs]": 1e6 * _pct(g["solve_time_s"], 95),
+            "solve time p99 [µs]": 1e6 * _pct(g["solve_time_s"], 99),
+            "call time p50 [µs]": 1e6 * _pct(g.get("call_time_s", np.nan), 50),
+            "position error p50 [mm]": _pct(g["position_error_mm"], 50),
+            "position error p95 [mm]": _pct(g["position_error_mm"], 95),
+            "orientation error p50 [rad]": _pct(g["orientation_error"], 50),
+            "orientation error p95 [rad]": _pct(g["orientation_error"], 95),
+        })
+    return pd.DataFrame(rows)
+
+
+def stop_table(df: pd.DataFrame) -> pd.DataFrame:
+    """Count of each stop reason per (problem set, robot, solver)."""
+    rows = []
+    for (pset, robot, solver), g in df.groupby(["problem_set", "robot", "solver"], sort=False):
+        row = {"problem set": pset, "robot": robot, "solver": solver}
+        counts = g["stop_reason"].value_counts()
+        for code, text in STOP_REASONS.items():
+            row[f"{code}: {text} [count]"] = int(counts.get(code, 0))
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+    df = runs_frame(archives)
+    if df.empty:
+        return [TableSpec("summary", "Summary", pd.DataFrame(), "No solve records in the archives.")]
+    return [
+        TableSpec("summary", "Per robot and solver: success, limits, iterations, times, errors", summary_table(df),
+                  "Success = the method's stop test passed and an independent FK of the returned angles confirmed "
+                  "it. Solve time = the method's own computation (monotonic clock); call time = the whole "
+                  "pipeline.solvers.solve() call (pipeline/solvers/timing.py). Percentiles over all solves."),
+        TableSpec("stop_reasons", "Stop reasons per robot and solver", stop_table(df),
+                  "pipeline.solvers.StopReason; 6 = the method claimed success but FK disagreed."),
+    ]
+
+
+def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+    from pipeline.report.plotting import plt, save
+
+    df = runs_frame(archives)
+    figs = []
+    if df.empty:
+        return figs
+    for pset, g in df.groupby("problem_set", sort=False):
+        robots = list(dict.fromkeys(g["robot"]))
+        solvers = list(dict.fromkeys(g["solver"]))
+        fig, axes = plt.subplots(1, 2, figsize=(11, 0.35 * len(solvers) * len(robots) + 2.0))
+        labels, succ, times = [], [], []
+        for r in robots:
+            for s in solvers:
+                h = g[(g["robot"] == r) & (g["solver"] == s)]
+                if len(h):
+                    labels.append(f"{r} / {s}")
+                    succ.append(100 * h["success"].mean())
+                    t = 1e6 * h["solve_time_s"].to_numpy(dtype=float)
+                    times.append(t[np.isfinite(t) & (t > 0)])
+        y = np.arange(len(labels))
+        axes[0].barh(y, succ, color="tab:blue")
+        axes[0].set_yticks(y, labels)
+        axes[0].invert_yaxis()
+        axes[0].set_xlabel("FK-verified success [%]")
+        axes[0].set_xlim(0, 100)
+        axes[1].boxplot([t if t.size else [np.nan] for t in times], vert=False, showfliers=False)
+        axes[1].set_yticks(y + 1, [""] * len(labels))
+        axes[1].invert_yaxis()
+        axes[1].set_xscale("log")
+        axes[1].set_xlabel("solve time [µs] (log scale; whiskers 1.5 IQR, outliers hidden)")
+        fig.suptitle(f"{study.id}: problem set {pset}")
+        files = save(fig, out_dir, f"summary_{pset}")
+        figs.append(FigureSpec(files, f"Success and solve time per robot and solver — problem set {pset}",
+                               "Left: share of problems with an FK-verified success. Right: distribution of the "
+                               "per-solve time (the method's own computation)."))
+    return figs
