@@ -1,0 +1,104 @@
+"""The solve loop every job runs: chains, repetitions, seeds; YAML-only studies; applicability."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from pipeline.kinematics import fk_htm
+from pipeline.problems import ProblemSet, from_goal_angles, warm_start
+from pipeline.runner import problem_seed, solve_set
+from pipeline.settings import ConfigError, check_inputs, load_study
+from pipeline.solvers import make_settings
+from pipeline.studies import get_study_module
+from tests.conftest import DATA, ROOT
+
+
+def _path(lwr, m=6):
+    """A short joint-space path: goals along a line in joint space, all starts far away."""
+    s = np.linspace(0, 1, m)[:, None]
+    qg = 0.3 + 0.4 * s * np.ones((1, 7))
+    far = np.full((m, 7), 2.5)
+    return from_goal_angles(lwr, far, qg, chain=np.zeros(m, dtype=int))
+
+
+def test_chain_starts_from_the_previous_solution(lwr):
+    ps = _path(lwr)
+    s = make_settings("dls")
+    out = list(solve_set("dls", s, lwr, ps))
+    assert [i for i, *_ in out] == list(range(len(ps)))
+    np.testing.assert_array_equal(out[0][2], ps.q_start[0])  # first of the chain: its own start
+    for k in range(1, len(out)):
+        np.testing.assert_array_equal(out[k][2], out[k - 1][3].q)  # then the previous result
+    assert all(r.success for *_, r in out)
+
+
+def test_independent_problems_keep_their_own_start(lwr):
+    ps = _path(lwr)
+    ps = ProblemSet(ps.problem_id, ps.q_start, ps.q_goal, ps.goal_position, ps.goal_quat, ps.robot, ps.length_unit)
+    for i, _, q0, _ in solve_set("dls", make_settings("dls"), lwr, ps):
+        np.testing.assert_array_equal(q0, ps.q_start[i])
+
+
+def test_repetitions_solve_each_problem_from_the_same_start(lwr):
+    ps = warm_start(lwr, 3, np.random.default_rng(1))
+    out = list(solve_set("sdls", make_settings("sdls"), lwr, ps, repetitions=3))
+    assert [(i, r) for i, r, *_ in out] == [(i, r) for i in range(3) for r in range(3)]
+    for i in range(3):
+        qs = [res.q for j, _, _, res in out if j == i]
+        assert all(np.array_equal(qs[0], q) for q in qs)
+
+
+def test_problem_seeds_depend_only_on_set_problem_and_repetition():
+    assert problem_seed(1, 5, 0) == problem_seed(1, 5, 0)
+    assert len({problem_seed(1, p, r) for p in range(50) for r in range(3)}) == 150
+    assert 0 <= problem_seed(2**31, 10**9, 7) < 2**31
+
+
+def test_warm_start_goals_lie_within_the_limits(lwr):
+    ps = warm_start(lwr, 200, np.random.default_rng(0), spread=0.3)
+    lim = lwr.limits
+    assert np.all(ps.q_goal >= lim[:, 0]) and np.all(ps.q_goal <= lim[:, 1])
+    assert np.all(np.abs(ps.q_start - ps.q_goal) <= 0.3)
+    np.testing.assert_allclose(ps.goal_transforms(), fk_htm(lwr.chain, ps.q_goal), atol=1e-12)
+
+
+def test_yaml_only_study_uses_the_generic_tables():
+    st = load_study(DATA / "studies" / "every_method.yaml")
+    assert st.generic and get_study_module(st.id).__name__ == "pipeline.studies.generic"
+    assert ("warm", "kuka_lwr", "dls") in st.jobs() and ("warm_ur", "ur5_nepomuceno", "analytic_ur") in st.jobs()
+
+
+def _study(tmp_path, **over) -> dict:
+    doc = yaml.safe_load((DATA / "studies" / "every_method.yaml").read_text())
+    doc.update(study="mine", **over)
+    (tmp_path / "studies").mkdir(exist_ok=True)
+    (tmp_path / "robots").mkdir(exist_ok=True)
+    for r in ("kuka_lwr", "ur5_nepomuceno", "puma560", "mariano_4dof"):
+        (tmp_path / "robots" / f"{r}.yaml").write_text((DATA / "robots" / f"{r}.yaml").read_text())
+    (tmp_path / "studies" / "mine.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
+    return {"scale": "quick", "studies": ["mine"], "data_dir": str(tmp_path), "results_dir": str(tmp_path / "r")}
+
+
+def test_a_solver_that_does_not_fit_a_robot_is_one_line_before_any_job(tmp_path):
+    doc = yaml.safe_load((DATA / "studies" / "every_method.yaml").read_text())
+    sets = doc["problem_sets"]
+    sets["warm_ur"]["robots"] = ["kuka_lwr"]  # the UR closed form on a 7-DoF arm
+    config = _study(tmp_path, problem_sets=sets)
+    with pytest.raises(ConfigError) as exc:
+        check_inputs(config, root=ROOT)
+    msg = str(exc.value)
+    assert "\n" not in msg and "problem_sets/warm_ur" in msg and "analytic_ur" in msg and "kuka_lwr" in msg
+
+
+@pytest.mark.parametrize("bad,field", [
+    ({"method": "no_such_method"}, "field 'method'"),
+    ({"method": "dls", "damping": "lots"}, "field 'damping'"),
+    ({"damping": 0.1}, "field 'method': missing"),
+])
+def test_bad_solver_entries_name_the_field(tmp_path, bad, field):
+    config = _study(tmp_path, solvers={"dls": bad})
+    with pytest.raises(ConfigError if "method" in field else Exception) as exc:
+        check_inputs(config, root=ROOT)
+    assert field in str(exc.value) and "mine.yaml" in str(exc.value)
