@@ -10,13 +10,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pipeline.kinematics import fk_dq, fk_htm
+from pipeline.kinematics import fk_dq, fk_htm, orientation_error_angle
 from pipeline.robots import load_robot
 from pipeline.studies.mariano2019 import algebra as A
 from pipeline.studies.mariano2019 import avr, codegen
 from pipeline.studies.mariano2019 import closed_form as CF
 from pipeline.studies.mariano2019 import counting as K
-from pipeline.studies.mariano2019.measure import arm_fk_counts, arm_ik_counts, ik_roundtrip, mcu_records
+from pipeline.studies.mariano2019.measure import arm_fk_counts, arm_ik_counts, mcu_records
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM = load_robot(ROOT / "data/robots/mariano_4dof.yaml")
@@ -85,14 +85,56 @@ def test_counting_rules():
     assert K.cos(math.pi / 2) == 0.0
 
 
-def test_ik_roundtrip_1000_poses_both_branches():
-    recs = ik_roundtrip(ARM, 1000, np.random.default_rng(11), 1e-3 * 38.5)
-    assert len(recs) == 2
-    for r in recs:
-        assert r["poses"] == 1000 and r["unreachable"] == 0
-        assert r["max_position_error"] < IK_POS_TOL
-        assert r["max_orientation_error"] < IK_ANG_TOL
-    assert sum(r["recovered_joints"] for r in recs) >= 1000   # every pose's joints come back in one branch
+def test_printed_ik_roundtrip_1000_front_poses_both_branches():
+    """The counted eqs. 29-32 (front solution of eq. 29) invert eqs. 23-28 on poses in front of the base axis."""
+    rng = np.random.default_rng(11)
+    Q = rng.uniform(ARM.limits[:, 0], ARM.limits[:, 1], size=(3000, 4))
+    T0 = fk_htm(ARM.chain, Q)
+    front = np.einsum("ij,ij->i", T0[:, :2, 3], np.c_[np.cos(Q[:, 0]), np.sin(Q[:, 0])]) > 1e-3 * 38.5
+    Q, T0 = Q[front][:1000], T0[front][:1000]
+    recovered = 0
+    for elbow in (1, -1):
+        S = np.array([CF.ik(P, *CF.fk_factored(P, q)[:4], elbow) for q in Q])
+        T1 = fk_htm(ARM.chain, S)
+        assert np.max(np.linalg.norm(T1[:, :3, 3] - T0[:, :3, 3], axis=-1)) < IK_POS_TOL
+        assert np.max(orientation_error_angle(T0, T1)) < IK_ANG_TOL
+        recovered += int(np.all(np.abs(np.angle(np.exp(1j * (S - Q)))) < 1e-9, axis=-1).sum())
+    assert recovered >= 1000   # every pose's joints come back in one branch
+
+
+def test_study_ik_roundtrip_through_the_registry(tmp_path):
+    """Problem set ik_roundtrip, both solver labels (analytic_4dof per elbow), table from the archives."""
+    from pipeline.cli import main
+    from pipeline.io.archive import read_archive
+    from pipeline.settings import load_study
+    from pipeline.studies.mariano2019.report import _ik_roundtrip
+
+    study_file = str(ROOT / "data/studies/mariano2019.yaml")
+    study = load_study(study_file)
+    assert {e.method for e in study.solvers.values()} == {"analytic_4dof"}
+    robot = str(ROOT / "data/robots/mariano_4dof.yaml")
+    problems = tmp_path / "p.csv"
+    assert main(["make_problems", "--study", study_file, "--problem-set", "ik_roundtrip", "--robot", robot,
+                 "--scale", "quick", "--out", str(problems)]) == 0
+    archives = []
+    for label in study.set_solvers("ik_roundtrip"):
+        out = tmp_path / f"{label}.mcap"
+        assert main(["solve_problems", "--study", study_file, "--problem-set", "ik_roundtrip", "--robot", robot,
+                     "--solver", label, "--problems", str(problems), "--scale", "quick", "--out", str(out)]) == 0
+        archives.append(read_archive(out))
+    table = _ik_roundtrip(archives)
+    assert list(table["elbow branch (sign in eq. 30)"]) == [1, -1]
+    assert (table["reported unreachable"] == 0).all() and (table["poses"] == 100).all()
+    assert (table["max |Δp| (ours)"] < IK_POS_TOL).all() and (table["max angle [rad] (ours)"] < IK_ANG_TOL).all()
+    # the limits bend the elbow one way (theta3 in [-pi, 0]): the negative branch returns every pose's joints
+    assert list(table["poses whose joints this branch returns"]) == [0, 100]
+
+
+def test_host_timing_robots_are_listed_files():
+    from pipeline.settings import load_study
+
+    listed = load_study(ROOT / "data/studies/mariano2019.yaml").settings["host_timing"]["robots"]
+    assert listed and all((ROOT / "data/robots" / f"{r}.yaml").is_file() for r in listed)
 
 
 def test_ik_unreachable_is_reported():

@@ -1,6 +1,6 @@
 """Study verbs of ``python -m pipeline`` (also the Snakemake rule names of mariano2019).
 
-mariano_count_ops     operation counts (eqs. 21-22, Tables II-III, Gráficos 1-3) + IK round trip
+mariano_count_ops     operation counts (eqs. 21-22, Tables II-III, Gráficos 1-3)
 mariano_time_host     host FK timing, HTM vs DQ, for one robot
 mariano_measure_mcu   generated C on the simulated ATmega328P (Tables IV-VI, Gráfico 4)
 """
@@ -58,21 +58,17 @@ def cmd_count_ops(args) -> None:
     study, model = _load(args)
     s = study.settings["counting"]
     try:
-        recs = count_records(model, s["max_links"], scaled(s["ik_poses"], args.scale), s["seed"],
-                             s["rho_min_fraction"])
+        recs = count_records(model, s["max_links"], s["seed"])
     except ValueError as exc:
         raise CLIError(str(exc)) from None
     with ArchiveWriter(args.out, _meta(study, model.name, "counting", args.scale, s["seed"])) as w:
         descs = {"general": "counts of the general m-link chain (eqs. 21-22)",
-                 "arm": "counts of the 4-DOF arm's FK/IK variants and of each transformation/product",
-                 "ik_check": "FK(IK(pose)) vs pose on random reachable poses, per elbow branch"}
+                 "arm": "counts of the 4-DOF arm's FK/IK variants and of each transformation/product"}
         for ch, rows in recs.items():
             w.add_channel(TOPIC + ch, _schema(f"Mariano.{ch}", descs[ch]))
             for r in rows:
                 w.write_message(TOPIC + ch, r)
-    ik = recs["ik_check"]
-    print(f"wrote {args.out}: {len(recs['general'])} general, {len(recs['arm'])} arm records; IK round trip max "
-          f"position error {max(r['max_position_error'] for r in ik):.3g} {model.length_unit}")
+    print(f"wrote {args.out}: {len(recs['general'])} general, {len(recs['arm'])} arm records")
 
 
 def cmd_time_host(args) -> None:

@@ -5,6 +5,9 @@ Generic over the scalar type (float or :class:`~.counting.Counted`). The arm is 
 :func:`arm_params` reads ``d1, d, a2, a3, a4`` from a robot model and checks that shape.
 The pitch is ``phi = -(theta2 + theta3 + theta4)`` (eq. 26); ``omega = theta1`` (eq. 27) and
 ``gamma = 90 deg`` (eq. 28); the orientation is ``Rz(omega) Ry(phi) Rx(gamma)`` for every q.
+
+These printed formulas are the object of the operation counts (Tables II-III), not a solver: the
+study's IK problems are solved by the registered ``analytic_4dof`` (:mod:`pipeline.solvers.analytic_4dof`).
 """
 
 from __future__ import annotations
