@@ -1,8 +1,9 @@
-"""Study borges_kr6 (002_56eb235931bf5f5d.txt): robot, the three methods, problem generators, archives."""
+"""Study borges_kr6 (002_56eb235931bf5f5d.txt): robot, the three methods with the study's settings, problem
+generators, archives through the generic solve, the report's annotation. The solvers themselves (registered
+inverse_jacobian_fd, levenberg_marquardt, pso) are tested on any robot in tests/test_solvers_borges.py."""
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import numpy as np
@@ -10,11 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pipeline.kinematics import fk_htm, geometric_jacobian
+from pipeline.kinematics import fk_htm
 from pipeline.robots import load_robot
-from pipeline.settings import Study, load_study
-from pipeline.studies.borges_kr6 import kernels as K
-from pipeline.studies.borges_kr6 import methods as M
+from pipeline.settings import load_study
+from pipeline.solvers import solve
 from pipeline.studies.borges_kr6 import problems as P
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -23,7 +23,6 @@ STUDY = ROOT / "data/studies/borges_kr6.yaml"
 
 FK_TOL_MM = 1e-9          # closed-form poses: only float rounding of mm-sized sums
 URDF_TOL_MM = 1e-8        # two exact models of the same arm, rounding only
-FD_TOL_MM = 0.05          # undivided forward difference: 1/2 delta^2 |d2p/dq2| <= 0.5 * 1e-4 * ~800 mm
 PATH_TOL_MM = 1e-9        # curve formulas evaluated at t = 0
 SOLVE_TOL_MM = 0.01       # the study's success tolerance (Table 2's convergence threshold)
 PSO_KNOWN_MIN_TOL_MM = 1.0  # a converging swarm (w = 0.7) on a reachable goal gets within 1 mm
@@ -37,13 +36,28 @@ def model():
 
 
 @pytest.fixture(scope="module")
-def prep(model):
-    return M.Prepared(model)
-
-
-@pytest.fixture(scope="module")
 def study():
     return load_study(STUDY)
+
+
+def _goal(p):
+    T = np.eye(4)
+    T[:3, 3] = p
+    return T
+
+
+def run(study, model, label, p_goal, q_start, seed=0, **overrides):
+    """Solve a position goal [mm] with a solver label of the study (``ji``, ``lm``, ``pso``, a reading)."""
+    e = study.solvers[label]
+    return solve(e.method, model, _goal(p_goal), q_start, {**e.settings.as_dict(), **overrides}, seed=seed)
+
+
+def _home(study):
+    return np.radians(study.problem_sets["points"]["params"]["start_configuration_deg"])
+
+
+def _targets(study):
+    return study.problem_sets["points"]["params"]["targets_mm"]
 
 
 # --- robot -----------------------------------------------------------------------------------
@@ -97,63 +111,45 @@ def test_limits_are_the_kuka_values(model):
 
 # --- JI -----------------------------------------------------------------------------------------
 
-@settings(max_examples=25, deadline=None)
-@given(st.lists(st.floats(-2.5, 2.5), min_size=6, max_size=6))
-def test_undivided_fd_jacobian_is_analytic_times_delta(model, prep, q):
-    q = np.array(q)
-    delta = 0.01
-    X = np.empty(6)
-    T, C, L = np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4))
-    K.fk_x(*prep.args, q, X, T, C, L)
-    J = np.empty((6, 6))
-    K.ji_jacobian(*prep.args, q, X, delta, J, np.empty(6), np.empty(6), T, C, L)
-    Ja = geometric_jacobian(model.chain, q)[:3]
-    np.testing.assert_allclose(J[:3], delta * Ja, atol=FD_TOL_MM)
+def test_study_settings_are_si_in_mm(study):
+    """The document's numbers: 0.01 mm success tolerance, 1e-6 mm error-change stop, computed in mm."""
+    methods = {"ji": "inverse_jacobian_fd", "lm": "levenberg_marquardt", "pso": "pso", "pso_w07": "pso",
+               "ji_a0004": "inverse_jacobian_fd"}
+    for label, method in methods.items():
+        e = study.solvers[label]
+        assert e.method == method
+        assert e.settings.length_unit == "mm" and e.settings.criterion == "position"
+        assert e.settings.converted().tol_pos == pytest.approx(0.01)
+    for label in ("ji", "lm"):
+        assert study.solvers[label].settings.converted().error_change_stop == pytest.approx(1e-6)
+    sweep = {k: study.solvers[k].settings for k in study.set_solvers("alpha_sweep")}
+    assert sorted(s.alpha for s in sweep.values()) == [0.004, 0.005, 0.006]
+    assert all(s.stop == "reach" for s in sweep.values()) and study.solvers["ji"].settings.stop == "error_change"
 
 
-def test_ji_converges_within_published_band(prep, study):
-    s = study.settings
-    q0 = np.radians(s["start_configuration_deg"])
-    for target in s["points"]["targets_mm"].values():
-        r = M.solve_ji(prep, np.array(target), q0, s["methods"]["ji"], s)
+def test_ji_converges_within_published_band(model, study):
+    q0 = _home(study)
+    for target in _targets(study).values():
+        r = run(study, model, "ji", np.array(target), q0)
         assert r.success and r.position_error <= SOLVE_TOL_MM
         assert 15 <= r.iterations <= 35
         assert r.trace.shape == (r.iterations + 1, 8)
 
 
-def test_ji_reach_mode_stops_below_threshold(prep, study, model):
-    s = study.settings
+def test_ji_reach_mode_stops_below_threshold(study, model):
     goal = fk_htm(model.chain, np.radians([20, -60, 60, 10, 40, 0]))[:3, 3]
-    r = M.solve_ji(prep, goal, np.radians(s["start_configuration_deg"]), s["methods"]["ji"], s, reach_mm=0.01, gain=0.005)
+    r = run(study, model, "ji_a0005", goal, _home(study))
     assert r.success and r.trace[-1, 0] < 0.01 <= r.trace[-2, 0]
 
 
 # --- LM -----------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("lam, nu, rho, expect", [
-    (1.0, 2.0, 0.5, (1.0, 2.0)),          # 1 - 0^3 = 1
-    (1.0, 8.0, 1.0, (0.33, 2.0)),         # perfect model: shrink to the floor, nu reset
-    (1.0, 2.0, 0.25, (1.125, 2.0)),       # 1 - (-0.5)^3 = 1.125
-    (3.0, 2.0, -0.1, (6.0, 4.0)),         # rejected: lam * nu, nu doubles
-    (3.0, 4.0, 0.0, (12.0, 8.0)),         # rho = 0 is a rejection (MRPT: l > 0 accepts)
-])
-def test_nielsen_update(lam, nu, rho, expect):
-    np.testing.assert_allclose(K.nielsen(lam, nu, rho, 0.33), expect)
-
-
-@given(st.floats(1e-6, 1.0), st.floats(1e-9, 1e6))
-def test_nielsen_accepted_factor_bounds(rho, lam):
-    new, nu = K.nielsen(lam, 16.0, rho, 0.33)
-    assert 0.33 * lam * (1 - 1e-12) <= new <= 2 * lam and nu == 2.0
-
-
 @pytest.mark.parametrize("residual, max_iters", [("vector", 20), ("scalar", 200)])
-def test_lm_small_least_squares(prep, study, model, residual, max_iters):
+def test_lm_small_least_squares(study, model, residual, max_iters):
     """A goal near the start: the 3-residual LM is Gauss-Newton-fast, the scalar one still converges."""
-    s = study.settings
     q0 = np.radians([10, -70, 80, 0, 30, 0])
     goal = fk_htm(model.chain, q0 + 0.05)[:3, 3]
-    r = M.solve_lm(prep, goal, q0, dict(s["methods"]["lm"], residual=residual), s)
+    r = run(study, model, "lm", goal, q0, residual=residual)
     assert r.success and r.position_error <= SOLVE_TOL_MM
     assert r.iterations < max_iters
     assert np.all(np.diff(r.trace[:, 0]) <= 1e-12)  # LM accepts only steps that lower the error
@@ -161,30 +157,27 @@ def test_lm_small_least_squares(prep, study, model, residual, max_iters):
 
 # --- PSO ----------------------------------------------------------------------------------------
 
-def test_pso_finds_known_minimum(prep, study, model):
+def test_pso_finds_known_minimum(study, model):
     """Fitness |FK(q*) - FK(q)| has its known minimum 0 at q*; a converging swarm gets close."""
-    s = study.settings
     q_star = np.radians([30, -80, 70, 20, 50, 10])
     goal = fk_htm(model.chain, q_star)[:3, 3]
-    box = np.stack([q_star - 0.3, q_star + 0.3], axis=1)
-    cfg = dict(s["methods"]["pso"], inertia=0.7)
-    r = M.solve_pso(prep, goal, box, cfg, s, seed=7)
+    r = run(study, model, "pso", goal, q_star, seed=7, inertia=0.7, search="window", window_half_width=0.3,
+            window_max_distance=0.0)
     assert r.position_error < PSO_KNOWN_MIN_TOL_MM
-    assert np.all(r.q >= box[:, 0]) and np.all(r.q <= box[:, 1])
+    assert np.all(r.q >= q_star - 0.3) and np.all(r.q <= q_star + 0.3)
     assert r.trace[-1, 0] == pytest.approx(r.position_error, abs=1e-9)
     assert np.all(np.diff(r.trace[:, 0]) <= 0)  # the global best never gets worse
 
 
-def test_pso_velocity_clamp_bounds_every_move(prep, study):
+def test_pso_velocity_clamp_bounds_every_move(study, model):
     """pso-cpp's maxVel clamps every velocity: with maxVel = 1e-9 rad no personal best can move more than
     sqrt(6)*1e-9 rad in one iteration, so the library's x-stop (mean move <= 1e-6 rad) fires at once and
     the best error is unchanged to within the FK change of such a move; without the clamp the same
     seeded swarm keeps going."""
-    s = study.settings
-    goal = np.array(s["points"]["targets_mm"]["P2"])
-    base = dict(s["methods"]["pso"], inertia=1.0)
-    frozen = M.solve_pso(prep, goal, prep.limits, dict(base, max_velocity=1e-9), s, seed=11)
-    free = M.solve_pso(prep, goal, prep.limits, dict(base, max_velocity=0.0), s, seed=11)
+    goal = np.array(_targets(study)["P2"])
+    q0 = _home(study)
+    frozen = run(study, model, "pso", goal, q0, seed=11, inertia=1.0, max_velocity=1e-9)
+    free = run(study, model, "pso", goal, q0, seed=11, inertia=1.0, max_velocity=0.0)
     assert frozen.iterations == 1
     assert abs(frozen.trace[1, 0] - frozen.trace[0, 0]) < 1e-5
     assert free.iterations > 5
@@ -192,20 +185,32 @@ def test_pso_velocity_clamp_bounds_every_move(prep, study):
 
 def test_pso_settings_follow_the_document(study):
     """w = 1, c1 = c2 = 2, 100 particles, library stop tolerances; maxVel > 0 (random initial velocities, §3.6)."""
-    p = study.settings["methods"]["pso"]
-    assert (p["particles"], p["inertia"], p["c1"], p["c2"]) == (100, 1.0, 2.0, 2.0)
-    assert (p["feps"], p["xeps"]) == (1e-6, 1e-6) and p["max_velocity"] > 0
-    assert M.method_config(study.settings, "pso_v0")[1]["max_velocity"] == 0.0
+    p = study.solvers["pso"].settings
+    assert (p.particles, p.inertia, p.c1, p.c2) == (100, 1.0, 2.0, 2.0)
+    assert (p.converted().feps, p.xeps) == (pytest.approx(1e-6), 1e-6) and p.max_velocity > 0
+    assert not p.stop_at_tolerance and p.seed == 0
+    assert study.solvers["pso_v0"].settings.max_velocity == 0.0
 
 
-def test_pso_same_seed_same_result(prep, study):
-    s = study.settings
-    goal = np.array(s["points"]["targets_mm"]["P1"])
-    a = M.solve_pso(prep, goal, prep.limits, s["methods"]["pso"], s, seed=123)
-    b = M.solve_pso(prep, goal, prep.limits, s["methods"]["pso"], s, seed=123)
-    c = M.solve_pso(prep, goal, prep.limits, s["methods"]["pso"], s, seed=124)
+def test_pso_same_seed_same_result(study, model):
+    goal = np.array(_targets(study)["P1"])
+    q0 = _home(study)
+    a = run(study, model, "pso", goal, q0, seed=123)
+    b = run(study, model, "pso", goal, q0, seed=123)
+    c = run(study, model, "pso", goal, q0, seed=124)
     assert a.iterations == b.iterations and np.array_equal(a.q, b.q)
     assert not np.array_equal(a.q, c.q)
+
+
+def test_pso_path_mode_searches_the_window_only_near_the_goal(study, model):
+    """search: window with window_max_distance 200 mm: a single point (>= 511 mm away) searches the whole box,
+    a path point near the previous solution the +-0.25 rad window (the behaviour of §3.6)."""
+    q0 = _home(study)
+    far = run(study, model, "pso", np.array(_targets(study)["P3"]), q0, seed=5)
+    near_goal = fk_htm(model.chain, q0 + 0.05)[:3, 3]
+    near = run(study, model, "pso", near_goal, q0, seed=5)
+    assert far.info["window"] is False and near.info["window"] is True
+    assert np.all(np.abs(near.q - q0) <= 0.25 + 1e-12)
 
 
 # --- problem generators ----------------------------------------------------------------------
@@ -246,59 +251,102 @@ def test_distance_pairs_hit_their_class(model):
         assert np.all(p.q_start >= model.limits[:, 0]) and np.all(p.q_start <= model.limits[:, 1])
 
 
-# --- archives, determinism, CLI ---------------------------------------------------------------
-
-def _tiny_study(study) -> Study:
-    doc = copy.deepcopy(study.doc)
-    s = doc["study_settings"]
-    s["points"]["runs"]["quick"] = 2
-    s["points"]["targets_mm"] = {"P1": s["points"]["targets_mm"]["P1"]}
-    s["paths"]["points"]["quick"] = 3
-    s["paths"]["curves"] = ["rhodonea"]
-    return Study(study.id, study.path, doc, {})
+def _problems(study, model, pset, count):
+    spec = study.problem_sets[pset]
+    fn = getattr(P, pset)
+    return fn(model, count, np.random.default_rng(0), spec["params"], ROOT / "data")
 
 
-@pytest.mark.parametrize("pset, method", [("points", "pso"), ("paths", "lm"), ("paths", "pso")])
-def test_same_seed_same_archive(tmp_path, study, pset, method):
+def test_generators_points_and_paths(study, model):
+    pts = _problems(study, model, "points", 4)
+    assert len(pts) == 12 and np.all(pts.chain == -1) and np.all(np.isnan(pts.q_goal))
+    np.testing.assert_array_equal(pts.goal_position[4], _targets(study)["P2"])
+    np.testing.assert_allclose(pts.goal_quat, np.tile([1.0, 0, 0, 0], (12, 1)))
+    np.testing.assert_allclose(pts.q_start, np.tile(_home(study), (12, 1)))
+    pa = _problems(study, model, "paths", 5)
+    assert len(pa) == 15 and list(pa.chain) == [0] * 5 + [1] * 5 + [2] * 5
+    np.testing.assert_allclose(pa.goal_position[5], P.rhodonea(np.array([0.0]))[0])
+
+
+def test_generator_alpha_sweep_classes_in_order(study, model):
+    ps = _problems(study, model, "alpha_sweep", 2)
+    assert len(ps) == 6
+    d = np.linalg.norm(ps.goal_position - fk_htm(model.chain, ps.q_start)[:, :3, 3], axis=1)
+    for k, dc in enumerate(study.problem_sets["alpha_sweep"]["params"]["distances_mm"]):
+        assert np.all(np.abs(d[2 * k:2 * k + 2] - dc) <= 5.0)
+    np.testing.assert_allclose(fk_htm(model.chain, ps.q_goal)[:, :3, 3], ps.goal_position, atol=1e-9)
+
+
+def _solve_cli(tmp_path, pset, label, limit, name="x"):
+    from pipeline.cli import main
+
+    problems = tmp_path / f"{pset}.csv"
+    if not problems.exists():
+        assert main(["make_problems", "--study", str(STUDY), "--problem-set", pset, "--robot", str(ROBOT),
+                     "--scale", "quick", "--out", str(problems)]) == 0
+    out = tmp_path / f"{name}.mcap"
+    rc = main(["solve_problems", "--study", str(STUDY), "--problem-set", pset, "--robot", str(ROBOT), "--solver",
+               label, "--problems", str(problems), "--scale", "quick", "--limit", str(limit), "--out", str(out)])
+    return rc, out
+
+
+@pytest.mark.parametrize("pset, label, limit", [("points", "pso", 2), ("paths", "lm", 3), ("paths", "pso", 3)])
+def test_same_seed_same_archive(tmp_path, pset, label, limit):
     from pipeline.io.archive import read_archive
-    from pipeline.studies.borges_kr6.run import write_archive
 
-    tiny = _tiny_study(study)
     keys = ["problem_id", "iterations", "position_error", "q_solution", "stop_reason", "success"]
     frames = []
     for k in range(2):
-        out = tmp_path / f"{k}.mcap"
-        write_archive(tiny, ROBOT, pset, method, "quick", out)
+        rc, out = _solve_cli(tmp_path, pset, label, limit, name=str(k))
+        assert rc == 0
         frames.append(read_archive(out).frame()[keys])
     assert frames[0].equals(frames[1])
 
 
-def test_cli_rejects_method_not_run_on_set(tmp_path, capsys):
-    from pipeline.cli import main
+def test_report_annotates_paths_from_the_archive(tmp_path, study):
+    """Label, index, t, reached position and CPU time come from the archive and the set's definition."""
+    from pipeline.io.archive import read_archive
+    from pipeline.studies.borges_kr6.report import frame
 
-    rc = main(["solve_borges_kr6", "--study", str(STUDY), "--robot", str(ROBOT), "--set", "alpha_sweep",
-               "--method", "pso", "--scale", "quick", "--out", str(tmp_path / "x.mcap")])
+    rc, out = _solve_cli(tmp_path, "paths", "ji", 3)
+    assert rc == 0
+    df = frame(study, [read_archive(out)])
+    assert list(df["label"]) == ["lemniscate"] * 3 and list(df["index"]) == [0, 1, 2]
+    np.testing.assert_allclose(df["t"], [0.0, 0.1, 0.2])
+    reached = np.array(df["reached_mm"].tolist())
+    goals = P.lemniscate(np.array([0.0, 0.1, 0.2]))
+    np.testing.assert_allclose(np.linalg.norm(reached - goals, axis=1), df["position_error"], atol=1e-9)
+    assert (df["cpu_time_s"] > 0).all() and (df["method"] == "ji").all() and (df["alpha"] == 0.005).all()
+    # the chain: every point after the first starts from the previous solution
+    q0 = np.array(df["q_start"].tolist())
+    qs = np.array(df["q_solution"].tolist())
+    np.testing.assert_array_equal(q0[1:], qs[:-1])
+
+
+def test_cli_rejects_solver_not_run_on_set(tmp_path, capsys):
+    rc, out = _solve_cli(tmp_path, "alpha_sweep", "pso", 1)
     err = capsys.readouterr().err.strip()
     assert rc == 2 and err.startswith("error:") and "\n" not in err and "alpha_sweep" in err
-    assert not (tmp_path / "x.mcap").exists()
+    assert not out.exists()
 
 
-def test_workflow_dry_run_lists_one_archive_per_method_and_set(tmp_path):
-    """`snakemake -n borges_kr6`: alpha sweep (JI) + points and paths x (JI, LM, PSO) + each variant on its sets."""
+def test_workflow_dry_run_lists_one_archive_per_solver_and_set(tmp_path):
+    """`snakemake -n borges_kr6`: the generic rules; alpha sweep (3 alphas) + points (JI, LM, PSO and 7 PSO readings)
+    + paths (JI, LM, PSO, pso_v0, pso_w07); no rule of the study's own."""
     import subprocess
     import sys
 
     study = load_study(STUDY)
-    variants = study.settings["methods"].get("pso_variants") or {}
-    runs_of = {k: len(v.get("problem_sets", ["points", "paths"])) for k, v in variants.items()}
     out = subprocess.run(
         [sys.executable, "-m", "snakemake", "borges_kr6", "-n", "--nolock", "--cores", "1", "--config",
          "studies=[borges_kr6]", "scale=quick", f"results_dir={tmp_path}"],
         cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
-    expected = 1 + 2 * 3 + sum(runs_of.values())
-    line = next(ln for ln in out.stdout.splitlines() if ln.startswith("solve_borges_kr6"))
-    assert int(line.split()[-1]) == expected
+    counts = {ln.split()[0]: int(ln.split()[-1]) for ln in out.stdout.splitlines()
+              if ln.strip() and ln.split()[0] in ("solve_problems", "make_problems")}
+    assert counts["solve_problems"] == len(study.jobs()) == 3 + 10 + 5
+    assert counts["make_problems"] == 3
+    assert "solve_borges_kr6" not in out.stdout
 
 
 # --- PSO readings table ----------------------------------------------------------------------------

@@ -76,7 +76,7 @@ def test_deleting_a_tables_folder_rebuilds_it_and_the_report(built):
     jobs = _jobs(proc)
     assert jobs.get("aggregate_tables", 0) >= 1 and jobs.get("render_report") == 1
     assert f"output: {built / 'borges_kr6' / 'tables'}" in proc.stdout + proc.stderr
-    assert "solve_borges_kr6" not in jobs  # its archives are intact
+    assert "solve_problems" not in jobs and "make_problems" not in jobs  # its archives are intact
 
 
 def test_bad_config_fails_before_any_job(tmp_path):

@@ -217,33 +217,48 @@ def small_svd(J):
 
 @numba.njit(cache=True)
 def forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T):
-    """Tool pose only, into ``T`` (4, 4) (no axes: cheaper for derivative-free methods)."""
-    n = q.shape[0]
-    C = base.copy()
+    """Tool pose only, into ``T`` (4, 4) (no axes: cheaper for derivative-free methods).
+
+    Allocation-light: two 4 x 4 scratch arrays, the product of rigid transforms taken over their
+    top three rows (the last row is 0 0 0 1).
+    """
+    C = np.empty((4, 4))
     L = np.empty((4, 4))
-    for i in range(n):
-        th = offs[i]
-        di = d[i]
-        if prism[i]:
-            di += q[i]
-        else:
-            th += q[i]
-        ct, st = np.cos(th), np.sin(th)
-        ca, sa = np.cos(alpha[i]), np.sin(alpha[i])
-        if modified:
-            L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st, 0.0, a[i]
-            L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st * ca, ct * ca, -sa, -sa * di
-            L[2, 0], L[2, 1], L[2, 2], L[2, 3] = st * sa, ct * sa, ca, ca * di
-        else:
-            L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st * ca, st * sa, a[i] * ct
-            L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st, ct * ca, -ct * sa, a[i] * st
-            L[2, 0], L[2, 1], L[2, 2], L[2, 3] = 0.0, sa, ca, di
-        L[3, 0], L[3, 1], L[3, 2], L[3, 3] = 0.0, 0.0, 0.0, 1.0
-        C = C @ L
-    R = C @ tool
     for r in range(4):
         for c in range(4):
-            T[r, c] = R[r, c]
+            C[r, c] = base[r, c]
+    n = q.shape[0]
+    for i in range(n + 1):
+        if i < n:
+            th = offs[i]
+            di = d[i]
+            if prism[i]:
+                di += q[i]
+            else:
+                th += q[i]
+            ct, st = np.cos(th), np.sin(th)
+            ca, sa = np.cos(alpha[i]), np.sin(alpha[i])
+            if modified:
+                L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st, 0.0, a[i]
+                L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st * ca, ct * ca, -sa, -sa * di
+                L[2, 0], L[2, 1], L[2, 2], L[2, 3] = st * sa, ct * sa, ca, ca * di
+            else:
+                L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st * ca, st * sa, a[i] * ct
+                L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st, ct * ca, -ct * sa, a[i] * st
+                L[2, 0], L[2, 1], L[2, 2], L[2, 3] = 0.0, sa, ca, di
+        else:
+            for r in range(3):
+                for c in range(4):
+                    L[r, c] = tool[r, c]
+        for r in range(3):  # T = C @ L over the top three rows
+            c0, c1, c2, c3 = C[r, 0], C[r, 1], C[r, 2], C[r, 3]
+            for c in range(4):
+                T[r, c] = c0 * L[0, c] + c1 * L[1, c] + c2 * L[2, c]
+            T[r, 3] += c3
+        for r in range(3):
+            for c in range(4):
+                C[r, c] = T[r, c]
+    T[3, 0], T[3, 1], T[3, 2], T[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
 @numba.njit(cache=True)
@@ -272,3 +287,29 @@ def position_distance(Ta, Tb):
     y = Ta[1, 3] - Tb[1, 3]
     z = Ta[2, 3] - Tb[2, 3]
     return np.sqrt(x * x + y * y + z * z)
+
+
+CLOCK_THREAD_CPUTIME_ID = 3  # Linux
+
+
+@numba.njit(cache=True)
+def thread_cpu_ns(buf):
+    """CPU time of the calling thread in ns (``buf``: int64 (2,)). For ``Raw.info`` only (a load-robust
+    companion of the solve time on a shared machine), never the solve time itself."""
+    _clock_gettime(CLOCK_THREAD_CPUTIME_ID, _data_ptr(buf))
+    return buf[0] * 1000000000 + buf[1]
+
+
+@numba.njit(cache=True)
+def rotation_vector(Ta, Tb, qa, qb, out):
+    """Rotation vector (unit axis times angle, angle in [0, pi]) of ``R_a R_b^T`` into ``out`` (3,).
+
+    Returns the angle [rad]. ``qa``, ``qb`` are (4,) scratch. For small angles it is the angular
+    displacement that takes orientation b to orientation a, in the base frame.
+    """
+    w, x, y, z = relative_rotation(Ta, Tb, qa, qb)
+    s = np.sqrt(x * x + y * y + z * z)
+    angle = 2.0 * np.arctan2(s, w)
+    g = angle / s if s > 1e-300 else 2.0
+    out[0], out[1], out[2] = g * x, g * y, g * z
+    return angle

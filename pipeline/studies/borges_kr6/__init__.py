@@ -1,8 +1,10 @@
 """Borges et al., 002_56eb235931bf5f5d.txt: JI vs LM vs PSO on the KUKA KR 6 R700 sixx.
 
-Modules: :mod:`.kernels` (compiled methods), :mod:`.methods` (IKResult-returning calls),
-:mod:`.problems` (alpha sweep, points, paths), :mod:`.run` (problem set -> MCAP archive),
-:mod:`.report` (Tables 2-3, path table, Figures 5-10), :mod:`.cli` (verb ``solve_borges_kr6``).
+The study is settings plus tables and figures: its three methods are the registered solvers
+``inverse_jacobian_fd``, ``levenberg_marquardt`` and ``pso`` (:mod:`pipeline.solvers`), its problem
+sets (alpha sweep, single points, paths) are drawn by the generators of :mod:`.problems` and solved by
+the generic solve rule (data/studies/borges_kr6.yaml). :mod:`.report` builds Tables 2-3, the path
+table, the PSO readings, the shape checks and Figures 5-10 from the archives.
 Heavy imports stay inside the functions so that ``python -m pipeline`` starts fast.
 """
 

@@ -1,16 +1,22 @@
 """Problem sets of 002_56eb235931bf5f5d.txt: the alpha sweep (Table 2), single points (Table 3), paths (Figs. 5-7).
 
+The generators :func:`alpha_sweep`, :func:`points` and :func:`paths` have the signature of
+``problem_sets.<set>.generator`` (``fn(model, count, rng, params, data_dir) -> ProblemSet``) and are
+named in data/studies/borges_kr6.yaml. Goals are positions (identity orientation; the solvers run
+with ``criterion: position``), written in the robot file's unit; the document's coordinates are mm.
 Every random function takes an explicit ``numpy.random.Generator``. Lengths in mm, angles in rad.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from pipeline.kinematics import fk_htm
-from pipeline.robots import RobotModel
+from pipeline.problems import ProblemSet, from_poses
+from pipeline.robots import LENGTH_UNITS, RobotModel
 
 CURVES = ("lemniscate", "rhodonea", "circle")
 
@@ -97,3 +103,48 @@ def distance_pairs(model: RobotModel, distances, count: int, tolerance: float, r
     if short:
         raise ValueError(f"alpha sweep: could not draw {count} pairs at distances {short} mm")
     return [p for d in want for p in want[d]]
+
+
+# ---- problem-set generators (problem_sets.<set>.generator) -------------------------------------
+def _mm_to_model(model: RobotModel) -> float:
+    return LENGTH_UNITS["mm"] / LENGTH_UNITS[model.length_unit]
+
+
+def _position_goals(p: np.ndarray) -> np.ndarray:
+    """Goal poses (m, 4, 4) with identity orientation at positions ``p`` (m, 3)."""
+    T = np.tile(np.eye(4), (p.shape[0], 1, 1))
+    T[:, :3, 3] = p
+    return T
+
+
+def alpha_sweep(model: RobotModel, count: int, rng: np.random.Generator, params: dict, data_dir: Path) -> ProblemSet:
+    """Table 2: ``count`` start/goal pairs per distance class (:func:`distance_pairs`), grouped by class in the
+    order of ``params["distances_mm"]`` (problem ids ``k * count + i`` for class ``k``); ``q_goal`` = the
+    drawn goal angles. Params: distances_mm, distance_tolerance_mm [mm]."""
+    f = _mm_to_model(model)
+    pairs = distance_pairs(model, [d * f for d in params["distances_mm"]], count,
+                           float(params["distance_tolerance_mm"]) * f, rng)
+    q_start = np.array([p.q_start for p in pairs])
+    q_goal = np.array([p.q_goal for p in pairs])
+    return from_poses(model, q_start, _position_goals(np.array([p.p_goal for p in pairs])), q_goal=q_goal)
+
+
+def points(model: RobotModel, count: int, rng: np.random.Generator, params: dict, data_dir: Path) -> ProblemSet:
+    """Table 3: each target of ``params["targets_mm"]`` (in its order) ``count`` times (the runs; problem ids
+    ``k * count + run``), every run from ``params["start_configuration_deg"]``. Deterministic (``rng`` unused)."""
+    q_home = np.radians(np.asarray(params["start_configuration_deg"], float))
+    targets = np.asarray(list(params["targets_mm"].values()), float) * _mm_to_model(model)
+    p = np.repeat(targets, count, axis=0)
+    return from_poses(model, np.tile(q_home, (p.shape[0], 1)), _position_goals(p))
+
+
+def paths(model: RobotModel, count: int, rng: np.random.Generator, params: dict, data_dir: Path) -> ProblemSet:
+    """Figures 5-10: ``count`` points of each curve of ``params["curves"]`` at t = t_start + k t_step; curve ``c`` is
+    chain ``c`` (each point warm-started from the previous point's solution), its first point starts from
+    ``params["start_configuration_deg"]``. Deterministic (``rng`` unused)."""
+    q_home = np.radians(np.asarray(params["start_configuration_deg"], float))
+    t = path_parameter(float(params["t_start"]), float(params["t_step"]), count)
+    curves = list(params["curves"])
+    p = np.concatenate([curve_points(c, t, bool(params["circle_swap_yz"])) for c in curves]) * _mm_to_model(model)
+    chain = np.repeat(np.arange(len(curves)), len(t))
+    return from_poses(model, np.tile(q_home, (p.shape[0], 1)), _position_goals(p), chain=chain)

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from pipeline.robots import LENGTH_UNITS
 from pipeline.studies import FigureSpec, TableSpec
 from pipeline.studies.common import describe, published
 
@@ -29,15 +30,29 @@ def methods_in(df: pd.DataFrame) -> list[str]:
     return [m for m in METHOD_ORDER if m in have] + sorted(m for m in have if m not in METHOD_ORDER)
 
 
+def _variants(study) -> list[str]:
+    """The PSO readings beside the used one: every solver label of registered method pso but ``pso``, in the
+    order of the settings."""
+    return [k for k, e in study.solvers.items() if e.method == "pso" and k != "pso"]
+
+
+def _params(study, m: str) -> dict:
+    """Settings of solver label ``m`` (SI, as in the YAML)."""
+    return study.solvers[m].settings.as_dict()
+
+
 def label_of(study, m: str) -> str:
-    """JI / LM / PSO, or e.g. ``PSO w=0.7`` for a variant (its overrides of methods.pso)."""
+    """JI / LM / PSO, or e.g. ``PSO w=0.7`` for a PSO reading (its settings that differ from ``pso``'s)."""
     if m in LABEL:
         return LABEL[m]
-    over = (study.settings["methods"].get("pso_variants") or {}).get(m, {})
+    if m not in study.solvers or "pso" not in study.solvers:
+        return m
+    base, mine = _params(study, "pso"), _params(study, m)
     names = {"inertia": "w", "c1": "c1", "c2": "c2", "max_velocity": "vmax", "particles": "n",
              "max_iterations": "cap"}
-    shown = [(k, v) for k, v in over.items() if k != "problem_sets"]
-    return "PSO " + ", ".join(f"{names.get(k, k)}={v:g}" for k, v in shown) if shown else m
+    shown = [(k, v) for k, v in mine.items() if v != base.get(k)]
+    return "PSO " + ", ".join(f"{names.get(k, k)}={v:g}" if isinstance(v, (int, float)) else f"{names.get(k, k)}={v}"
+                              for k, v in shown) if shown else m
 
 
 VARIANT_COLORS = ("tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:gray")
@@ -46,23 +61,66 @@ VARIANT_COLORS = ("tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive",
 def _color(m: str, study=None) -> str:
     if m in COLORS or study is None:
         return COLORS.get(m, VARIANT_COLORS[0])
-    variants = list((study.settings["methods"].get("pso_variants") or {}))
+    variants = _variants(study)
     k = variants.index(m) if m in variants else 0
     return VARIANT_COLORS[k % len(VARIANT_COLORS)]
 
 
-def frame(archives) -> pd.DataFrame:
-    """One row per solve: the ``/ik/solve`` record, the ``/borges_kr6/problem`` record and the archive's set/method."""
-    from pipeline.studies.borges_kr6.run import PROBLEM_TOPIC
+def _robot(study, name: str):
+    from pipeline.robots import load_robot
 
+    return load_robot(Path(study.path).parent.parent / "robots" / f"{name}.yaml")
+
+
+def _annotate(study, a, df: pd.DataFrame) -> pd.DataFrame:
+    """The per-problem fields of the document's tables, from the archive and the problem set's definition:
+    label (d300/d960/d1160, P1-P3 or the curve), index (pair, run or path point), t, alpha, reached_mm (FK of
+    q_solution [mm]), cpu_time_s and the PSO stream seed (Raw.info)."""
+    from pipeline.kinematics import fk_htm
+    from pipeline.studies.borges_kr6.problems import path_parameter
+
+    pset = a.metadata["problem_set"]
+    params = study.problem_sets[pset].get("params") or {}
+    df = df.sort_values(["problem_id", "repetition"], kind="stable").reset_index(drop=True)
+    pid = df["problem_id"].to_numpy()
+    m = int(a.metadata["problems"])
+    if pset == "alpha_sweep":
+        classes = list(params["distances_mm"])
+        per = m // len(classes)
+        df["label"] = [f"d{classes[i // per]:g}" for i in pid]
+        df["index"] = pid % per
+    elif pset == "points":
+        names = list(params["targets_mm"])
+        per = m // len(names)
+        df["label"] = [names[i // per] for i in pid]
+        df["index"] = pid % per
+    else:
+        curves = list(params["curves"])
+        df["label"] = [curves[c] for c in df["chain"]]
+        df["index"] = df.groupby("chain").cumcount()
+        t = path_parameter(float(params["t_start"]), float(params["t_step"]), int(df["index"].max()) + 1)
+        df["t"] = t[df["index"].to_numpy()]
+    if "t" not in df:
+        df["t"] = 0.0
+    settings = json.loads(a.metadata["settings"])
+    df["alpha"] = float(settings.get("alpha", 0.0)) if settings["method"] == "inverse_jacobian_fd" else 0.0
+    model = _robot(study, a.metadata["robot"])
+    q = np.array(df["q_solution"].tolist(), float)
+    to_mm = LENGTH_UNITS[model.length_unit] / LENGTH_UNITS["mm"]
+    df["reached_mm"] = list(fk_htm(model.chain, q)[:, :3, 3] * to_mm) if len(q) else []
+    df["cpu_time_s"] = [i.get("cpu_time_s", np.nan) for i in df["info"]]
+    df["seed"] = [i.get("stream_seed", -1) for i in df["info"]]
+    return df
+
+
+def frame(study, archives) -> pd.DataFrame:
+    """One row per solve: the ``/ik/solve`` record, the problem's label/index/t, and the archive's set and
+    solver label (column ``method``: ji, lm, pso, a PSO reading, or ji_a* on the alpha sweep)."""
     out = []
     for a in archives:
-        df = a.frame()
-        extra = pd.DataFrame(list(a.messages(PROBLEM_TOPIC)))
-        df = df.merge(extra, on="problem_id", how="left")
-        settings = json.loads(a.metadata["settings"])
-        df["method"] = settings["method"]
-        df["problem_set"] = settings["problem_set"]
+        df = _annotate(study, a, a.frame())
+        df["method"] = a.metadata["solver"]
+        df["problem_set"] = a.metadata["problem_set"]
         out.append(df)
     if not out:
         return pd.DataFrame()
@@ -70,10 +128,6 @@ def frame(archives) -> pd.DataFrame:
     df["time_ms"] = 1e3 * df["solve_time_s"]
     df["cpu_ms"] = 1e3 * df["cpu_time_s"]
     return df
-
-
-def _settings(study) -> dict:
-    return study.settings
 
 
 def table2(df: pd.DataFrame, published_dir: Path) -> TableSpec:
@@ -113,7 +167,7 @@ QUANTITIES = [("i max", "iterations", "max", "i_max"), ("i min", "iterations", "
 
 def _vmax(study) -> float:
     """The PSO velocity clamp in use [rad per iteration]."""
-    return float(study.settings["methods"]["pso"]["max_velocity"])
+    return float(study.solvers["pso"].settings.max_velocity)
 
 
 def table3(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
@@ -182,7 +236,7 @@ def _band(v, lo, hi) -> str:
 
 
 def table_shape(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
-    sc = _settings(study).get("shape_checks", {})
+    sc = study.settings.get("shape_checks", {})
     pts = df[df["problem_set"] == "points"]
     pub = published(published_dir, STUDY, "table03")
     rows = []
@@ -250,9 +304,7 @@ def table_shape(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
 
 
 def _pso_params(study, m: str) -> dict:
-    from pipeline.studies.borges_kr6.methods import method_config
-
-    return method_config(study.settings, m)[1]
+    return _params(study, m)
 
 
 def table_pso_readings(study, df: pd.DataFrame, published_dir: Path) -> TableSpec:
@@ -320,7 +372,7 @@ def table_pso_readings(study, df: pd.DataFrame, published_dir: Path) -> TableSpe
 
 
 def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
-    df = frame(archives)
+    df = frame(study, archives)
     out = []
     if (df["problem_set"] == "alpha_sweep").any():
         out.append(table2(df, published_dir))
@@ -336,7 +388,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
 def _reference(study, curve: str) -> np.ndarray:
     from pipeline.studies.borges_kr6.problems import curve_points
 
-    s = _settings(study)["paths"]
+    s = study.problem_sets["paths"]["params"]
     t = np.linspace(0, 2 * np.pi, 400)
     return curve_points(curve, t, bool(s["circle_swap_yz"]))
 
@@ -344,7 +396,7 @@ def _reference(study, curve: str) -> np.ndarray:
 def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     from pipeline.report.plotting import plt, save
 
-    df = frame(archives)
+    df = frame(study, archives)
     pa = df[df["problem_set"] == "paths"].copy()
     figs = []
     fig_no = {"lemniscate": 5, "rhodonea": 6, "circle": 7}
