@@ -1,4 +1,6 @@
-"""nepomuceno2024 (004_957b32c2b06ea31d.txt): robots, kernels, closed-form UR IK, methods, motions."""
+"""nepomuceno2024 (004_957b32c2b06ea31d.txt): robots, the study's registered solvers and their
+document constants, closed-form UR IK on the study's robots, motions. The solvers themselves are
+tested in tests/test_solvers_optimizers.py."""
 
 from __future__ import annotations
 
@@ -7,25 +9,24 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pipeline.kinematics import fk_htm, geometric_jacobian
+from pipeline.kinematics import fk_htm
 from pipeline.robots import load_robot
-from pipeline.studies.nepomuceno2024 import _jit
-from pipeline.studies.nepomuceno2024.methods import (
-    MethodError, Prepared, analytic_solutions, cost_params, goal_vector, pack_dh, solve_point)
+from pipeline.settings import load_study
+from pipeline.solvers import NotApplicableError, prepare, solve
+from pipeline.solvers.optimizers import parse_bounds
+from pipeline.studies.nepomuceno2024.problems import set_motion
 from pipeline.studies.nepomuceno2024.trajectory import (
     build_motion, interpolate, load_motions, pose_from_spec, segment_count)
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOTS = ["ur5_nepomuceno", "ur5e"]
-STUDY = yaml.safe_load((ROOT / "data/studies/nepomuceno2024.yaml").read_text())["study_settings"]
+STUDY_DOC = load_study(ROOT / "data/studies/nepomuceno2024.yaml")
+STUDY = STUDY_DOC.settings
 
-FK_TOL = 1e-12          # compiled FK vs numpy FK: same formula, rounding only
 SANITY_TOL = 5e-6       # notes §3 sanity values are printed to 5-6 decimals
-FD_TOL = 1e-6           # central differences with h = 1e-6 on O(1) lengths: truncation ~h²
 IK_VERIFY = 1e-9        # closed-form solutions are exact up to rounding
 ROUND_TOL = 1e-6        # start_joints are rounded to 1e-6 rad; the pose moves by < 1e-6 m per joint
 AWAY = 1e-3            # |sin θ| above this = away from the wrist (θ5) / elbow (θ3) singularity
@@ -36,17 +37,10 @@ def _model(name):
     return load_robot(ROOT / "data/robots" / f"{name}.yaml")
 
 
-def _dh(name):
-    return pack_dh(_model(name))
-
-
-def _all_solutions(dh, T, q6_ref=0.0):
-    Q = np.empty((8, 6))
-    valid = np.zeros(8, dtype=np.bool_)
-    err = np.empty((8, 2))
-    nv = _jit.ur_ik_all(dh, np.ascontiguousarray(T), q6_ref, STUDY["methods"]["analytic"]["wrist_eps"], IK_VERIFY, IK_VERIFY,
-                        Q, valid, err)
-    return int(nv), Q, valid
+def _solver(method):
+    """(registered name, settings) of a solver label of the study."""
+    e = STUDY_DOC.solvers[method]
+    return e.method, e.settings
 
 
 # robots ----------------------------------------------------------------------------------------
@@ -66,62 +60,44 @@ def test_robot_files_cite_sources_and_values():
     assert ur5.chain.d[5] == pytest.approx(0.0903 + 0.1628)
     assert np.allclose(ur5e.chain.d, [0.1625, 0, 0, 0.1333, 0.0997, 0.0996])
     assert np.allclose(ur5e.chain.a, [0, -0.425, -0.3922, 0, 0, 0])
+    rtb = load_robot(ROOT / "data/nepomuceno2024/ur5_rtb_jacobian.yaml")  # the listing's Jacobian model
+    assert np.allclose(rtb.chain.d, [0.089459, 0, 0, 0.10915, 0.09465, 0.0823])
+    assert np.array_equal(rtb.chain.a, ur5.chain.a) and np.array_equal(rtb.chain.alpha, ur5.chain.alpha)
 
 
-# kernels ---------------------------------------------------------------------------------------
+# the study's settings ---------------------------------------------------------------------------
 
-angles = st.lists(st.floats(-math.pi, math.pi, allow_nan=False), min_size=6, max_size=6).map(np.array)
-
-
-@pytest.mark.parametrize("robot", ROBOTS)
-@settings(max_examples=30, deadline=None)
-@given(q=angles)
-def test_compiled_fk_and_jacobian_match_numpy(robot, q):
-    m = _model(robot)
-    T = np.empty((4, 4))
-    _jit.fk(pack_dh(m), q, T)
-    assert np.allclose(T, fk_htm(m.chain, q), atol=FK_TOL)
-    J = np.empty((6, 6))
-    _jit.jacobian(pack_dh(m), q, J)
-    assert np.allclose(J, geometric_jacobian(m.chain, q), atol=FK_TOL)
-
-
-@settings(max_examples=20, deadline=None)
-@given(q=angles)
-def test_jacobian_linear_rows_are_central_differences(q):
-    dh = _dh("ur5_nepomuceno")
-    J = np.empty((6, 6))
-    _jit.jacobian(dh, q, J)
-    h = 1e-6
-    Tp, Tm = np.empty((4, 4)), np.empty((4, 4))
-    for j in range(6):
-        dq = np.zeros(6)
-        dq[j] = h
-        _jit.fk(dh, q + dq, Tp)
-        _jit.fk(dh, q - dq, Tm)
-        assert np.allclose((Tp[:3, 3] - Tm[:3, 3]) / (2 * h), J[:3, j], atol=FD_TOL)
+def test_every_method_is_a_registered_solver_with_the_documents_constants():
+    names = {m: _solver(m)[0] for m in STUDY_DOC.solvers}
+    assert names == {"pinv": "jpinv_descent", "bfgs": "bfgs", "lbfgsb": "lbfgsb", "nelder_mead": "nelder_mead",
+                     "analytic": "analytic_ur", "pinv_rtb_jacobian": "jpinv_descent", "bfgs_squared_cost": "bfgs"}
+    assert set(STUDY["methods"]) == set(STUDY_DOC.solvers)  # every label has its table name
+    for m in STUDY_DOC.solvers:
+        s = _solver(m)[1]
+        assert (s.tol_pos, s.tol_rot) == (0.001, 0.01)  # the study's success test (1 mm, 0.01 rad)
+    p = _solver("pinv")[1]
+    assert (p.rate, p.tolerance, p.max_iterations, p.damping, p.halvings, p.stop_at_tolerance) == (0.05, 1e-6, 5000, 0, 0, False)
+    b = _solver("bfgs")[1]
+    assert (b.position_weight, b.rotation_weight, b.squared, b.gradient, b.gtol) == (1.0, 1.0, False, "2-point", 1e-6)
+    lb = _solver("lbfgsb")[1]
+    assert (lb.rotation_weight, lb.ftol, lb.gtol, lb.max_iterations) == (0.1, 1e-6, 0.0, 5000)
+    box = [(-np.pi, np.pi), (-np.pi / 2, np.pi / 2), (-np.pi / 2, np.pi / 2), (-np.pi, np.pi), (-np.pi / 2, np.pi / 2),
+           (-np.pi, np.pi)]
+    assert parse_bounds(lb.bounds) == box  # Apêndice C, bit-exact
+    nm = _solver("nelder_mead")[1]
+    assert (nm.xatol, nm.fatol, nm.adaptive, nm.max_iterations, nm.simplex_step) == (1e-4, 1e-4, False, 1200, 0.0)
 
 
-def test_pose_error_and_costs():
-    dh = _dh("ur5_nepomuceno")
-    q = np.array([0.1, -1.0, 1.0, 1.5, 1.5, 0.3])
-    T = np.empty((4, 4))
-    _jit.fk(dh, q, T)
-    e = np.empty(6)
-    assert _jit.pose_error(T, goal_vector(T), e) == 0.0 and np.allclose(e, 0.0, atol=1e-15)
-    # a small rotation about z of the goal: ½Σc×d ≈ the rotation vector (base frame)
-    a = 1e-4
-    G = T.copy()
-    G[:3, :3] = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]]) @ T[:3, :3]
-    G[:3, 3] += [1e-3, 0, 0]
-    _jit.pose_error(T, goal_vector(G), e)
-    assert np.allclose(e, [1e-3, 0, 0, 0, 0, a], atol=1e-9)
-    for name, (wp, wr) in {"A": (1.0, 1.0), "B": (1.0, 0.1)}.items():
-        c = _jit.cost(q, cost_params(STUDY["costs"][name], goal_vector(G), dh))
-        assert c == pytest.approx(wp * 1e-3 + wr * np.linalg.norm(T[:3, :3] - G[:3, :3]), rel=1e-12)
+def test_study_descent_with_the_listings_jacobian_model_resolves_its_robot_file():
+    name, s = _solver("pinv_rtb_jacobian")
+    assert (ROOT / s.jacobian_robot).is_file()
+    m = _model("ur5_nepomuceno")
+    q_goal = np.array([0.1, -1.0, 1.0, 1.5, 1.5, 0.3])
+    r = solve(name, m, fk_htm(m.chain, q_goal), q_goal + 0.01, s)
+    assert r.success and r.stop_reason == 1
 
 
-# closed-form UR IK -----------------------------------------------------------------------------
+# closed-form UR IK on the study's robots ---------------------------------------------------------
 
 def _ring_pose(r, phi, z, yaw, tilt):
     """A TCP pose in the pick-and-place workspace: tool roughly pointing down."""
@@ -138,8 +114,9 @@ def _ring_pose(r, phi, z, yaw, tilt):
 def test_closed_form_returns_8_fk_verified_solutions(robot, r, phi, z, yaw, tilt):
     m = _model(robot)
     T = _ring_pose(r, phi, z, yaw, tilt)
-    nv, Q, valid = _all_solutions(pack_dh(m), T)
-    assert nv == 8 and valid.all()
+    res = solve("analytic_ur", m, T, np.zeros(6), _solver("analytic")[1])
+    Q = res.solutions
+    assert res.success and Q.shape == (8, 6) and res.info["n_solutions"] == 8
     for q in Q:  # independent check: numpy FK of every returned solution
         Tq = fk_htm(m.chain, q)
         assert np.linalg.norm(Tq[:3, 3] - T[:3, 3]) < 10 * IK_VERIFY
@@ -148,56 +125,28 @@ def test_closed_form_returns_8_fk_verified_solutions(robot, r, phi, z, yaw, tilt
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
-@settings(max_examples=40, deadline=None)
-@given(q=angles)
-def test_closed_form_recovers_the_generating_angles(robot, q):
-    m = _model(robot)
-    nv, Q, valid = _all_solutions(pack_dh(m), fk_htm(m.chain, q), q[5])
-    assert np.all(np.isfinite(Q))
-    dist = np.abs((Q[valid] - q + np.pi) % (2 * np.pi) - np.pi).max(axis=1)
-    if abs(math.sin(q[4])) > AWAY and abs(math.sin(q[2])) > AWAY:  # away from wrist and elbow singularities
-        assert nv >= 1 and dist.min() < 1e-6
-
-
-@pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("q5", [0.0, math.pi, -math.pi, 1e-13])
 def test_wrist_singularity_gives_finite_fk_verified_solutions(robot, q5):
     m = _model(robot)
     q = np.array([0.4, -1.1, 1.2, 0.5, q5, 0.9])
     T = fk_htm(m.chain, q)
-    nv, Q, valid = _all_solutions(pack_dh(m), T, q6_ref=0.9)
-    assert np.all(np.isfinite(Q))
-    assert nv >= 4
-    assert np.sum(valid & (np.abs(np.sin(Q[:, 4])) < AWAY)) >= 2  # the singular branches are kept
-    for k in np.flatnonzero(valid):
-        Tq = fk_htm(m.chain, Q[k])
+    r = solve("analytic_ur", m, T, q, _solver("analytic")[1])
+    Q = r.solutions
+    assert np.all(np.isfinite(Q)) and len(Q) >= 4
+    assert np.sum(np.abs(np.sin(Q[:, 4])) < AWAY) >= 2  # the singular branches are kept
+    for qs in Q:
+        Tq = fk_htm(m.chain, qs)
         assert np.linalg.norm(Tq[:3, 3] - T[:3, 3]) < 10 * IK_VERIFY
-        if abs(math.sin(Q[k, 4])) < AWAY:  # this branch is singular (the other shoulder branch is not)
-            assert Q[k, 5] == pytest.approx(0.9)  # θ6 taken from the reference, θ4 absorbs the rest
-    # the method wrapper picks a finite solution next to the previous angles
-    prep = Prepared(m, 1e-3, 1e-2)
-    r = solve_point("analytic", STUDY["methods"]["analytic"], STUDY["costs"], prep, T, q)
-    assert r.ik.success and np.all(np.isfinite(r.ik.q)) and np.abs(r.ik.q - q).max() < 1e-6
+        if abs(math.sin(qs[4])) < AWAY:  # this branch is singular (the other shoulder branch is not)
+            assert qs[5] == pytest.approx(0.9)  # θ6 taken from the start, θ4 absorbs the rest
+    # the chosen solution is finite and next to the previous angles
+    assert r.success and np.all(np.isfinite(r.q)) and np.abs(r.q - q).max() < 1e-6
 
 
-def test_unreachable_pose_gives_no_valid_solution_and_no_nan():
-    dh = _dh("ur5_nepomuceno")
-    T = pose_from_spec({"position": [3.0, 0.0, 0.2], "yaw_deg": 0})
-    nv, Q, valid = _all_solutions(dh, T)
-    assert nv == 0 and np.all(np.isfinite(Q))
-
-
-def test_closed_form_rejects_non_ur_robots():
-    with pytest.raises(MethodError, match="not a UR-type"):
-        analytic_solutions(load_robot(ROOT / "data/robots/kuka_lwr.yaml"), np.eye(4))
-
-
-def test_public_wrapper_equals_kernel():
-    m = _model("ur5e")
-    T = _ring_pose(0.5, 0.3, 0.1, 0.2, 0.1)
-    Q, valid, _ = analytic_solutions(m, T)
-    nv, Q2, valid2 = _all_solutions(pack_dh(m), T)
-    assert np.array_equal(Q, Q2) and np.array_equal(valid, valid2) and nv == 8
+def test_closed_form_refuses_non_ur_robots():
+    s = _solver("analytic")[1]
+    with pytest.raises(NotApplicableError, match="not a UR-type"):
+        prepare("analytic_ur", load_robot(ROOT / "data/robots/kuka_lwr.yaml"), s)
 
 
 # methods ---------------------------------------------------------------------------------------
@@ -208,36 +157,34 @@ TABLE_METHODS = ["pinv", "bfgs", "lbfgsb", "nelder_mead", "analytic"]
 @pytest.mark.parametrize("method", TABLE_METHODS)
 def test_each_method_solves_a_nearby_point(method):
     m = _model("ur5_nepomuceno")
-    prep = Prepared(m, STUDY["success"]["position"], STUDY["success"]["orientation"])
+    name, s = _solver(method)
     q_goal = np.array([0.43, -0.75, 0.95, 1.37, 1.5707963267948966, 1.48])
     T = fk_htm(m.chain, q_goal)
     q0 = q_goal + np.array([0.01, -0.01, 0.01, 0.0, 0.0, 0.01])
-    r = solve_point(method, STUDY["methods"][method], STUDY["costs"], prep, T, q0)
-    assert r.ik.success and r.ik.stop_reason == 1
-    assert r.ik.position_error < STUDY["success"]["position"]
-    assert r.ik.orientation_error < STUDY["success"]["orientation"]
-    assert r.nfev > 0 and r.ik.trace.shape[1] == 8 and np.isfinite(r.doc_error)
+    r = solve(name, m, T, q0, s)
+    assert r.success and r.stop_reason == 1
+    assert r.position_error < s.tol_pos and r.orientation_error < s.tol_rot
+    assert r.info["nfev"] > 0 and r.trace.shape[1] == 8 and np.isfinite(r.info["doc_error"])
     if method != "analytic":
-        assert r.ik.iterations >= 1 and r.ik.trace.shape[0] >= 2
+        assert r.iterations >= 1 and r.trace.shape[0] >= 2
 
 
 def test_descent_stops_below_tolerance_at_the_predicted_rate():
     m = _model("ur5_nepomuceno")
-    cfg = STUDY["methods"]["pinv"]
-    prep = Prepared(m, 1e-3, 1e-2)
+    name, s = _solver("pinv")
     q_goal = np.array([0.1, -1.0, 1.0, 1.5, 1.5, 0.3])
     T = fk_htm(m.chain, q_goal)
-    r = solve_point("pinv", cfg, STUDY["costs"], prep, T, q_goal + 1e-3)
-    e0, eN = r.ik.trace[0, 0], r.ik.trace[-1, 0]
-    assert eN < cfg["tolerance"] <= r.ik.trace[-2, 0]
+    r = solve(name, m, T, q_goal + 1e-3, s)
+    e0, eN = r.trace[0, 0], r.trace[-1, 0]
+    assert eN < s.tolerance <= r.trace[-2, 0]
     # exact Jacobian: the error shrinks by ~(1 - rate) per step (notes §4.5)
-    predicted = math.log(cfg["tolerance"] / e0) / math.log(1 - cfg["rate"])
-    assert abs(r.ik.iterations - predicted) < 0.1 * predicted
+    predicted = math.log(s.tolerance / e0) / math.log(1 - s.rate)
+    assert abs(r.iterations - predicted) < 0.1 * predicted
 
 
 # motions ---------------------------------------------------------------------------------------
 
-MOTIONS = load_motions(ROOT / "data" / STUDY["motions_file"])
+MOTIONS = load_motions(ROOT / "data/nepomuceno2024/motions.yaml")
 
 
 def test_interpolation_hits_the_waypoints_and_counts_points():
@@ -256,19 +203,22 @@ def test_interpolation_hits_the_waypoints_and_counts_points():
 def test_designed_motions_start_where_stated_and_stay_in_the_lbfgsb_box(motion):
     """motions.yaml claims: start_joints reach the first pose; one closed-form branch stays inside
     the L-BFGS-B bounds of Apêndice C along the whole full-scale path."""
-    m = _model(STUDY["robot"])
-    mp = build_motion(MOTIONS, motion, lambda q: fk_htm(m.chain, q), **STUDY["interpolation"]["full"])
+    m = _model("ur5_nepomuceno")
+    mp = set_motion(STUDY_DOC, motion, "full")
+    assert len(mp) == len(build_motion(MOTIONS, motion, lambda q: fk_htm(m.chain, q), points_per_metre=300,
+                                       min_points=80))
     start = {"home": "above_box", "pick_and_place": "home"}[motion]
     assert np.allclose(fk_htm(m.chain, mp.q_start), pose_from_spec(MOTIONS["poses"][start]), atol=6 * ROUND_TOL)
-    prep = Prepared(m, 1e-3, 1e-2)
+    name, s = _solver("analytic")
+    prep = prepare(name, m, s)
     q = mp.q_start
     qs = []
     for T in mp.T:
-        r = solve_point("analytic", STUDY["methods"]["analytic"], STUDY["costs"], prep, T, q)
-        assert r.ik.success
-        q = r.ik.q
+        r = solve(name, prep, T, q, s)
+        assert r.success
+        q = r.q
         qs.append(q)
     qs = np.array(qs)
-    b = np.array(STUDY["methods"]["lbfgsb"]["bounds"])
+    b = np.array(parse_bounds(_solver("lbfgsb")[1].bounds))
     assert np.all(qs >= b[:, 0] - BOUND_SLACK) and np.all(qs <= b[:, 1] + BOUND_SLACK)
     assert np.abs(np.diff(np.vstack([mp.q_start, qs]), axis=0)).max() < 0.05  # no branch flip

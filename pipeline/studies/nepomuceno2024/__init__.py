@@ -2,15 +2,13 @@
 
 Modules
 -------
-_jit        compiled kernels: UR FK, geometric Jacobian, the document's costs, J⁺ descent loop,
-            the 8-solution closed-form UR IK
-methods     one call per trajectory point for each method (J⁺ descent, SciPy BFGS / L-BFGS-B /
-            Nelder-Mead, closed form), every result FK-checked
 trajectory  the designed motions (data/nepomuceno2024/motions.yaml) and their interpolation
-runner      one (motion, method) job -> one MCAP archive
+problems    the problem-set generator: one motion = one chain of path points (warm starts), solved
+            by the generic solve rule with the registered solvers jpinv_descent, bfgs, lbfgsb,
+            nelder_mead, analytic_ur (pipeline/solvers/optimizers.py, analytic_ur.py)
 tables      Tabelas 5.1-5.2, continuity, extra runs, published orderings
 figures     Figuras 5.1-5.2, TCP path in 3-D, joint jumps
-cli         study verbs solve_motion_nepomuceno2024, plan_motion_nepomuceno2024
+cli         study verb plan_motion_nepomuceno2024 (inspection)
 """
 
 from __future__ import annotations

@@ -1,51 +1,33 @@
-"""Study verbs of nepomuceno2024 for ``python -m pipeline`` (imports stay light at module level).
+"""Study verb of nepomuceno2024 for ``python -m pipeline`` (imports stay light at module level).
 
-solve_motion_nepomuceno2024   solve every point of one designed motion with one method, N times,
-                              into one MCAP archive
-plan_motion_nepomuceno2024    write the interpolated goal poses of one motion as CSV (inspection)
+plan_motion_nepomuceno2024    write the interpolated goal poses of one motion (a problem set of the
+                              study) as CSV, with segment names (inspection)
+
+Solving is the generic ``make_problems`` / ``solve_problems`` (one problem set per motion).
 """
 
 from __future__ import annotations
-
-
-def _cli_error(exc: Exception):
-    from pipeline.cli import CLIError
-
-    return CLIError(str(exc))
-
-
-def cmd_solve_motion(args) -> None:
-    from pipeline.settings import load_study
-    from pipeline.studies.nepomuceno2024.methods import MethodError
-    from pipeline.studies.nepomuceno2024.runner import solve_motion
-    from pipeline.studies.nepomuceno2024.trajectory import MotionFileError
-
-    study = load_study(args.study)
-    try:
-        s = solve_motion(study, args.robot, args.motions, args.motion, args.method, args.scale, args.out)
-    except (MethodError, MotionFileError) as exc:
-        raise _cli_error(exc) from None
-    print(f"wrote {args.out}: {s['points']} points x {s['repetitions']} repetitions, "
-          f"{s['successes']} FK-verified successes per repetition, mean IK time {s['mean_total_s']:.3f} s")
 
 
 def cmd_plan_motion(args) -> None:
     import numpy as np
     import pandas as pd
 
-    from pipeline.kinematics import fk_htm, quat_from_matrix
-    from pipeline.robots import load_robot
+    from pipeline.cli import CLIError
+    from pipeline.kinematics import quat_from_matrix
+    from pipeline.problems import ProblemSpecError
     from pipeline.settings import load_study
-    from pipeline.studies.nepomuceno2024.trajectory import MotionFileError, build_motion, load_motions
+    from pipeline.studies.nepomuceno2024.problems import set_motion
+    from pipeline.studies.nepomuceno2024.trajectory import MotionFileError
 
     study = load_study(args.study)
-    model = load_robot(args.robot)
+    if args.motion not in study.problem_sets:
+        raise CLIError(f"{args.study}: field 'problem_sets/{args.motion}': no such motion "
+                       f"(have: {', '.join(study.problem_sets)})")
     try:
-        doc = load_motions(args.motions)
-        mp = build_motion(doc, args.motion, lambda q: fk_htm(model.chain, q),
-                          **study.settings["interpolation"][args.scale])
-    except MotionFileError as exc:
-        raise _cli_error(exc) from None
+        mp = set_motion(study, args.motion, args.scale, args.data)
+    except (MotionFileError, ProblemSpecError) as exc:
+        raise CLIError(str(exc)) from None
     quat = quat_from_matrix(mp.T)
     df = pd.DataFrame({"point": np.arange(len(mp)), "segment": mp.segment,
                        "x_m": mp.T[:, 0, 3], "y_m": mp.T[:, 1, 3], "z_m": mp.T[:, 2, 3],
@@ -55,15 +37,10 @@ def cmd_plan_motion(args) -> None:
 
 
 def register_cli(sub) -> None:
-    for verb, fn, help_ in (("solve_motion_nepomuceno2024", cmd_solve_motion, "nepomuceno2024: solve one motion with one method"),
-                            ("plan_motion_nepomuceno2024", cmd_plan_motion, "nepomuceno2024: interpolated goal poses of one motion as CSV")):
-        p = sub.add_parser(verb, help=help_)
-        p.add_argument("--study", required=True, help="data/studies/nepomuceno2024.yaml")
-        p.add_argument("--robot", required=True, help="data/robots/<name>.yaml")
-        p.add_argument("--motions", required=True, help="data/nepomuceno2024/motions.yaml")
-        p.add_argument("--motion", required=True, help="a key of the motion file's `motions`")
-        p.add_argument("--scale", choices=["full", "quick"], default="full")
-        p.add_argument("--out", required=True, help="output .mcap" if fn is cmd_solve_motion else "output .csv")
-        if fn is cmd_solve_motion:
-            p.add_argument("--method", required=True, help="a key of study_settings.methods")
-        p.set_defaults(func=fn)
+    p = sub.add_parser("plan_motion_nepomuceno2024", help="nepomuceno2024: interpolated goal poses of one motion as CSV")
+    p.add_argument("--study", required=True, help="data/studies/nepomuceno2024.yaml")
+    p.add_argument("--motion", required=True, help="a problem set (motion) of the study")
+    p.add_argument("--scale", choices=["full", "quick"], default="full")
+    p.add_argument("--data", default="data", help="data folder (robot and motion files)")
+    p.add_argument("--out", required=True, help="output .csv")
+    p.set_defaults(func=cmd_plan_motion)

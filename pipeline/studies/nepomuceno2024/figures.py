@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.studies import FigureSpec
-from pipeline.studies.nepomuceno2024.tables import MOTION_LABEL, _label, joint_jumps, load_runs
+from pipeline.studies.nepomuceno2024.tables import MOTION_LABEL, _label, is_analytic, joint_jumps, load_runs
 
 
 def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
@@ -18,9 +18,9 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     from pipeline.settings import ROOT
 
     st = study.settings
-    pts, _ = load_runs(archives)
+    pts, _ = load_runs(study, archives)
     methods = [m for m in st["table_methods"] if m in set(pts["method"])]
-    numeric = [m for m in methods if st["methods"][m]["kind"] != "analytic"]
+    numeric = [m for m in methods if not is_analytic(study, m)]
     by_path = {str(a.path): a for a in archives}
     colors = dict(zip(methods, plt.rcParams["axes.prop_cycle"].by_key()["color"]))
     figs = []
@@ -35,7 +35,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
             row = pts[(pts["method"] == m) & (pts["motion"] == fp["motion"]) & (pts["problem_id"] == pid)]
             if row.empty:
                 continue
-            tr = next(by_path[row["archive"].iloc[0]].traces([pid]))
+            tr = next(t for t in by_path[row["archive"].iloc[0]].traces([pid]) if t.get("repetition", 0) == 0)
             ev = np.asarray(tr["error_vector"])
             common = np.linalg.norm(ev, axis=1)
             own = np.asarray(tr["error"])
@@ -79,7 +79,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     # TCP path of the pick-and-place in 3-D -----------------------------------------------------
     pp = pts[pts["motion"] == "pick_and_place"]
     if len(pp):
-        model = load_robot(ROOT / "data" / "robots" / f"{st['robot']}.yaml")
+        model = load_robot(ROOT / "data" / "robots" / f"{study.set_robots('pick_and_place')[0]}.yaml")
         fig = plt.figure(figsize=(8.5, 7))
         ax = fig.add_subplot(projection="3d")
         g0 = pp[pp["method"] == methods[0]].sort_values("problem_id")
