@@ -80,7 +80,7 @@ def cmd_make_problems(args) -> None:
     # one independent stream per robot, derived from the set's seed
     rng = np.random.default_rng([spec["seed"], sum(model.name.encode())])
     try:
-        ps = make_problem_set(spec, model, count, rng, Path(args.data))
+        ps = make_problem_set(spec, model, count, rng, Path(args.data), args.scale)
     except ProblemSpecError as exc:
         raise ConfigError(f"{args.study}: problem_sets/{args.problem_set}: {exc}") from None
     if ps.robot != model.name or ps.q_start.shape[1:] != (model.n,):
@@ -135,8 +135,9 @@ def _solve_to_archive(args, entry, select=None, extra_meta=None) -> None:
                                        select=select):
             n_ok += res.success
             done += 1
-            w.write(*solve_record(ps.problem_id[i], model.name, entry.label, unit, q0, ps.goal_position[i] * to_unit,
-                                  ps.goal_quat[i], res, method=entry.method, repetition=r, chain=int(ps.chain[i])))
+            rec, trace = solve_record(ps.problem_id[i], model.name, entry.label, unit, q0, ps.goal_position[i] * to_unit,
+                                      ps.goal_quat[i], res, method=entry.method, repetition=r, chain=int(ps.chain[i]))
+            w.write(rec, trace if r == 0 else None)  # repetitions repeat the same iterates: one trace per problem
             if done % every == 0 or done == total:
                 _progress(done, total, t0, f"solved, {n_ok} FK-verified successes")
     print(f"wrote {args.out}: {total} solves, {n_ok} FK-verified successes")

@@ -164,8 +164,11 @@ def load_generator(ref: str) -> Generator:
 
 
 def make_problem_set(spec: dict, model: RobotModel, count: int, rng: np.random.Generator,
-                     data_dir: Path = Path("data")) -> ProblemSet:
-    """Draw one problem set of a study's ``problem_sets`` entry for one robot."""
+                     data_dir: Path = Path("data"), scale: str = "full") -> ProblemSet:
+    """Draw one problem set of a study's ``problem_sets`` entry for one robot.
+
+    A generator receives the set's ``params`` plus ``scale`` ("full" or "quick").
+    """
     kind = spec["kind"]
     params = dict(spec.get("params") or {})
     if kind == "random_joint_pairs":
@@ -174,7 +177,7 @@ def make_problem_set(spec: dict, model: RobotModel, count: int, rng: np.random.G
         return warm_start(model, count, rng, params.get("spread", 0.3), params.get("low", -np.pi),
                           params.get("high", np.pi))
     if kind == "generator":
-        ps = load_generator(spec["generator"])(model, count, rng, params, Path(data_dir))
+        ps = load_generator(spec["generator"])(model, count, rng, {"scale": scale, **params}, Path(data_dir))
         if not isinstance(ps, ProblemSet):
             raise ProblemSpecError(f"field 'generator': {spec['generator']} returned {type(ps).__name__}, not a ProblemSet")
         return ps

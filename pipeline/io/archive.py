@@ -136,13 +136,14 @@ class ArchiveWriter:
                             data=json.dumps(record, separators=(",", ":")).encode())
         self._seq += 1
 
-    def write(self, solve: dict, trace: dict) -> None:
-        """Append one problem's solve record and trace (plain JSON-able dicts)."""
+    def write(self, solve: dict, trace: dict | None) -> None:
+        """Append one problem's solve record and its trace (plain JSON-able dicts; no trace if None)."""
         t = self._seq
         self._w.add_message(self._solve, log_time=t, publish_time=t, sequence=t,
                             data=json.dumps(solve, separators=(",", ":")).encode())
-        self._w.add_message(self._trace, log_time=t, publish_time=t, sequence=t,
-                            data=json.dumps(trace, separators=(",", ":")).encode())
+        if trace is not None:
+            self._w.add_message(self._trace, log_time=t, publish_time=t, sequence=t,
+                                data=json.dumps(trace, separators=(",", ":")).encode())
         self._seq += 1
 
     def close(self) -> None:
