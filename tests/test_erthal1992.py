@@ -16,16 +16,19 @@ from hypothesis import strategies as st
 from pipeline.kinematics import fk_htm
 from pipeline.robots import load_robot
 from pipeline.settings import load_study
-from pipeline.studies.erthal1992 import kernels, model as M
-from pipeline.studies.erthal1992.puma import puma_ik_all
-from pipeline.studies.erthal1992.runs import goal_frame, q_from_settings, run_path, study_robot
-from pipeline.studies.erthal1992.solvers import nr_solve, strategy_weights, zp_solve
+from pipeline.solvers import solve
+from pipeline.solvers.zero_position import step_revolute, strategy_weights
+from pipeline.studies.erthal1992 import model as M
+from pipeline.problems import ProblemSpecError, make_problem_set
+from pipeline.runner import solve_set
+from pipeline.studies.erthal1992.problems import placement
+from pipeline.studies.erthal1992.runs import q_from_settings
 from pipeline.studies.erthal1992.tasks import parse_res
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "data"
 STUDY = load_study(DATA / "studies" / "erthal1992.yaml")
-TESTS = STUDY.settings["tests"]
+SETS = STUDY.problem_sets
 
 RES_POS_TOL = 0.1    # [mm] Done-when tolerance for SCARA1.RES endpoints
 RES_ANG_TOL = 1e-3   # [rad] Done-when tolerance for SCARA1.RES rows (the file prints 4 decimals)
@@ -37,6 +40,19 @@ TEST6_TOL = 1e-3     # [rad] Done-when tolerance for the Test 6 ZP rows (printed
 
 def robot(name):
     return load_robot(DATA / "robots" / f"{name}.yaml")
+
+
+def problems(pset, robot_name=None):
+    """A problem set of the study YAML, drawn by its generator (as `make_problems` does)."""
+    model = robot(robot_name or STUDY.set_robots(pset)[0])
+    return model, make_problem_set(SETS[pset], model, STUDY.count(pset, "quick"), np.random.default_rng(0), DATA)
+
+
+def solve_label(pset, label, robot_name=None):
+    """Every result of one solver label of the study on one of its problem sets (the runner's loop)."""
+    model, ps = problems(pset, robot_name)
+    entry = STUDY.solvers[label]
+    return [res for _, _, _, res in solve_set(entry.method, entry.settings, model, ps)]
 
 
 # --- catalogue and conversions ------------------------------------------------------------
@@ -68,7 +84,7 @@ def test_stanford_conversion_equals_robot_file():
 
 def test_scara_pz_vectors_equal_scara_par():
     model = robot("scara")
-    pz = M.pz_from_dh(model.chain, "rrrp", np.array([0, 0, 0, 250.0]))
+    pz = M.pz_from_dh(model.chain, np.array([0, 0, 0, 250.0]))
     par_bodies = [[0, 0, 0], [425, 0, 980], [375, 0, 130], [0, 0, 0], [0, 0, -250]]  # SCARA.PAR body vectors
     np.testing.assert_allclose(pz.b, par_bodies, atol=1e-9)
     np.testing.assert_allclose(pz.u, [[0, 0, 1], [0, 0, 1], [0, 0, 1], [0, 0, -1]], atol=1e-12)
@@ -82,8 +98,7 @@ def test_scara_pz_vectors_equal_scara_par():
 def test_dh_pz_dh_round_trip_and_pz_fk(name, seed):
     model = robot(name)
     q0 = q_from_settings(model, STUDY.settings["zero_positions"][name])
-    types = ["p" if p else "r" for p in model.chain.prismatic]
-    pz = M.pz_from_dh(model.chain, types, q0)
+    pz = M.pz_from_dh(model.chain, q0)
     dh2 = M.dh_from_pz(pz)
     dq = np.random.default_rng(seed).uniform(-1.5, 1.5, model.n)
     T = fk_htm(model.chain, q0 + dq)
@@ -102,10 +117,23 @@ def test_artropoidal_matrices_equal_tables_6_1_6_2(q_deg, expected):
 
 # --- SCARA1.RES ---------------------------------------------------------------------------
 
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True, cwd=ROOT, timeout=300)
+
+
 @pytest.fixture(scope="module")
 def scara_res(tmp_path_factory):
+    """SCARA1.RES through the workflow's own verbs: make_problems, solve_problems, erthal_path_rows."""
     d = tmp_path_factory.mktemp("scara")
-    run_path(STUDY, "scara1", DATA, d / "a.mcap", d / "SCARA1.RES")
+    study = "data/studies/erthal1992.yaml"
+    for args in (["make_problems", "--study", study, "--problem-set", "scara1", "--robot", "data/robots/scara.yaml",
+                  "--scale", "quick", "--data", "data", "--out", str(d / "p.csv")],
+                 ["solve_problems", "--study", study, "--problem-set", "scara1", "--robot", "data/robots/scara.yaml",
+                  "--solver", "zp_scara", "--problems", str(d / "p.csv"), "--scale", "quick", "--out", str(d / "a.mcap")],
+                 ["erthal_path_rows", "--study", study, "--data", "data", "--problem-set", "scara1", "--robot", "scara",
+                  "--archive", str(d / "a.mcap"), "--out", str(d / "rows.mcap"), "--res", str(d / "SCARA1.RES")]):
+        p = _cli(*args)
+        assert p.returncode == 0, p.stderr[-2000:]
     ours = parse_res((d / "SCARA1.RES").read_text())
     pub = parse_res((DATA / "published" / "erthal1992" / "SCARA1.RES").read_text())
     return ours, pub
@@ -144,7 +172,7 @@ def test_zp_revolute_step_minimises_delta(seed, c):
     u /= np.linalg.norm(u)
     M_ = _rot(rng.normal(size=3), rng.uniform(-3, 3))
     dv, h = rng.normal(size=3) * 100, rng.normal(size=3) * 100
-    phi = kernels.zp_step_revolute(M_, dv, u, h, c)
+    phi = step_revolute(M_, dv, u, h, c, 1.0)
 
     def delta(x):
         R = _rot(u, x)
@@ -166,33 +194,30 @@ def test_strategy_weights_ends():
 
 # --- Tests 1, 2, 3, 6 shapes --------------------------------------------------------------
 
-def _solve_block(name, variant):
-    b = TESTS[name]
-    model = study_robot(DATA, b["robot"])  # placed as in the document (data/erthal1992/robot_bases.yaml)
-    q0 = q_from_settings(model, b["q_start"])
-    return model, q0, [goal_frame(g) for g in b["goals"]], next(m for m in b["methods"] if m["name"] == variant)
-
-
 def test_test1_zp_stable_at_unreachable_point_nr_fails():
-    model, q0, goals, m = _solve_block("test1", "zp")
-    zp = zp_solve(model, goals[-1], q0, m["strategy"], m["precision"], m["max_iterations"])
+    zp = solve_label("test1", "zp_test1")[-1]
     assert not zp.success and abs(zp.position_error - 180.0) < 0.1  # shortfall 2700 - 2520
     assert np.all(np.isfinite(zp.trace)) and abs(zp.trace[-1, 7] - zp.trace[-10, 7]) < 0.1  # settled
-    _, _, _, mn = _solve_block("test1", "nr")
-    nr = nr_solve(model, goals[-1], q0, mn["precision"], mn["max_iterations"])
+    nr = solve_label("test1", "nr_test1")[-1]
     assert not nr.success
+
+
+def test_test1_previous_is_one_chain():
+    _, ps = problems("test1_previous")
+    assert (ps.chain == 0).all() and (problems("test1")[1].chain == -1).all()
+    assert np.isnan(ps.q_goal).all()  # the document's goals: angles unknown
 
 
 TABLE_6_9_SHAPE = 0.5  # Done-when: ZP iterations within +-50 % of Table 6.9 at every precision
 
 
 def test_test2_nr_fast_zp_grows_with_precision():
-    model, q0, goals, m = _solve_block("test2", "zp")
-    pub_zp = {1e-1: 18, 1e-2: 25, 1e-3: 31, 1e-4: 38, 1e-5: 44, 1e-6: 50, 1e-7: 56}  # Table 6.9
+    pub_zp = {1: 18, 2: 25, 3: 31, 4: 38, 5: 44, 6: 50, 7: 56}  # Table 6.9, precision 10^-k
     its = []
-    for eps, p in pub_zp.items():
-        zp = zp_solve(model, goals[0], q0, m["strategy"], eps, m["max_iterations"])
-        nr = nr_solve(model, goals[0], q0, eps, 60)
+    for k, p in pub_zp.items():
+        zp, = solve_label("test2", f"zp_test2_1em{k}")
+        nr, = solve_label("test2", f"nr_test2_1em{k}")
+        assert STUDY.solvers[f"zp_test2_1em{k}"].settings.epsilon == pytest.approx(10.0**-k)
         assert zp.success and nr.success and nr.iterations <= 6
         assert (1 - TABLE_6_9_SHAPE) * p <= zp.iterations <= (1 + TABLE_6_9_SHAPE) * p
         its.append(zp.iterations)
@@ -200,17 +225,33 @@ def test_test2_nr_fast_zp_grows_with_precision():
     assert max(np.diff(its)) <= 2 * min(np.diff(its))  # linear per decade: no slow tail
 
 
+def test_fk_check_tolerances_are_the_ones_the_stop_tests_imply():
+    """A claimed success must pass the FK check exactly when the document's stop test holds."""
+    for label, entry in STUDY.solvers.items():
+        s = entry.settings
+        if entry.method == "zero_position" and s.stop_test == "delta_sum":
+            assert s.tol_pos >= math.sqrt(s.epsilon) * s.length_scale * (1 - 1e-12), label
+            if s.criterion != "position":
+                assert s.tol_rot >= 2 * math.asin(math.sqrt(s.epsilon / 8)) * (1 - 1e-12), label
+        if entry.method == "newton_raphson" and s.stop_test == "error_norm":
+            assert s.tol_pos >= s.epsilon * s.length_scale * (1 - 1e-12) and s.tol_rot >= s.epsilon, label
+
+
 def test_robot_base_places_puma_below_shoulder():
-    model = study_robot(DATA, "puma560")
-    q = np.radians([90, -60, 180, 0, -30, 90])
-    dz = fk_htm(model.chain, q)[2, 3] - fk_htm(robot("puma560").chain, q)[2, 3]
-    assert abs(dz - 672.0) < FK_TOL
-    assert study_robot(DATA, "elbow").chain.base[2, 3] == 0.0  # Test 1 residual 180 needs the shoulder at z = 0
+    assert placement(DATA, "puma560")[2, 3] == 672.0
+    _, ps = problems("test2")
+    assert abs(ps.goal_position[0, 2] - (370.0 - 672.0)) < FK_TOL  # the document's goal in the file's frame
+    assert (placement(DATA, "elbow") == np.eye(4)).all()  # Test 1 residual 180 needs the shoulder at z = 0
+
+
+def test_generator_count_must_match_the_documents_points():
+    with pytest.raises(ProblemSpecError, match="field 'count'") as exc:
+        make_problem_set(SETS["test1"], robot("elbow"), 7, np.random.default_rng(0), DATA)
+    assert "\n" not in str(exc.value)
 
 
 def test_test3_strategies_3_and_5_fastest():
-    model, q0, goals, m = _solve_block("test3", "zp")
-    res = {s: zp_solve(model, goals[0], q0, s, m["precision"], m["max_iterations"]) for s in range(1, 11)}
+    res = {s: solve_label("test3", f"zp_test3_s{s}")[0] for s in range(1, 11)}
     best = min(r.iterations if r.success else 10**9 for r in res.values())
     assert res[3].success and res[5].success and res[3].iterations == res[5].iterations == best
     assert not any(res[s].success for s in (1, 2, 4, 6, 7, 8, 9, 10))  # §6.3c: none of 1, 2, 4, 6-10 within 100
@@ -223,43 +264,47 @@ def test_test3_strategies_3_and_5_fastest():
     ("test6_3dof", {2: [2.0419, -1.4186, 1.1512], 3: [1.3984, -1.4186, 1.1512]}),                    # Table 6.17
 ])
 def test_test6_zp_rows_match_published(name, published):
-    b = TESTS[name]
-    model, q0, goals, m = _solve_block(name, "zp")
-    for g, T in zip(b["goals"], goals):
+    goals = SETS[name]["params"]["goals"]
+    for g, r in zip(goals, solve_label(name, "zp_test6")):
         if g["point"] in published:
-            r = zp_solve(model, T, q0, m["strategy"], m["precision"], m["max_iterations"], use_orientation=False)
             assert r.success
             np.testing.assert_allclose(r.q, published[g["point"]], atol=TEST6_TOL)
 
 
 # --- analytic PUMA ------------------------------------------------------------------------
 
+PUMA_LABEL = STUDY.solvers["analytic_puma"].settings
+
+
+def puma_ik_all(model, T):
+    res = solve("analytic_puma", model, T, np.zeros(6), PUMA_LABEL)
+    return res, res.info["branches"].split()
+
+
 @settings(max_examples=40, deadline=None)
 @given(q=st.lists(st.floats(-math.pi, math.pi), min_size=6, max_size=6))
 def test_puma_analytic_eight_fk_verified_solutions(q):
     model = robot("puma560")
     T = fk_htm(model.chain, np.array(q))
-    sols = puma_ik_all(model, T)
-    assert len(sols) == 8
-    assert all(s.result.success for s in sols)
-    assert len({(s.arm, s.elbow, s.wrist) for s in sols}) == 8
-    for s in sols:  # independent check here too
-        np.testing.assert_allclose(fk_htm(model.chain, s.q), T, atol=1e-6)
+    res, flags = puma_ik_all(model, T)
+    assert len(res.solutions) == 8 and res.success
+    assert res.info["valid"] == "1" * 8 and res.info["solutions_valid"] == 8
+    assert len({f[:3] for f in flags}) == 8 == res.info["distinct_branches"]
+    for s in res.solutions:  # independent check here too
+        np.testing.assert_allclose(fk_htm(model.chain, s), T, atol=1e-6)
 
 
 def test_puma_degenerate_wrist_sets_theta4_zero():
     model = robot("puma560")
     T = fk_htm(model.chain, np.radians([10, 20, 30, 0, 0, 40]))
-    sols = puma_ik_all(model, T)
-    assert all(s.result.success for s in sols)
-    assert all(s.q[3] == 0.0 for s in sols if s.degenerate) and any(s.degenerate for s in sols)
+    res, flags = puma_ik_all(model, T)
+    assert res.info["valid"] == "1" * len(flags)
+    deg = [f.endswith("d") for f in flags]
+    assert all(s[3] == 0.0 for s, d in zip(res.solutions, deg) if d) and any(deg)
+    assert res.info["degenerate_wrist"] == sum(deg)
 
 
 # --- CLI ------------------------------------------------------------------------------------
-
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True, cwd=ROOT, timeout=120)
-
 
 def test_cli_robot_prints_report_layout():
     p = _cli("robot", "data/robots/scara.yaml", "--q0", "0,0,0,250")
@@ -317,3 +362,24 @@ def test_cartesiano_axes_are_decoupled():
         dq = np.zeros(6)
         dq[i] = 10.0
         np.testing.assert_allclose(fk_htm(m.chain, q + dq)[:3, 3] - fk_htm(m.chain, q)[:3, 3], 10.0 * np.eye(3)[i], atol=1e-9)
+
+
+# --- workflow -------------------------------------------------------------------------------
+
+def test_workflow_dry_run_uses_the_generic_solve_rule(tmp_path):
+    """IK tests and paths are generic solve jobs; study rules only for the catalogue and the RES rows;
+    the full-only path sets are absent at scale=quick."""
+    out = subprocess.run(
+        [sys.executable, "-m", "snakemake", "erthal1992", "-n", "--nolock", "--cores", "1", "--config",
+         "studies=[erthal1992]", "scale=quick", f"results_dir={tmp_path}"],
+        cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    log = out.stdout
+    rules = {ln.split()[1].rstrip(":") for ln in log.splitlines() if ln.startswith(("rule ", "localrule "))}
+    assert rules <= {"make_problems", "solve_problems", "erthal_catalogue", "erthal_path_rows", "aggregate_tables",
+                     "plot_figures", "erthal1992"}, rules
+    n_jobs = sum(1 for p in SETS if p not in STUDY.settings["full_only_problem_sets"]
+                 for _ in STUDY.set_robots(p) for _ in STUDY.set_solvers(p))
+    assert log.count("rule solve_problems:") == n_jobs
+    assert "runs/test2/puma560__nr_test2_1em7.mcap" in log and "paths/scara1__scara.RES" in log
+    assert "test5_stage1" not in log and "scara_cartesian" not in log

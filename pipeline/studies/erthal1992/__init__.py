@@ -3,10 +3,16 @@ Zero-Position IK with its 10 weight strategies, Newton-Raphson with Whitney step
 analytic PUMA solution, the iterative geometric method for planar arms, path tasks (RES layout)
 and Tests 1-6 of Chapter 6.
 
-Modules: :mod:`.model` (Appendix 1 conversions, report layout), :mod:`.kernels` (compiled ZP/NR
-loops), :mod:`.solvers` (IKResult wrappers), :mod:`.puma` (analytic PUMA), :mod:`.tasks` (task files,
-interpolation, RES files), :mod:`.runs` (problem sets -> MCAP archives), :mod:`.report` (tables,
-figures), :mod:`.cli` (``python -m pipeline`` verbs).
+The IK methods are registered solvers (``python -m pipeline solvers``): ``zero_position``,
+``newton_raphson``, ``geometric_iterative`` and ``analytic_puma`` (:mod:`pipeline.solvers`); the
+zero-position description is :mod:`pipeline.kinematics.zero_position`. This package holds only
+settings translation, problem orchestration, tables and figures.
+
+Modules: :mod:`.problems` (generators of the study's problem sets: the tests' goals and the path
+tasks, solved by the generic solve rule), :mod:`.model` (Appendix 1 conversions, report layout),
+:mod:`.tasks` (task files, interpolation, RES files), :mod:`.runs` (catalogue archive, RES rows
+written from a path's solve archive), :mod:`.report` (tables, figures), :mod:`.drawing`
+(wireframes, workspaces), :mod:`.cli` (``python -m pipeline`` verbs).
 """
 
 from __future__ import annotations

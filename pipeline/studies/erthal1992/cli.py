@@ -3,9 +3,10 @@
 robot                       convert and print a robot in the SCARA.TXT report layout (from a
                             robot file, DH -> PZ; or from a joint-point input, Appendix 1 Case 1)
 erthal_catalogue            conversions + jog FK of the catalogue -> catalogue.mcap and TXT reports
-erthal_solve_test           one IK problem set (Tests 1, 2, 3, 6) -> <test>.mcap
-erthal_solve_path           one path task -> path_<run>.mcap + RES file
-erthal_puma_analytic        analytic PUMA on random reachable poses -> puma_analytic.mcap
+erthal_path_rows            a path task's RES rows from its solve archive -> paths/<set>__<robot>.mcap + RES
+
+The IK solves themselves (Tests 1-6, paths, analytic PUMA) are problem sets of the study YAML, run
+by the generic verbs ``make_problems`` / ``solve_problems``.
 """
 
 from __future__ import annotations
@@ -20,13 +21,12 @@ def _cli_error(exc):
 
 
 def _known_errors():
+    from pipeline.solvers import NotApplicableError, SettingsError
     from pipeline.studies.erthal1992.model import ConversionError
-    from pipeline.studies.erthal1992.puma import PumaGeometryError
     from pipeline.studies.erthal1992.runs import RunError
-    from pipeline.studies.erthal1992.solvers import StrategyError
     from pipeline.studies.erthal1992.tasks import TaskFileError
 
-    return (ConversionError, PumaGeometryError, RunError, StrategyError, TaskFileError, KeyError)
+    return (ConversionError, NotApplicableError, RunError, SettingsError, TaskFileError, KeyError)
 
 
 def cmd_robot(args) -> None:
@@ -43,7 +43,7 @@ def cmd_robot(args) -> None:
             j, e = doc["joints"], doc["effector"]
             pts, axes = [x["position"] for x in j], [x["axis"] for x in j]
             dh = M.dh_from_joint_points([x["type"] for x in j], pts, axes, e["position"], e["u_a"], e["u_t"])
-            pz = M.pz_from_dh(dh.chain(), dh.types, dh.q0)
+            pz = M.pz_from_dh(dh.chain(), dh.q0)
             text = M.report_txt(doc["name"], dh, pz, pts, axes)
             if args.write_robot:
                 Path(args.write_robot).write_text(M.robot_yaml(doc["name"], dh, f"converted from {path}"))
@@ -58,7 +58,7 @@ def cmd_robot(args) -> None:
             else:
                 q0 = np.zeros(model.n)
             dh = M.dh_model_from_chain(model.chain, types, q0)
-            pz = M.pz_from_dh(model.chain, types, q0)
+            pz = M.pz_from_dh(model.chain, q0)
             text = M.report_txt(model.name, dh, pz, limits=model.limits)
     except _known_errors() + (ValueError,) as exc:
         raise _cli_error(exc) from None
@@ -85,36 +85,16 @@ def cmd_catalogue(args) -> None:
     print(f"wrote {args.out}: {n} catalogue records; reports in {args.report_dir}")
 
 
-def cmd_solve_test(args) -> None:
-    from pipeline.studies.erthal1992.runs import run_test
+def cmd_path_rows(args) -> None:
+    from pipeline.problems import ProblemSpecError
+    from pipeline.studies.erthal1992.runs import write_path_rows
 
     try:
-        n = run_test(_study(args), args.test, Path(args.data), Path(args.out))
-    except _known_errors() as exc:
+        n = write_path_rows(_study(args), args.problem_set, args.robot, Path(args.archive), Path(args.data),
+                            Path(args.out), Path(args.res) if args.res else None)
+    except _known_errors() + (ProblemSpecError,) as exc:
         raise _cli_error(exc) from None
-    print(f"wrote {args.out}: {n} solves")
-
-
-def cmd_solve_path(args) -> None:
-    from pipeline.studies.erthal1992.runs import run_path
-
-    try:
-        n = run_path(_study(args), args.run, Path(args.data), Path(args.out), Path(args.res) if args.res else None)
-    except _known_errors() as exc:
-        raise _cli_error(exc) from None
-    print(f"wrote {args.out}: {n} IK solves" + (f"; {args.res}" if args.res else ""))
-
-
-def cmd_puma_analytic(args) -> None:
-    from pipeline.studies.erthal1992.runs import run_puma_analytic
-
-    study = _study(args)
-    block = study.settings["puma_analytic"]
-    try:
-        n = run_puma_analytic(study, int(block["count"][args.scale]), int(block["seed"]), Path(args.data), Path(args.out))
-    except _known_errors() as exc:
-        raise _cli_error(exc) from None
-    print(f"wrote {args.out}: {n} analytic solutions")
+    print(f"wrote {args.out}: {n} RES rows" + (f"; {args.res}" if args.res else ""))
 
 
 def register_cli(sub) -> None:
@@ -135,18 +115,10 @@ def register_cli(sub) -> None:
     p.add_argument("--report-dir", required=True, help="folder for the TXT reports")
     p.set_defaults(func=cmd_catalogue)
 
-    p = sub.add_parser("erthal_solve_test", help="erthal1992: one IK test (study_settings.tests.<name>)")
+    p = sub.add_parser("erthal_path_rows", help="erthal1992: a path task's RES rows from its solve archive")
     common(p)
-    p.add_argument("--test", required=True)
-    p.set_defaults(func=cmd_solve_test)
-
-    p = sub.add_parser("erthal_solve_path", help="erthal1992: one path task (study_settings.paths.<name>)")
-    common(p)
-    p.add_argument("--run", required=True)
+    p.add_argument("--problem-set", required=True, help="a path set of study_settings.paths")
+    p.add_argument("--robot", required=True, help="robot id")
+    p.add_argument("--archive", required=True, help="the set's solve archive (runs/<set>/<robot>__<solver>.mcap)")
     p.add_argument("--res", help="RES file to write")
-    p.set_defaults(func=cmd_solve_path)
-
-    p = sub.add_parser("erthal_puma_analytic", help="erthal1992: analytic PUMA, 8 solutions per random pose")
-    common(p)
-    p.add_argument("--scale", choices=["full", "quick"], default="full")
-    p.set_defaults(func=cmd_puma_analytic)
+    p.set_defaults(func=cmd_path_rows)

@@ -1,10 +1,11 @@
 """Robot entry modes and conversions of Appendix 1 of 001_7601717b50b5e768.txt.
 
 * joint points + axes + effector frame -> origins, x-axes, DH (Case 1, eqs A1.1-A1.17);
-* DH -> zero-position (PZ) vectors (Case 3, Ang & Tourassis recursion = DH frames at q0);
 * PZ vectors -> DH (Case 2, eqs A1.18-A1.19 then Case 1 with the origins given);
-* PZ forward kinematics (eqs 3.5-3.17, with the body vector kept for prismatic joints);
 * the report layout of SCARA.TXT (Appendix 3).
+
+DH -> zero-position vectors (Case 3) and the PZ forward kinematics (eqs 3.5-3.17) are kinematics
+and live in :mod:`pipeline.kinematics.zero_position` (re-exported here).
 
 Conventions: standard DH, joint variable = DH theta (revolute) or d (prismatic) with no offsets, so
 the zero position ``q0`` is the stored theta/d column of the document's tables. Lengths in the
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.kinematics import Chain, fk_frames
+from pipeline.kinematics.zero_position import PZModel, axis_angle_matrix, pz_fk, pz_from_dh  # noqa: F401  (re-exported)
 
 PARALLEL_TOL = 1e-9  # |u1 x u2| below this: axes parallel (typed-in unit vectors are exact)
 LENGTH_TOL = 1e-9    # [length] a vector shorter than this is zero
@@ -174,35 +176,6 @@ def dh_from_joint_points(types, points, axes, effector, u_a, u_t, base_origin=(0
     return _dh_from_frames(types, O, x, z)
 
 
-@dataclass(frozen=True)
-class PZModel:
-    """Zero-position vectors (origin-based form, as SCARA.PAR; A1.4).
-
-    b : ndarray, shape (n + 1, 3)   b[0] = O_0 - base origin, b[i] = O_i - O_{i-1}
-    u : ndarray, shape (n, 3)       joint axes at the zero position
-    u_a, u_t : ndarray, shape (3,)  effector approach / orientation at the zero position
-    q0 : ndarray, shape (n,)        zero position
-    """
-
-    types: tuple
-    b: np.ndarray
-    u: np.ndarray
-    u_a: np.ndarray
-    u_t: np.ndarray
-    q0: np.ndarray
-
-
-def pz_from_dh(chain: Chain, types, q0) -> PZModel:
-    """Case 3 of Appendix 1: DH frames at the zero position -> PZ vectors (body = origin differences)."""
-    F = fk_frames(chain, np.asarray(q0, float))
-    T = F[-1] @ chain.tool
-    O = np.vstack([F[:, :3, 3]])
-    O[-1] = T[:3, 3]
-    b = np.vstack([O[:1] - chain.base[:3, 3], np.diff(O, axis=0)])
-    u = F[:-1, :3, 2]
-    return PZModel(tuple(types), b, u, T[:3, 2].copy(), T[:3, 1].copy(), np.asarray(q0, float))
-
-
 def dh_from_pz(pz: PZModel, base_x=(1, 0, 0)) -> DHModel:
     """Case 2 of Appendix 1: p_1 = b_1, p_{i+1} = p_i + b_{i+1} (A1.18-A1.19) are the origins
     O_0..O_n; x-axes and DH as in Case 1."""
@@ -210,38 +183,6 @@ def dh_from_pz(pz: PZModel, base_x=(1, 0, 0)) -> DHModel:
     z = np.vstack([pz.u, pz.u_a])
     x = _x_axes(O, z, np.asarray(base_x, float), pz.u_a, pz.u_t)
     return _dh_from_frames(pz.types, O, x, z)
-
-
-def axis_angle_matrix(theta: float, u: np.ndarray) -> np.ndarray:
-    """R(theta, u) of eq. 3.12."""
-    ux, uy, uz = u
-    c, s = np.cos(theta), np.sin(theta)
-    v = 1 - c
-    return np.array([[(ux * ux - 1) * v + 1, ux * uy * v - uz * s, ux * uz * v + uy * s],
-                     [ux * uy * v + uz * s, (uy * uy - 1) * v + 1, uy * uz * v - ux * s],
-                     [ux * uz * v - uy * s, uy * uz * v + ux * s, (uz * uz - 1) * v + 1]])
-
-
-def pz_fk(pz: PZModel, q) -> np.ndarray:
-    """Zero-position vector FK (eqs 3.5-3.17; prismatic joints keep their body vector).
-
-    Returns T, shape (4, 4): effector pose in the base frame.
-    """
-    q = np.asarray(q, float)
-    R = np.eye(3)
-    P = pz.b[0].copy()
-    for k, t in enumerate(pz.types):
-        uk = R @ pz.u[k]                                         # 3.5
-        if t == "p":
-            P = P + (q[k] - pz.q0[k]) * uk                       # 3.14 (+ body vector below)
-        else:
-            R = R @ axis_angle_matrix(q[k] - pz.q0[k], pz.u[k])  # 3.11
-        P = P + R @ pz.b[k + 1]                                  # 3.6, 3.15
-    z0, y0 = pz.u_a, pz.u_t
-    T = np.eye(4)
-    T[:3, 0], T[:3, 1], T[:3, 2] = R @ np.cross(y0, z0), R @ y0, R @ z0  # 3.7-3.8, 3.17
-    T[:3, 3] = P
-    return T
 
 
 def dh_model_from_chain(chain: Chain, types, q0) -> DHModel:

@@ -10,20 +10,101 @@ import pandas as pd
 from pipeline.studies import FigureSpec, TableSpec
 from pipeline.studies.common import published
 
-from pipeline.studies.erthal1992.runs import CATALOGUE_TOPIC, PATH_TOPIC, PROBLEM_TOPIC, PUMA_TOPIC
+from pipeline.studies.erthal1992.runs import CATALOGUE_TOPIC, PATH_TOPIC
 
 STUDY = "erthal1992"
 RES_TOL_RAD = 1e-3  # the Done-when tolerance for SCARA1.RES rows
 
 
-def _by_stem(archives) -> dict:
-    return {Path(a.path).stem: a for a in archives}
+_METHOD = {"zero_position": "zp", "newton_raphson": "nr", "geometric_iterative": "geometric"}
 
 
-def _test_frame(arch) -> pd.DataFrame:
-    df = arch.frame()
-    meta = pd.DataFrame(list(arch.messages(PROBLEM_TOPIC)))
-    return df.merge(meta.drop(columns=["solver"]), on="problem_id")
+class _View:
+    """Several solve archives (one per method variant of a test, or a path's solves and its RES rows)
+    seen as one: ``frame()`` concatenates their records with the variant's columns and a problem id
+    unique across them, ``traces()`` and ``messages()`` follow."""
+
+    def __init__(self, parts, rows=None):
+        self.parts = parts  # [(archive, extra columns: dict, points: list | None)]
+        self.rows = rows
+        self.offsets = []
+        off = 0
+        for arch, _, _ in parts:
+            self.offsets.append(off)
+            off += 1 + max((r["problem_id"] for r in arch.solves), default=-1)
+
+    def frame(self) -> pd.DataFrame:
+        dfs = []
+        for (arch, extra, points), off in zip(self.parts, self.offsets):
+            df = arch.frame().drop(columns=["method"], errors="ignore")  # registry name; the variant's method wins
+            if points is not None:
+                df["point"] = [points[int(i)] for i in df["problem_id"]]
+            for k, v in extra.items():
+                df[k] = v
+            df["problem_id"] = df["problem_id"] + off
+            dfs.append(df)
+        return pd.concat(dfs, ignore_index=True)
+
+    def traces(self, problem_ids=None):
+        want = None if problem_ids is None else set(int(i) for i in problem_ids)
+        for (arch, _, _), off in zip(self.parts, self.offsets):
+            for t in arch.traces():
+                pid = t["problem_id"] + off
+                if want is None or pid in want:
+                    yield {**t, "problem_id": pid}
+
+    def messages(self, topic):
+        return self.rows.messages(topic) if self.rows is not None else iter(())
+
+
+def _views(study, archives) -> dict:
+    """The archives under the names the tables use: ``catalogue``, ``test1`` ... (all variants of a
+    test), ``path_<set>`` / ``path_test5_<robot>_<stage>`` (solves + RES rows), ``puma_analytic``."""
+    runs, other = {}, {}
+    for a in archives:
+        m = a.metadata
+        if "problem_set" in m:
+            runs[(m["problem_set"], m["robot"], m["solver"])] = a
+        else:
+            other[Path(a.path).stem] = a
+    A = {}
+    if "catalogue" in other:
+        A["catalogue"] = other["catalogue"]
+    for test, variants in study.settings.get("tests", {}).items():
+        parts = []
+        for variant, (pset, label) in variants.items():
+            spec = study.problem_sets[pset]
+            robot = study.set_robots(pset)[0]
+            if (pset, robot, label) not in runs:
+                continue
+            s = study.solvers[label]
+            method = _METHOD.get(s.method, s.method)
+            precision = getattr(s.settings, "epsilon", None) if method != "geometric" else s.settings.tol_pos * 1e3
+            extra = {"test": test, "variant": variant if variant in ("zp", "nr", "nr_from_previous", "geometric") else method,
+                     "method": method,
+                     "strategy": getattr(s.settings, "strategy", None) if method == "zp" else None,
+                     "precision": precision, "max_iterations": s.settings.max_iterations}
+            parts.append((runs[(pset, robot, label)], extra, [g["point"] for g in spec["params"]["goals"]]))
+        if parts:
+            A[test] = _View(parts)
+    for pset, spec in study.settings.get("paths", {}).items():
+        for robot in study.set_robots(pset):
+            key = (pset, robot, spec["solver"])
+            if key not in runs or f"{pset}__{robot}" not in other:
+                continue
+            name = f"path_{pset}"
+            if pset.startswith("test5_"):
+                res = (spec.get("res_name") or {}).get(robot, robot.upper()).lower()
+                name = f"path_test5_{res}_{pset[len('test5_'):]}"
+            A[name] = _View([(runs[key], {}, None)], rows=other[f"{pset}__{robot}"])
+    for (pset, robot, label), a in runs.items():
+        if study.solvers[label].method == "analytic_puma":
+            A["puma_analytic"] = a
+    return A
+
+
+def _test_frame(view) -> pd.DataFrame:
+    return view.frame()
 
 
 def _nc(x, ok):
@@ -48,7 +129,7 @@ def _published_res(published_dir) -> pd.DataFrame | None:
 
 
 def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
-    A = _by_stem(archives)
+    A = _views(study, archives)
     out: list[TableSpec] = []
 
     # --- catalogue: Stanford conversion, round trips, artropoidal jog ------------------------
@@ -255,19 +336,17 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
 
     # --- analytic PUMA --------------------------------------------------------------------
     if "puma_analytic" in A:
-        df = A["puma_analytic"].frame()
-        fl = pd.DataFrame(list(A["puma_analytic"].messages(PUMA_TOPIC)))
-        m = df.merge(fl, on="problem_id")
-        per = m.groupby("pose").agg(n=("success", "size"), ok=("success", "sum"))
+        info = pd.DataFrame(list(A["puma_analytic"].frame()["info"]))
         out.append(TableSpec("puma_analytic", "Analytic PUMA (Fu et al.) — 8 solutions per random reachable pose",
-                             pd.DataFrame([{"poses": len(per), "solutions": len(m), "poses with 8 solutions": int((per["n"] == 8).sum()),
-                                            "poses with 8 FK-verified solutions": int((per["ok"] == 8).sum()),
-                                            "max |dp| [mm]": m["position_error"].max(),
-                                            "max orientation error [rad]": m["orientation_error"].max(),
-                                            "degenerate-wrist solutions (θ4 = 0)": int(m["degenerate_wrist"].sum()),
-                                            "distinct (ARM, ELBOW, WRIST) per pose": int(m.groupby("pose")[["arm", "elbow", "wrist"]].apply(lambda g: len(g.drop_duplicates())).min())}]),
+                             pd.DataFrame([{"poses": len(info), "solutions": int(info["solutions_found"].sum()),
+                                            "poses with 8 solutions": int((info["solutions_found"] == 8).sum()),
+                                            "poses with 8 FK-verified solutions": int((info["solutions_valid"] == 8).sum()),
+                                            "max |dp| [mm]": info["max_position_error"].max(),
+                                            "max orientation error [rad]": info["max_orientation_error"].max(),
+                                            "degenerate-wrist solutions (θ4 = 0)": int(info["degenerate_wrist"].sum()),
+                                            "distinct (ARM, ELBOW, WRIST) per pose": int(info["distinct_branches"].min())}]),
                              "Poses = FK of joint angles uniform in [−π, π) (seeded). Every solution is checked by numpy FK "
-                             "(|dp| < 1e-6 mm, angle < 1e-8 rad). The document prints no table for it."))
+                             "(|dp| ≤ 1e-6 mm, angle ≤ 1e-8 rad). The document prints no table for it."))
 
     # --- Test 5 ---------------------------------------------------------------------------
     rows = []
@@ -284,8 +363,8 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     if rows:
         out.append(TableSpec("test5_robots", "Test 5 — PUMA, Stanford, ELBOW and CARTESIANO on the same two-segment task",
                              pd.DataFrame(rows), "ZP strategy 5, ε = 0.1, Cartesian interpolation, 9 points per segment; "
-                                                 "stage 2 = auxiliary frame moved to Table 6.14. The CARTESIANO robot has no geometry "
-                                                 "in the document and is not run. The document shows only plots (Figs 6.28–6.29). "
+                                                 "stage 2 = auxiliary frame moved to Table 6.14. The CARTESIANO geometry is assumed "
+                                                 "(data/robots/cartesiano.yaml). The document shows only plots (Figs 6.28–6.29). "
                                                  "PUMA base at the mounting surface, 672 mm below the shoulder (data/erthal1992/robot_bases.yaml): "
                                                  "with the base at the shoulder stage-2 points such as (−149.09, 800, 850) mm are out of reach."))
     return out
@@ -294,7 +373,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
 def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     from pipeline.report.plotting import plt, save
 
-    A = _by_stem(archives)
+    A = _views(study, archives)
     figs = []
     if "test1" in A:
         df = _test_frame(A["test1"])

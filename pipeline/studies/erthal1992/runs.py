@@ -2,14 +2,13 @@
 
 Archives (``results/erthal1992/runs/``):
 
-* ``catalogue.mcap``   — conversions (Stanford joint points -> DH, DH <-> PZ round trips) and the
+* ``runs/catalogue.mcap`` — conversions (Stanford joint points -> DH, DH <-> PZ round trips) and the
   artropoidal jog FK (Tables 6.1-6.2); channel ``/erthal1992/catalogue``; no IK solves.
-* ``<test>.mcap``      — Tests 1, 2, 3, 6: one solve record per (goal, method variant); channel
-  ``/erthal1992/problem`` says which test point, method, strategy, precision each problem is.
-* ``path_<run>.mcap``  — a path task: one solve record per IK solve; channel ``/erthal1992/path``
-  holds every RES row (id, segment, index, q); the RES file is written beside it.
-* ``puma_analytic.mcap`` — analytic PUMA: 8 solve records per random reachable pose, channel
-  ``/erthal1992/puma`` with the ARM/ELBOW/WRIST flags.
+* IK solves (Tests 1, 2, 3, 5, 6, the SCARA path, the analytic PUMA) are problem sets solved by
+  the generic rule: ``runs/<problem set>/<robot>__<solver label>.mcap`` (generators in
+  :mod:`.problems`).
+* ``../paths/<set>__<robot>.mcap`` and ``.RES`` — a path task's RES rows, written from its solve
+  archive (:func:`write_path_rows`, no solving); channel ``/erthal1992/path``.
 
 Settings angles are degrees (revolute joints) and lengths mm, converted here.
 """
@@ -24,18 +23,15 @@ from pathlib import Path
 import numpy as np
 
 import pipeline
-from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter, solve_record
-from pipeline.kinematics import fk_htm, quat_from_matrix
+from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter
+from pipeline.kinematics import fk_htm
 from pipeline.robots import RobotModel, load_robot
 from pipeline.settings import git_commit
 
-from pipeline.studies.erthal1992 import solvers
 from pipeline.studies.erthal1992.tasks import frame
 
-PROBLEM_TOPIC = "/erthal1992/problem"
 PATH_TOPIC = "/erthal1992/path"
 CATALOGUE_TOPIC = "/erthal1992/catalogue"
-PUMA_TOPIC = "/erthal1992/puma"
 _OBJ = {"type": "object"}
 
 
@@ -66,19 +62,6 @@ def robot_base(data_dir: Path, name: str) -> list | None:
     return pos
 
 
-def study_robot(data_dir: Path, name: str) -> RobotModel:
-    """Catalogue robot placed as in the document's IK tests and tasks (``robot_bases.yaml``)."""
-    from dataclasses import replace
-
-    model = load_robot(Path(data_dir) / "robots" / f"{name}.yaml")
-    pos = robot_base(data_dir, name)
-    if pos is None:
-        return model
-    B = np.eye(4)
-    B[:3, 3] = pos
-    return replace(model, chain=replace(model.chain, base=B @ np.asarray(model.chain.base)))
-
-
 def q_from_settings(model: RobotModel, values) -> np.ndarray:
     """Joint values from settings: degrees for revolute joints, length for prismatic."""
     v = np.array(values, dtype=float)
@@ -105,162 +88,56 @@ def _meta(study_id: str, robot: str, solver: str, block: dict, seed="-") -> dict
             "seed": str(seed), "package_version": pipeline.__version__, "git_commit": git_commit()}
 
 
-def _expand(methods: list[dict]) -> list[dict]:
-    """Method variants: a list under ``precisions`` or ``strategies`` gives one variant per value."""
-    out = []
-    for m in methods:
-        if "precisions" in m:
-            out += [{**{k: v for k, v in m.items() if k != "precisions"}, "precision": p} for p in m["precisions"]]
-        elif "strategies" in m:
-            out += [{**{k: v for k, v in m.items() if k != "strategies"}, "strategy": s} for s in m["strategies"]]
-        else:
-            out.append(dict(m))
-    return out
+def write_path_rows(study, pset: str, robot: str, archive: Path, data_dir: Path, out: Path, res_out: Path | None) -> int:
+    """The RES rows of one path task from its solve archive (no solving): rows archive + RES file.
 
+    Joint interpolation: each segment's k rows divide the joint travel between the archived
+    endpoint solutions equally; Cartesian interpolation: every row is an archived solution, a
+    segment's first row the previous segment's last (see :func:`.problems.path_layout`).
+    """
+    from pipeline.io.archive import read_archive
+    from pipeline.studies.erthal1992.problems import path_task
+    from pipeline.studies.erthal1992.tasks import format_res, joint_points
 
-def run_solver(model: RobotModel, T_goal: np.ndarray, q0: np.ndarray, m: dict, position_only: bool):
-    kind = m["method"]
-    if kind == "zp":
-        return solvers.zp_solve(model, T_goal, q0, int(m.get("strategy", 5)), float(m["precision"]),
-                                int(m["max_iterations"]), use_orientation=not position_only)
-    if kind == "nr":
-        return solvers.nr_solve(model, T_goal, q0, float(m["precision"]), int(m["max_iterations"]),
-                                int(m.get("step_halvings", 10)))
-    if kind == "geometric":
-        return solvers.geometric_planar_solve(model, T_goal[:2, 3], q0, float(m["precision"]),
-                                              int(m["max_iterations"]))
-    raise RunError(f"unknown method {kind!r} (allowed: zp, nr, geometric)")
-
-
-def run_test(study, test: str, data_dir: Path, out: Path) -> int:
-    """Solve every (goal, method variant) of ``study_settings.tests.<test>``; returns the solve count."""
-    tests = study.settings.get("tests", {})
-    if test not in tests:
-        raise RunError(f"{study.path}: field 'study_settings/tests/{test}': no such test (have: {', '.join(tests)})")
-    block = tests[test]
-    model = study_robot(data_dir, block["robot"])
-    q_start = q_from_settings(model, block["q_start"])
-    position_only = bool(block.get("position_only", False))
-    variants = _expand(block["methods"])
-    meta = _meta(study.id, model.name, "mixed", {**block, "robot_base": robot_base(data_dir, block["robot"])})
-    pid = 0
-    with ArchiveWriter(out, meta) as w:
-        w.add_channel(PROBLEM_TOPIC, {"title": "erthal1992.Problem", **_OBJ})
-        for m in variants:
-            prev = None
-            for g in block["goals"]:
-                Tg = goal_frame(g)
-                q0 = prev if (m.get("start") == "previous" and prev is not None) else q_start
-                res = run_solver(model, Tg, q0, m, position_only)
-                prev = res.q
-                label = m["name"] + (f"_s{m['strategy']}" if "strategy" in m and m["method"] == "zp" else "")
-                rec, tr = solve_record(pid, model.name, label, model.length_unit, q0, Tg[:3, 3],
-                                       quat_from_matrix(Tg), res)
-                w.write(rec, tr)
-                w.write_message(PROBLEM_TOPIC, {"problem_id": pid, "test": test, "point": int(g["point"]),
-                                                "variant": m["name"], "method": m["method"],
-                                                "strategy": m.get("strategy"), "precision": m["precision"],
-                                                "max_iterations": m["max_iterations"], "solver": label})
-                pid += 1
-    return pid
-
-
-def run_path(study, run: str, data_dir: Path, out: Path, res_out: Path | None) -> int:
-    """Solve one path run of ``study_settings.paths``; write the archive and the RES file."""
-    from pipeline.studies.erthal1992.tasks import cartesian_points, format_res, joint_points, load_task
-
-    paths = study.settings.get("paths", {})
-    if run not in paths:
-        raise RunError(f"{study.path}: field 'study_settings/paths/{run}': no such run (have: {', '.join(paths)})")
-    spec = paths[run]
-    overrides = {}
-    task = load_task(Path(data_dir) / "erthal1992" / spec["task"])
-    robot = spec.get("robot", task.robot)
-    model = study_robot(data_dir, robot)
-    if "auxiliary_position" in spec:
-        T_aux = task.T_aux.copy()
-        T_aux[:3, 3] = spec["auxiliary_position"]
-        overrides["T_aux"] = T_aux
-    q = q_from_settings(model, spec["initial_position"]) if "initial_position" in spec else task.q_start
-    if len(q) != model.n:
-        raise RunError(f"{study.path}: paths/{run}: initial position has {len(q)} values, {model.name} has {model.n} joints")
-    if overrides:
-        from dataclasses import replace
-
-        task = replace(task, **overrides)
-    m = {"method": "zp", "strategy": spec["strategy"], "precision": spec["precision"],
-         "max_iterations": spec["max_iterations"]}
+    sets = study.problem_sets
+    if pset not in sets or pset not in study.settings.get("paths", {}):
+        raise RunError(f"{study.path}: field 'study_settings/paths/{pset}': no such path set (have: "
+                       f"{', '.join(study.settings.get('paths', {}))})")
+    params = sets[pset].get("params") or {}
+    spec = study.settings["paths"][pset]
+    task = path_task(params, data_dir, robot)
+    interp = params.get("interpolation", "joint")
+    arch = read_archive(archive)
+    if arch.metadata.get("problem_set") != pset or arch.metadata.get("robot") != robot:
+        raise RunError(f"{archive}: metadata says problem set {arch.metadata.get('problem_set')!r}, robot "
+                       f"{arch.metadata.get('robot')!r}; expected {pset!r}, {robot!r}")
+    sol = [np.asarray(r["q_solution"], dtype=float) for r in sorted(arch.solves, key=lambda r: r["problem_id"])]
     k = task.points_per_segment
-    interp = spec["interpolation"]
-    meta = _meta(study.id, model.name, f"zp_s{spec['strategy']}",
-                 {**spec, "task_name": task.name, "robot_base": robot_base(data_dir, robot)})
+    segs = []
+    if interp == "joint":
+        segs = [joint_points(sol[s], sol[s + 1], k) for s in range(task.segments)]
+    else:
+        segs = [np.array(sol[:k])]
+        for s in range(1, task.segments):
+            first = k + (s - 1) * (k - 1)
+            segs.append(np.array([segs[-1][-1]] + sol[first:first + k - 1]))
+    res_name = (spec.get("res_name") or {}).get(robot, robot.upper())
+    meta = _meta(study.id, robot, arch.metadata.get("solver", "-"),
+                 {"problem_set": pset, "params": params, "res_name": res_name, "source_archive": Path(archive).name})
     rows = []
-    pid = 0
     with ArchiveWriter(out, meta) as w:
         w.add_channel(PATH_TOPIC, {"title": "erthal1992.PathRow", **_OBJ})
-
-        def solve(T_aux_point, q0):
-            nonlocal pid
-            Tg = task.goal_in_base(T_aux_point)
-            res = run_solver(model, Tg, q0, m, False)
-            rec, tr = solve_record(pid, model.name, f"zp_s{spec['strategy']}", model.length_unit, q0, Tg[:3, 3],
-                                   quat_from_matrix(Tg), res)
-            w.write(rec, tr)
-            pid += 1
-            return res
-
-        q_end = q
-        for s in range(task.segments):
-            if interp == "joint":
-                r0 = solve(task.points[s], q_end) if s == 0 else None
-                q_a = r0.q if r0 is not None else q_end
-                r1 = solve(task.points[s + 1], q_a)
-                seg_q = joint_points(q_a, r1.q, k)
-                q_end = r1.q
-            else:
-                seg_q = []
-                qq = q_end
-                for j, Tp in enumerate(cartesian_points(task.points[s], task.points[s + 1], k)):
-                    if s > 0 and j == 0:
-                        seg_q.append(qq)  # the segment start is the previous end (already solved)
-                        continue
-                    qq = solve(Tp, qq).q
-                    seg_q.append(qq)
-                seg_q = np.array(seg_q)
-                q_end = seg_q[-1]
+        for s, seg_q in enumerate(segs):
             for j, qv in enumerate(seg_q):
                 rows.append(qv)
                 w.write_message(PATH_TOPIC, {"row": len(rows), "segment": s, "index": j,
                                              "q": [float(v) for v in qv], "interpolation": interp,
-                                             "task": task.name, "res_name": spec.get("res_name", run)})
+                                             "task": task.name, "res_name": res_name, "problem_set": pset,
+                                             "robot": robot})
     if res_out is not None:
-        Path(res_out).write_text(format_res(spec.get("res_name", task.name), task.segments, k, np.array(rows),
-                                            model.chain.prismatic))
-    return pid
-
-
-def run_puma_analytic(study, count: int, seed: int, data_dir: Path, out: Path) -> int:
-    """Random reachable PUMA poses (FK of uniform random joints), all 8 analytic solutions each."""
-    from pipeline.studies.erthal1992.puma import puma_ik_all
-
-    model = load_robot(Path(data_dir) / "robots" / "puma560.yaml")
-    rng = np.random.default_rng(seed)
-    block = {**study.settings.get("puma_analytic", {}), "count": count}
-    meta = _meta(study.id, model.name, "puma_analytic", block, seed)
-    pid = 0
-    with ArchiveWriter(out, meta) as w:
-        w.add_channel(PUMA_TOPIC, {"title": "erthal1992.PumaSolution", **_OBJ})
-        for pose in range(count):
-            q_true = rng.uniform(-math.pi, math.pi, 6)
-            Tg = fk_htm(model.chain, q_true)
-            for sol in puma_ik_all(model, Tg):
-                rec, tr = solve_record(pid, model.name, "puma_analytic", model.length_unit, q_true, Tg[:3, 3],
-                                       quat_from_matrix(Tg), sol.result)
-                w.write(rec, tr)
-                w.write_message(PUMA_TOPIC, {"problem_id": pid, "pose": pose, "arm": sol.arm, "elbow": sol.elbow,
-                                             "wrist": sol.wrist, "degenerate_wrist": sol.degenerate})
-                pid += 1
-    return pid
+        prism = load_robot(Path(data_dir) / "robots" / f"{robot}.yaml").chain.prismatic
+        Path(res_out).write_text(format_res(res_name, task.segments, k, np.array(rows), prism))
+    return len(rows)
 
 
 def run_catalogue(study, data_dir: Path, out: Path, report_dir: Path | None) -> int:
@@ -284,7 +161,7 @@ def run_catalogue(study, data_dir: Path, out: Path, report_dir: Path | None) -> 
             e = doc["effector"]
             dh = dh_from_joint_points([x["type"] for x in j], [x["position"] for x in j], [x["axis"] for x in j],
                                       e["position"], e["u_a"], e["u_t"])
-            pz = pz_from_dh(dh.chain(), dh.types, dh.q0)
+            pz = pz_from_dh(dh.chain(), dh.q0)
             w.write_message(CATALOGUE_TOPIC, {"kind": "joint_points", "robot": doc["name"],
                                               "origins": dh.origins.tolist(), "x_axes": dh.x_axes.tolist(),
                                               "dh": {"a": dh.a.tolist(), "alpha": dh.alpha.tolist(),
@@ -298,7 +175,7 @@ def run_catalogue(study, data_dir: Path, out: Path, report_dir: Path | None) -> 
             model = load_robot(Path(data_dir) / "robots" / f"{name}.yaml")
             q0 = q_from_settings(model, q0_set)
             types = ["p" if p else "r" for p in model.chain.prismatic]
-            pz = pz_from_dh(model.chain, types, q0)
+            pz = pz_from_dh(model.chain, q0)
             dh2 = dh_from_pz(pz)
             dq = rng.uniform(-1.0, 1.0, (int(st.get("roundtrip_samples", 20)), model.n))
             T_ref = fk_htm(model.chain, q0 + dq)

@@ -110,7 +110,7 @@ def rotation_from_vector(w: np.ndarray) -> np.ndarray:
     ang = float(np.linalg.norm(w))
     if ang < 1e-15:
         return np.eye(3)
-    from pipeline.studies.erthal1992.model import axis_angle_matrix
+    from pipeline.kinematics.zero_position import axis_angle_matrix
 
     return axis_angle_matrix(ang, w / ang)
 

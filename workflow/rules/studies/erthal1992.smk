@@ -1,21 +1,26 @@
-# Study erthal1992 (001_7601717b50b5e768.txt): catalogue conversions, IK tests, path tasks and the
-# analytic PUMA, each one CLI verb writing an MCAP archive under results/erthal1992/runs/.
+# Study erthal1992 (001_7601717b50b5e768.txt) beyond the generic solve jobs (Tests 1, 2, 3, 5, 6, the
+# SCARA paths and the analytic PUMA are problem sets solved by the registered solvers): the catalogue
+# conversions and the RES files of the path tasks, written from their solve archives (no solving).
+# Problem sets listed in study_settings/full_only_problem_sets run only at scale=full.
 if "erthal1992" in STUDIES:
     _ER = STUDIES["erthal1992"]
     _ER_SET = _ER.settings
     _ER_RUNS = f"{RESULTS}/erthal1992/runs"
+    _ER_PATHS = f"{RESULTS}/erthal1992/paths"
     _ER_FILE = f"{DATA}/studies/erthal1992.yaml"
+    _ER_FULL_ONLY = set(_ER_SET.get("full_only_problem_sets", []))
+
+    def _er_kept(pset):
+        return SCALE == "full" or pset not in _ER_FULL_ONLY
 
     STUDY_ARCHIVES["erthal1992"] = (
-        [f"{_ER_RUNS}/catalogue.mcap", f"{_ER_RUNS}/puma_analytic.mcap"]
-        + [f"{_ER_RUNS}/{t}.mcap" for t in _ER_SET["tests"]]
-        + [f"{_ER_RUNS}/path_{r}.mcap" for r, spec in _ER_SET["paths"].items()
-           if SCALE == "full" or not spec.get("full_only", False)]
+        [f"{_ER_RUNS}/{p}/{r}__{s}.mcap" for p, r, s in _ER.jobs() if _er_kept(p)]
+        + [f"{_ER_RUNS}/catalogue.mcap"]
+        + [f"{_ER_PATHS}/{p}__{r}.mcap" for p in _ER_SET["paths"] if _er_kept(p) for r in _ER.set_robots(p)]
     )
 
     wildcard_constraints:
-        er_test="|".join(_ER_SET["tests"]),
-        er_run="|".join(_ER_SET["paths"]),
+        er_path="|".join(_ER_SET["paths"]),
 
     rule erthal_catalogue:
         input:
@@ -33,55 +38,19 @@ if "erthal1992" in STUDIES:
             "python -m pipeline erthal_catalogue --study {params.settings} --data {DATA}"
             " --out {output.archive} --report-dir {output.reports} > {log} 2>&1"
 
-    rule erthal_solve_test:
+    rule erthal_path_rows:
         input:
-            robot=lambda w: f"{DATA}/robots/{_ER_SET['tests'][w.er_test]['robot']}.yaml",
-            bases=f"{DATA}/erthal1992/robot_bases.yaml",
+            archive=lambda w: f"{_ER_RUNS}/{w.er_path}/{w.robot}__{_ER_SET['paths'][w.er_path]['solver']}.mcap",
+            task=lambda w: f"{DATA}/erthal1992/{_ER.problem_sets[w.er_path]['params']['task']}",
+            robot=f"{DATA}/robots/{{robot}}.yaml",
         output:
-            f"{_ER_RUNS}/{{er_test}}.mcap",
+            rows=f"{_ER_PATHS}/{{er_path}}__{{robot}}.mcap",
+            res=f"{_ER_PATHS}/{{er_path}}__{{robot}}.RES",
         params:
             settings=_ER_FILE,
-            block=lambda w: _ER_SET["tests"][w.er_test],
+            spec=lambda w: [_ER.problem_sets[w.er_path], _ER_SET["paths"][w.er_path]],
         log:
-            f"{RESULTS}/erthal1992/logs/erthal_solve_test__{{er_test}}.log",
-        benchmark:
-            f"{RESULTS}/erthal1992/benchmarks/erthal_solve_test__{{er_test}}.tsv"
+            f"{RESULTS}/erthal1992/logs/erthal_path_rows__{{er_path}}__{{robot}}.log",
         shell:
-            "{ENV} python -m pipeline erthal_solve_test --study {params.settings} --data {DATA}"
-            " --test {wildcards.er_test} --out {output} > {log} 2>&1"
-
-    rule erthal_solve_path:
-        input:
-            task=lambda w: f"{DATA}/erthal1992/{_ER_SET['paths'][w.er_run]['task']}",
-            robots=[f"{DATA}/robots/{r}.yaml" for r in _ER.doc["robots"]],
-            bases=f"{DATA}/erthal1992/robot_bases.yaml",
-        output:
-            archive=f"{_ER_RUNS}/path_{{er_run}}.mcap",
-            res=f"{_ER_RUNS}/{{er_run}}.RES",
-        params:
-            settings=_ER_FILE,
-            block=lambda w: _ER_SET["paths"][w.er_run],
-        log:
-            f"{RESULTS}/erthal1992/logs/erthal_solve_path__{{er_run}}.log",
-        benchmark:
-            f"{RESULTS}/erthal1992/benchmarks/erthal_solve_path__{{er_run}}.tsv"
-        shell:
-            "{ENV} python -m pipeline erthal_solve_path --study {params.settings} --data {DATA}"
-            " --run {wildcards.er_run} --out {output.archive} --res {output.res} > {log} 2>&1"
-
-    rule erthal_puma_analytic:
-        input:
-            robot=f"{DATA}/robots/puma560.yaml",
-        output:
-            f"{_ER_RUNS}/puma_analytic.mcap",
-        params:
-            settings=_ER_FILE,
-            block=_ER_SET["puma_analytic"],
-            scale=SCALE,
-        log:
-            f"{RESULTS}/erthal1992/logs/erthal_puma_analytic.log",
-        benchmark:
-            f"{RESULTS}/erthal1992/benchmarks/erthal_puma_analytic.tsv"
-        shell:
-            "{ENV} python -m pipeline erthal_puma_analytic --study {params.settings} --data {DATA}"
-            " --scale {params.scale} --out {output} > {log} 2>&1"
+            "python -m pipeline erthal_path_rows --study {params.settings} --data {DATA} --problem-set {wildcards.er_path}"
+            " --robot {wildcards.robot} --archive {input.archive} --out {output.rows} --res {output.res} > {log} 2>&1"
