@@ -46,36 +46,49 @@ def now_ns(buf):
 
 
 @numba.njit(cache=True)
+def link_transform(a, alpha, d, offs, prism, modified, q, i, L):
+    """Rows 0-2 of joint ``i``'s link transform into ``L`` (4, 4); returns (cos alpha_i, sin alpha_i).
+
+    Standard DH: Rz(theta) Tz(d) Tx(a) Rx(alpha); modified DH: Rx(alpha) Tx(a) Rz(theta) Tz(d), with
+    ``q[i]`` added to theta (revolute) or d (prismatic). Row 3 is left to the caller (0 0 0 1).
+    """
+    th = offs[i]
+    di = d[i]
+    if prism[i]:
+        di += q[i]
+    else:
+        th += q[i]
+    ct, st = np.cos(th), np.sin(th)
+    ca, sa = np.cos(alpha[i]), np.sin(alpha[i])
+    if modified:
+        L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st, 0.0, a[i]
+        L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st * ca, ct * ca, -sa, -sa * di
+        L[2, 0], L[2, 1], L[2, 2], L[2, 3] = st * sa, ct * sa, ca, ca * di
+    else:
+        L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st * ca, st * sa, a[i] * ct
+        L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st, ct * ca, -ct * sa, a[i] * st
+        L[2, 0], L[2, 1], L[2, 2], L[2, 3] = 0.0, sa, ca, di
+    return ca, sa
+
+
+@numba.njit(cache=True)
 def forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T):
     """Tool pose into ``T`` (4, 4); joint axes/origins into ``axes``/``origins`` (n, 3)."""
     n = q.shape[0]
     C = base.copy()
     L = np.empty((4, 4))
+    L[3, 0], L[3, 1], L[3, 2], L[3, 3] = 0.0, 0.0, 0.0, 1.0
     for i in range(n):
-        th = offs[i]
-        di = d[i]
-        if prism[i]:
-            di += q[i]
-        else:
-            th += q[i]
-        ct, st = np.cos(th), np.sin(th)
-        ca, sa = np.cos(alpha[i]), np.sin(alpha[i])
+        ca, sa = link_transform(a, alpha, d, offs, prism, modified, q, i, L)
         if modified:
             # pre-transform Rx(alpha) Tx(a): the joint axis is z of C @ pre
-            L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st, 0.0, a[i]
-            L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st * ca, ct * ca, -sa, -sa * di
-            L[2, 0], L[2, 1], L[2, 2], L[2, 3] = st * sa, ct * sa, ca, ca * di
             for r in range(3):
                 axes[i, r] = C[r, 1] * (-sa) + C[r, 2] * ca
                 origins[i, r] = C[r, 0] * a[i] + C[r, 3]
         else:
-            L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st * ca, st * sa, a[i] * ct
-            L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st, ct * ca, -ct * sa, a[i] * st
-            L[2, 0], L[2, 1], L[2, 2], L[2, 3] = 0.0, sa, ca, di
             for r in range(3):
                 axes[i, r] = C[r, 2]
                 origins[i, r] = C[r, 3]
-        L[3, 0], L[3, 1], L[3, 2], L[3, 3] = 0.0, 0.0, 0.0, 1.0
         C = C @ L
     R = C @ tool
     for r in range(4):
@@ -214,7 +227,6 @@ def small_svd(J):
     return Wo, S, Ua.T.copy()  # J^T W = Ua S  ->  J = W S Ua^T
 
 
-
 @numba.njit(cache=True)
 def forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T):
     """Tool pose only, into ``T`` (4, 4) (no axes: cheaper for derivative-free methods).
@@ -230,22 +242,7 @@ def forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T):
     n = q.shape[0]
     for i in range(n + 1):
         if i < n:
-            th = offs[i]
-            di = d[i]
-            if prism[i]:
-                di += q[i]
-            else:
-                th += q[i]
-            ct, st = np.cos(th), np.sin(th)
-            ca, sa = np.cos(alpha[i]), np.sin(alpha[i])
-            if modified:
-                L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st, 0.0, a[i]
-                L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st * ca, ct * ca, -sa, -sa * di
-                L[2, 0], L[2, 1], L[2, 2], L[2, 3] = st * sa, ct * sa, ca, ca * di
-            else:
-                L[0, 0], L[0, 1], L[0, 2], L[0, 3] = ct, -st * ca, st * sa, a[i] * ct
-                L[1, 0], L[1, 1], L[1, 2], L[1, 3] = st, ct * ca, -ct * sa, a[i] * st
-                L[2, 0], L[2, 1], L[2, 2], L[2, 3] = 0.0, sa, ca, di
+            link_transform(a, alpha, d, offs, prism, modified, q, i, L)
         else:
             for r in range(3):
                 for c in range(4):
