@@ -6,6 +6,7 @@ check_inputs      validate config, study settings and robot files (one line per 
 make_problems     write a study's seeded problem set for one robot
 solve_problems    solve every problem of a set with one registered solver, write an MCAP archive
 solvers           list the registered IK solvers, their settings, defaults and units
+new_study         write a study YAML that runs registered solvers on your robots
 rerun_failures    rerun one archive's failed problems with changed stop rules (Table 16 of 000)
 aggregate_tables  compute a study's tables from its archives, beside the published values
 plot_figures      render a study's figures from its archives
@@ -184,6 +185,60 @@ def cmd_rerun_failures(args) -> None:
         "rerun_of": Path(args.archive).name, "rerun_of_settings_hash": original.metadata["settings_hash"]})
 
 
+def cmd_new_study(args) -> None:
+    """Write ``data/studies/<id>.yaml``: a warm-start problem set on the given robots and solvers."""
+    from pipeline.robots import load_robot
+    from pipeline.settings import ConfigError, load_study
+    from pipeline.solvers import NotApplicableError, get, make_settings, names, prepare
+
+    if not args.id.replace("_", "a").isalnum() or not args.id.islower() or "__" in args.id:
+        raise CLIError(f"study id {args.id!r}: use lowercase letters, digits and single underscores")
+    out = Path(args.data) / "studies" / f"{args.id}.yaml"
+    if out.exists() and not args.force:
+        raise CLIError(f"{out}: exists (use --force to overwrite)")
+    models = [load_robot(Path(args.data) / "robots" / f"{r}.yaml") for r in args.robots]
+    wanted = args.solvers or names()
+    for name in wanted:
+        get(name)
+    solvers, skipped = [], []
+    for name in wanted:
+        fits = []
+        for m in models:
+            try:
+                prepare(name, m, make_settings(name))
+                fits.append(m.name)
+            except NotApplicableError as exc:
+                skipped.append(str(exc))
+        if len(fits) == len(models):
+            solvers.append(name)
+    if not solvers:
+        raise CLIError("no solver applies to every robot given: " + "; ".join(skipped[:3]))
+    lines = [
+        f"# Written by `python -m pipeline new_study {args.id}`; edit freely (schema: workflow/schemas/study.schema.yaml).",
+        "# Settings of each solver: `python -m pipeline solvers NAME` (SI units; registry defaults where not written).",
+        f"study: {args.id}",
+        f"title: {json.dumps(args.title or 'IK methods on ' + ', '.join(args.robots))}",
+        "document: \"none\"",
+        f"robots: [{', '.join(args.robots)}]",
+        "problem_sets:",
+        "  warm:  # goals within the joint limits, starts within `spread` rad of the goal angles",
+        f"    kind: warm_start\n    seed: {args.seed}\n    count: {{full: {args.count}, quick: 20}}\n    params: {{spread: {args.spread}}}",
+        "solvers:",
+        *[f"  {n}: {{method: {n}}}" for n in solvers],
+        "interpretations: []",
+    ]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text("\n".join(lines) + "\n")
+    try:
+        load_study(out)
+    except ConfigError:
+        out.unlink()
+        raise
+    for why in skipped:
+        print(f"skipped: {why}")
+    print(f"wrote {out} ({len(solvers)} solvers); build it with: snakemake --cores 2 --config studies='[{args.id}]'")
+
+
 def cmd_solvers(args) -> None:
     """Print every registered solver with its settings, defaults and units (or one, or as JSON)."""
     from pipeline.solvers import catalogue, get
@@ -292,6 +347,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scale", choices=["full", "quick"], default="full")
     p.add_argument("--out", required=True)
     p.set_defaults(func=cmd_rerun_failures)
+
+    p = sub.add_parser("new_study", help="write a study YAML running registered solvers on your robots")
+    p.add_argument("id", help="study id (file data/studies/<id>.yaml)")
+    p.add_argument("--robots", nargs="+", required=True, help="robot ids (data/robots/<id>.yaml)")
+    p.add_argument("--solvers", nargs="*", help="registered solver names (default: every one that applies)")
+    p.add_argument("--count", type=int, default=500, help="problems per robot at full scale (default 500)")
+    p.add_argument("--spread", type=float, default=0.3, help="start-angle noise around the goal angles [rad]")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--title", default="")
+    p.add_argument("--data", default="data", help="data folder")
+    p.add_argument("--force", action="store_true", help="overwrite an existing study file")
+    p.set_defaults(func=cmd_new_study)
 
     p = sub.add_parser("solvers", help="list the registered IK solvers with their settings and defaults")
     p.add_argument("name", nargs="?", help="show one solver")

@@ -102,3 +102,20 @@ def test_bad_solver_entries_name_the_field(tmp_path, bad, field):
     with pytest.raises(ConfigError if "method" in field else Exception) as exc:
         check_inputs(config, root=ROOT)
     assert field in str(exc.value) and "mine.yaml" in str(exc.value)
+
+
+def test_new_study_refuses_bad_ids_and_robots_no_solver_fits(tmp_path, capsys):
+    import shutil
+
+    from pipeline.cli import main
+
+    (tmp_path / "robots").mkdir()
+    shutil.copy(DATA / "robots" / "kuka_lwr.yaml", tmp_path / "robots")
+    assert main(["new_study", "Bad-Id", "--robots", "kuka_lwr", "--data", str(tmp_path)]) == 2
+    assert main(["new_study", "lwr", "--robots", "kuka_lwr", "--data", str(tmp_path), "--solvers", "analytic_ur"]) == 2
+    err = capsys.readouterr().err
+    assert "study id 'Bad-Id'" in err and "no solver applies" in err and "analytic_ur" in err
+    assert not (tmp_path / "studies" / "lwr.yaml").exists()
+    assert main(["new_study", "lwr", "--robots", "kuka_lwr", "--data", str(tmp_path)]) == 0
+    st = load_study(tmp_path / "studies" / "lwr.yaml")
+    assert "analytic_ur" not in st.solvers and "dls" in st.solvers and st.count("warm", "full") == 500

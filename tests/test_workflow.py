@@ -14,11 +14,13 @@ from tests.conftest import ROOT
 pytestmark = pytest.mark.workflow
 
 
-def _snakemake(results, *args, check=True, scale="quick"):
+def _snakemake(results, *args, check=True, scale="quick", config=()):
+    """Run snakemake on the repository's workflow; ``config``: more KEY=VALUE entries (one --config flag,
+    since a second one would replace the first)."""
     env = dict(os.environ)
     env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")
-    cmd = [sys.executable, "-m", "snakemake", "--cores", "2", "--nolock",
-           "--config", f"scale={scale}", f"results_dir={results}", *args]
+    cmd = [sys.executable, "-m", "snakemake", "--cores", "2", "--nolock", *args,
+           "--config", f"scale={scale}", f"results_dir={results}", *config]
     proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=1800)
     if check and proc.returncode != 0:
         raise AssertionError(f"snakemake failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
@@ -92,3 +94,31 @@ def test_bad_config_fails_before_any_job(tmp_path):
     proc = _snakemake(tmp_path / "r", "-n", check=False, scale="huge")
     assert proc.returncode != 0
     assert "field 'scale'" in proc.stderr + proc.stdout
+
+
+def test_a_new_robot_and_a_new_study_build_end_to_end(tmp_path):
+    """What the README promises: copy a robot file, `new_study`, snakemake -- nothing else."""
+    import shutil
+
+    import pandas as pd
+    import yaml
+
+    from pipeline.cli import main
+
+    data = tmp_path / "data"
+    shutil.copytree(ROOT / "data" / "robots", data / "robots")
+    shutil.copytree(ROOT / "data" / "published", data / "published")
+    doc = yaml.safe_load((data / "robots" / "ur5e.yaml").read_text())
+    doc["name"] = "my_arm"
+    doc["tool"] = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.1], [0, 0, 0, 1]]  # a 10 cm tool
+    (data / "robots" / "my_arm.yaml").write_text(yaml.safe_dump(doc))
+    assert main(["new_study", "my_arm", "--robots", "my_arm", "--data", str(data), "--solvers", "dls",
+                 "levenberg_marquardt", "analytic_ur", "analytic_puma"]) == 0
+    st = yaml.safe_load((data / "studies" / "my_arm.yaml").read_text())
+    assert set(st["solvers"]) == {"dls", "levenberg_marquardt", "analytic_ur"}  # PUMA closed form refused
+    results = tmp_path / "r"
+    _snakemake(results, config=(f"data_dir={data}", "studies=[my_arm]"))
+    summary = pd.read_csv(results / "my_arm" / "tables" / "summary.csv")
+    assert list(summary["solver"]) == ["dls", "levenberg_marquardt", "analytic_ur"]
+    assert (summary["success [%]"] > 90).all()
+    assert (results / "report.html").is_file()
