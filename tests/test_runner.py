@@ -119,3 +119,12 @@ def test_new_study_refuses_bad_ids_and_robots_no_solver_fits(tmp_path, capsys):
     assert main(["new_study", "lwr", "--robots", "kuka_lwr", "--data", str(tmp_path)]) == 0
     st = load_study(tmp_path / "studies" / "lwr.yaml")
     assert "analytic_ur" not in st.solvers and "dls" in st.solvers and st.count("warm", "full") == 500
+
+
+def test_the_workflow_imports_no_study_code_and_globs_no_data():
+    files = [ROOT / "Snakefile", *sorted((ROOT / "workflow" / "rules").rglob("*.smk"))]
+    for f in files:
+        text = f.read_text()
+        assert "pipeline.studies" not in text, f
+        assert "DATA, \"robots\").glob" not in text and "glob(" not in text.replace(
+            'Path(workflow.basedir, "workflow/rules/studies").glob("*.smk")', ""), f
