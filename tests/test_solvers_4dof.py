@@ -8,6 +8,8 @@ import math
 from pathlib import Path
 
 import numpy as np
+
+from tests.conftest import random_transform as _rigid
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -25,17 +27,6 @@ ROT_TOL = 1e-7   # rad; near-stretched arms lose ~sqrt(eps) in theta3 (beta clos
 angles = st.floats(-math.pi, math.pi, allow_nan=False)
 
 
-def _rigid(rng: np.random.Generator, scale: float) -> np.ndarray:
-    """A random rigid transform (rotation from a random unit quaternion, translation ~ scale)."""
-    w, x, y, z = rng.normal(size=4) / 1.0
-    n = math.sqrt(w * w + x * x + y * y + z * z)
-    w, x, y, z = w / n, x / n, y / n, z / n
-    T = np.eye(4)
-    T[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                 [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                 [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
-    T[:3, 3] = rng.uniform(-scale, scale, 3)
-    return T
 
 
 def family_member(seed: int) -> RobotModel:

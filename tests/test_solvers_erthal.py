@@ -10,6 +10,8 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+
+from tests.conftest import random_transform as _rigid
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -35,15 +37,6 @@ ZP_WARM_RATE = 0.95   # ZP's measured default rate is ~0.98-0.99: linear converg
 ITERATIVE = ("zero_position", "newton_raphson", "geometric_iterative")
 
 
-def _rigid(rng: np.random.Generator, scale: float) -> np.ndarray:
-    q = rng.normal(size=4)
-    w, x, y, z = q / np.linalg.norm(q)
-    T = np.eye(4)
-    T[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                 [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                 [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
-    T[:3, 3] = rng.uniform(-scale, scale, 3)
-    return T
 
 
 def random_robot(seed: int) -> RobotModel:
