@@ -40,13 +40,23 @@ class JacobianSettings(Settings):
 
 
 @dataclass(frozen=True)
-class DLSSettings(JacobianSettings):
+class NewtonSettings(JacobianSettings):
+    """Pseudoinverse, DLS and SDLS: the rotation vector by default (a full Newton step on orientation;
+    000's vec(q_goal q*) halves it, so they converge linearly: 9 iterations instead of 3 at the median
+    of 500 warm starts, and 97.8 % instead of 99.6 % for the pseudoinverse on the UR5)."""
+
+    orientation_error: str = setting("axis_angle", "angular half of the error 6-vector: the rotation vector, or "
+                                     "orientation_gain * vec(q_goal q*) (000's choice)", choices=("quat_vec", "axis_angle"))
+
+
+@dataclass(frozen=True)
+class DLSSettings(NewtonSettings):
     damping: float = setting(0.01, "damping lambda of J^T (J J^T + lambda^2 I)^-1 (in the units of J: "
                              "length_unit and rad; 000 uses 0.1)", minimum=0.0)
 
 
 @dataclass(frozen=True)
-class SDLSSettings(JacobianSettings):
+class SDLSSettings(NewtonSettings):
     gamma_max: float = setting(3 * math.pi / 2, "maximum joint step", unit="rad", above=0.0)
     sdls_norm: str = setting("maxabs", "norm of the SDLS clamps (Buss's code: maxabs; 000 §3 text: one)",
                              choices=("maxabs", "one", "two"))
@@ -98,7 +108,7 @@ def _runner(method: str):
 
 for _name, _title, _cls in (
     ("jacobian_transpose", "Jacobian transpose with the adaptive step of eq. 48", JacobianSettings),
-    ("pseudoinverse", "Jacobian pseudoinverse J^T (J J^T)^-1 e (eq. 49; SVD pseudoinverse when singular)", JacobianSettings),
+    ("pseudoinverse", "Jacobian pseudoinverse J^T (J J^T)^-1 e (eq. 49; SVD pseudoinverse when singular)", NewtonSettings),
     ("dls", "damped least squares J^T (J J^T + lambda^2 I)^-1 e (eq. 50)", DLSSettings),
     ("sdls", "selectively damped least squares (Buss & Kim 2004; eqs. 56-61)", SDLSSettings),
 ):
