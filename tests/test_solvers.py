@@ -211,3 +211,21 @@ def test_results_carry_both_times_and_limits(lwr):
     res = solve("dls", lwr, fk_htm(lwr.chain, qg), qg + 0.1)
     assert 0 < res.solve_time_s <= res.call_time_s
     assert res.within_limits and res.success
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 8), conv=st.sampled_from(["standard", "modified"]))
+def test_batch_chain_kernels_match_numpy(seed, n, conv):
+    """The HTM and dual-quaternion batch FK of the host timing (003) against the numpy reference."""
+    from pipeline.solvers import _kin
+    from tests.conftest import random_chain
+
+    rng = np.random.default_rng(seed)
+    c = random_chain(rng, n, conv, with_base_tool=False)
+    Q = rng.uniform(-np.pi, np.pi, (20, n))
+    ref = fk_htm(c, Q)[:, :3, 3]
+    for kern in (_kin.fk_htm_batch, _kin.fk_dq_batch):
+        out = np.empty((20, 3))
+        kern(np.array(c.a), np.array(c.alpha), np.array(c.d), np.array(c.theta_offset), np.array(c.prismatic),
+             c.modified, Q, out)
+        np.testing.assert_allclose(out, ref, atol=1e-9)

@@ -47,9 +47,9 @@ def _block(impl: str, algebra: str, chain, Q: np.ndarray, calls: int):
         fn = fk_htm if algebra == "htm" else fk_dq
         return (lambda: fn(chain, Q)), Q.shape[0]
     if impl == "numba":
-        from pipeline.studies.mariano2019 import _jit
+        from pipeline.solvers import _kin
 
-        kern = _jit.fk_htm_batch if algebra == "htm" else _jit.fk_dq_batch
+        kern = _kin.fk_htm_batch if algebra == "htm" else _kin.fk_dq_batch
         out = np.empty((Q.shape[0], 3))
         args = (np.asarray(chain.a), np.asarray(chain.alpha), np.asarray(chain.d), np.asarray(chain.theta_offset),
                 np.asarray(chain.prismatic), chain.modified, np.ascontiguousarray(Q), out)
