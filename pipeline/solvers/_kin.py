@@ -278,6 +278,27 @@ def rotation_angle(Ta, Tb):
 
 
 @numba.njit(cache=True)
+def meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
+    """The success test of :func:`pipeline.solvers.base.meets` on a compiled pose ``T`` (4, 4).
+
+    ``crit`` is ``base.CRITERION_CODE[criterion]``: 0 pos_orient, 1 position, 2 dq_norm, 3 dq_norm_body;
+    tolerances in the working unit, with the same slack as the independent FK check.
+    """
+    dp = position_distance(Tg, T)
+    if not np.isfinite(dp):
+        return False
+    if crit == 1:
+        return dp <= tol_pos * (1 + 1e-9)
+    if crit == 3:
+        return np.sqrt(1 + dp * dp / 4) <= tol_dq * (1 + 1e-12)
+    if crit == 2:
+        t = relative_translation_norm(Tg, T)
+        return np.sqrt(1 + t * t / 4) <= tol_dq * (1 + 1e-12)
+    ang = rotation_angle(Tg, T)
+    return np.isfinite(ang) and dp <= tol_pos * (1 + 1e-9) and ang <= tol_rot * (1 + 1e-9)
+
+
+@numba.njit(cache=True)
 def position_distance(Ta, Tb):
     """|p_a - p_b| of two poses (4, 4)."""
     x = Ta[0, 3] - Tb[0, 3]

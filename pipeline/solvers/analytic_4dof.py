@@ -39,14 +39,13 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
-from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, StopReason, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "003_8b306f4736fa5051.txt (Mariano & Lima 2019) eqs. 29-32, derived from the DH chain"
 ANGLE_TOL = 1e-9   # alpha within this of its required value [rad]
 LENGTH_TOL = 1e-12  # a2, a3 must exceed this relative to the chain's size
 MAX_CAND = 6       # 1 orientation + 2 position branches of theta1, times 2 elbows
-_CRIT = {"pos_orient": 0, "position": 1, "dq_norm": 2, "dq_norm_body": 3}
 ELBOWS = ("both", "positive", "negative")
 
 
@@ -130,25 +129,6 @@ def _wrap(x):
 
 
 @numba.njit(cache=True)
-def _valid(T_goal, T, crit, tol_pos, tol_rot, tol_dq):
-    """The success test of :func:`pipeline.solvers.base.meets` on compiled FK."""
-    dp = _kin.position_distance(T_goal, T)
-    if not math.isfinite(dp):
-        return False
-    if crit == 1:
-        return dp <= tol_pos * (1 + 1e-9)
-    if crit == 3:
-        return math.sqrt(1 + dp * dp / 4) <= tol_dq * (1 + 1e-12)
-    ang = _kin.rotation_angle(T_goal, T)
-    if not math.isfinite(ang):
-        return False
-    if crit == 2:
-        t = _kin.relative_translation_norm(T_goal, T)
-        return math.sqrt(1 + t * t / 4) <= tol_dq * (1 + 1e-12)
-    return dp <= tol_pos * (1 + 1e-9) and ang <= tol_rot * (1 + 1e-9)
-
-
-@numba.njit(cache=True)
 def solve_kernel(a, alpha, d, offs, prism, modified, base, tool, Tb, T_goal, q_start, g, crit, tol_pos, tol_rot,
                  tol_dq, reach_tol, elbow, dedupe_tol, sols, info):
     """Every FK-valid closed-form solution of ``Tb`` (the bare goal) into ``sols`` (MAX_CAND, 4).
@@ -206,7 +186,7 @@ def solve_kernel(a, alpha, d, offs, prism, modified, base, tool, Tb, T_goal, q_s
             for j in range(4):   # joint value nearest the start (revolute: 2 pi periodic)
                 q[j] = q_start[j] + _wrap(q[j] - offs[j] - q_start[j])
             _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T)
-            if not _valid(T_goal, T, crit, tol_pos, tol_rot, tol_dq):
+            if not _kin.meets(crit, T_goal, T, tol_pos, tol_rot, tol_dq):
                 continue
             dup = False
             for m in range(nsol):
@@ -251,7 +231,7 @@ def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Analytic4Dof
     q0 = np.where(np.isfinite(q_start), q_start, 0.0)
     sols = np.zeros((MAX_CAND, 4))
     info = np.zeros(1, np.int64)
-    nsol, best, ns = solve_kernel(*prep.args, Tb, np.ascontiguousarray(T_goal), q0, geo.g, _CRIT[s.criterion],
+    nsol, best, ns = solve_kernel(*prep.args, Tb, np.ascontiguousarray(T_goal), q0, geo.g, CRITERION_CODE[s.criterion],
                                   s.tol_pos, s.tol_rot, s.tol_dq, s.reach_tol, ELBOWS.index(s.elbow), s.dedupe_tol,
                                   sols, info)
     if best >= 0:

@@ -72,6 +72,8 @@ _STOP_TEXT = {
 STOP_REASONS = {int(r): r.text for r in StopReason}
 
 CRITERIA = ("pos_orient", "position", "dq_norm", "dq_norm_body")
+CRITERION_CODE = {c: i for i, c in enumerate(CRITERIA)}  # what compiled kernels take (pipeline.solvers._kin.meets)
+POSITION_CRITERIA = ("position", "dq_norm_body")  # success tests that ignore the goal orientation
 TRACE_COLS = 8  # per iterate: the method's scalar error, e = (v, omega) (6), |dp| [length_unit]
 
 

@@ -39,7 +39,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
-from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, setting
+from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, StopReason, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.4, eqs. 4-6"
@@ -47,7 +47,6 @@ TRACE_COLS = 8
 
 ROWS_POSITION, ROWS_HOLD, ROWS_POSE = 0, 1, 2
 STOP_REACH, STOP_CHANGE = 0, 1
-POSITION_CRITERIA = ("position", "dq_norm_body")
 
 _SUCCESS, _STALLED, _CAP, _NON_FINITE = (int(StopReason.SUCCESS), int(StopReason.STALLED),
                                          int(StopReason.ITERATION_CAP), int(StopReason.NON_FINITE))

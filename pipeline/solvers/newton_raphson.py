@@ -25,7 +25,7 @@ import numpy as np
 
 from pipeline.solvers import _kin
 from pipeline.solvers._jit import pose_error
-from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, StopReason, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) eqs 4.10-4.13 (Newton-Raphson, Whitney step control)"
@@ -39,7 +39,6 @@ _NON_FINITE = int(StopReason.NON_FINITE)
 
 I_MAX_ITER, I_HALVINGS, I_STALL, I_STOP, I_CRIT = range(5)
 F_EPS, F_TOL_POS, F_TOL_ROT, F_TOL_DQ, F_INV_L, F_RCOND = range(6)
-_CRIT = {"dq_norm": 0, "pos_orient": 1, "dq_norm_body": 2, "position": 3}
 
 
 @dataclass(frozen=True)
@@ -69,7 +68,7 @@ def packed(s: NewtonRaphsonSettings) -> tuple[np.ndarray, np.ndarray]:
     ip[I_HALVINGS] = s.step_halvings
     ip[I_STALL] = int(s.stall)
     ip[I_STOP] = STOP_TESTS.index(s.stop_test)
-    ip[I_CRIT] = _CRIT[s.criterion]
+    ip[I_CRIT] = CRITERION_CODE[s.criterion]
     fp[F_EPS] = s.epsilon
     fp[F_TOL_POS] = s.tol_pos
     fp[F_TOL_ROT] = s.tol_rot
@@ -83,25 +82,13 @@ def packed(s: NewtonRaphsonSettings) -> tuple[np.ndarray, np.ndarray]:
 def _error(Tg, T, pip, pfp, qa, qb, e, inv_l, crit):
     """e = ((p_goal - p) / L, angle axis) (orientation zeroed for position-only goals); returns (|e|, |dp|, angle)."""
     err, dp, ang = pose_error(Tg, T, pip, pfp, qa, qb, e)
-    if crit == 3:
+    if crit == 1:  # position
         e[3], e[4], e[5] = 0.0, 0.0, 0.0
-    if inv_l != 1.0 or crit == 3:
+    if inv_l != 1.0 or crit == 1:
         for r in range(3):
             e[r] *= inv_l
         err = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
     return err, dp, ang
-
-
-@numba.njit(cache=True)
-def _met(crit, Tg, T, dp, ang, tol_pos, tol_rot, tol_dq):
-    if crit == 3:
-        return dp <= tol_pos
-    if crit == 1:
-        return dp <= tol_pos and ang <= tol_rot
-    if crit == 0:
-        t = _kin.relative_translation_norm(Tg, T)
-        return np.sqrt(1.0 + 0.25 * t * t) <= tol_dq
-    return np.sqrt(1.0 + 0.25 * dp * dp) <= tol_dq
 
 
 @numba.njit(cache=True)
@@ -142,7 +129,7 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
     halved = 0
     if not np.isfinite(err):
         code = _NON_FINITE
-    elif (err < eps) if norm_stop else _met(crit, Tg, T, dp, ang, tol_pos, tol_rot, tol_dq):
+    elif (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
         code = _SUCCESS
     while code == 0:
         it += 1
@@ -153,7 +140,7 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
             for r in range(3):
                 for c in range(n):
                     J[r, c] *= inv_l
-        if crit == 3:
+        if crit == 1:  # position: no orientation rows
             for r in range(3, 6):
                 for c in range(n):
                     J[r, c] = 0.0
@@ -186,7 +173,7 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
         trace[it, 7] = dp
         if not np.isfinite(err):
             code = _NON_FINITE
-        elif (err < eps) if norm_stop else _met(crit, Tg, T, dp, ang, tol_pos, tol_rot, tol_dq):
+        elif (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
             code = _SUCCESS
         elif not accepted and stall:
             code = _STALLED

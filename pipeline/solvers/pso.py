@@ -37,12 +37,11 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
-from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, StopReason, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.6, eqs. 9-11; Rookfighter/pso-cpp Optimizer::minimize"
 TRACE_COLS = 8
-POSITION_CRITERIA = ("position", "dq_norm_body")
 
 _SUCCESS, _STALLED, _CAP, _NON_FINITE = (int(StopReason.SUCCESS), int(StopReason.STALLED),
                                          int(StopReason.ITERATION_CAP), int(StopReason.NON_FINITE))

@@ -50,7 +50,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
-from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, setting
+from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, SettingsError, StopReason, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) Appendix 4 (Kazerounian's Zero-Position method), §6.2c strategies"
@@ -66,7 +66,6 @@ _NON_FINITE = int(StopReason.NON_FINITE)
 # kernel parameter slots
 I_MAX_ITER, I_STOP, I_CRIT, I_ORIENT = range(4)
 F_EPS, F_TOL_POS, F_TOL_ROT, F_TOL_DQ, F_INV_L2 = range(5)
-_CRIT = {"dq_norm": 0, "pos_orient": 1, "dq_norm_body": 2, "position": 3}
 
 
 def strategy_weights(strategy: int, prismatic: np.ndarray) -> np.ndarray:
@@ -138,7 +137,7 @@ def packed(s: ZeroPositionSettings, prismatic: np.ndarray) -> tuple[np.ndarray, 
     fp = np.zeros(5)
     ip[I_MAX_ITER] = s.max_iterations
     ip[I_STOP] = STOP_TESTS.index(s.stop_test)
-    ip[I_CRIT] = _CRIT[s.criterion]
+    ip[I_CRIT] = CRITERION_CODE[s.criterion]
     ip[I_ORIENT] = int(use_orient)
     fp[F_EPS] = s.epsilon
     fp[F_TOL_POS] = s.tol_pos
@@ -234,20 +233,6 @@ def step_revolute(M, dv, u, h, c, inv_l2):
 
 
 @numba.njit(cache=True)
-def _met(crit, Tg, T, dv, tol_pos, tol_rot, tol_dq):
-    """The FK check's success test (base.meets) on the kernel's pose."""
-    dp = np.sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2])
-    if crit == 3:
-        return dp <= tol_pos
-    if crit == 1:
-        return dp <= tol_pos and _kin.rotation_angle(Tg, T) <= tol_rot
-    if crit == 0:
-        t = _kin.relative_translation_norm(Tg, T)
-        return np.sqrt(1.0 + 0.25 * t * t) <= tol_dq
-    return np.sqrt(1.0 + 0.25 * dp * dp) <= tol_dq
-
-
-@numba.njit(cache=True)
 def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, fp, q, trace, times):
     """Zero-Position IK (Appendix 4, ``cin_inv_pz()`` Etapas 5-10); returns (stop code, sweeps, joint steps).
 
@@ -282,7 +267,7 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
     steps = 0
     if not np.isfinite(dR + dP):
         code = _NON_FINITE
-    elif (dR + dP < eps) if delta_stop else _met(crit, Tg, T, dv, tol_pos, tol_rot, tol_dq):
+    elif (dR + dP < eps) if delta_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
         code = _SUCCESS
     while code == 0:
         it += 1
@@ -310,7 +295,7 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
             if not np.isfinite(dR + dP):
                 code = _NON_FINITE
                 break
-            if (dR + dP < eps) if delta_stop else _met(crit, Tg, T, dv, tol_pos, tol_rot, tol_dq):
+            if (dR + dP < eps) if delta_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
                 code = _SUCCESS
                 break
         _trace_row(trace, it, dR, dP, M, dv)
