@@ -215,11 +215,7 @@ def solve_kernel(a, alpha, d, offs, prism, modified, base, tool, Tb, T_goal, q_s
 
 
 def _geometry_cached(prep: Prepared) -> Geometry:
-    key = ("analytic_4dof", "geometry")
-    geo = prep._cache.get(key)
-    if geo is None:
-        geo = prep._cache[key] = geometry(prep)
-    return geo
+    return prep.memo(("analytic_4dof", "geometry"), lambda: geometry(prep))
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Analytic4DofSettings, seed: int) -> Raw:

@@ -180,9 +180,7 @@ def timed_kernel(T06, g, a, alpha, d, offs, sols, flags, times):
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: AnalyticPumaSettings, seed: int) -> Raw:
-    g = prep._cache.get("analytic_puma_geometry")
-    if g is None:
-        g = prep._cache["analytic_puma_geometry"] = geometry(prep)
+    g = prep.memo("analytic_puma_geometry", lambda: geometry(prep))
     a, alpha, d, offs = prep.args[:4]
     T06 = np.ascontiguousarray(prep.bare_goal(T_goal))
     sols = np.empty((8, 6))

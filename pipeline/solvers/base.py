@@ -215,6 +215,9 @@ def _coerce(f, v, where: str):
 
 
 # ---- the robot, prepared once per job ---------------------------------------------------------
+_MISSING = object()
+
+
 class Prepared:
     """A robot converted to a working length unit and unpacked into the kernels' arrays.
 
@@ -244,11 +247,19 @@ class Prepared:
                      bool(c.modified), own(c.base), own(c.tool))
         self.limits = own(self.model.limits)
         self.prismatic = np.asarray(c.prismatic, dtype=bool)
-        self._cache: dict = {}  # per-method data derived once per job (e.g. an analytic solver's geometry)
+        self._cache: dict = {}  # see memo()
 
     @property
     def n(self) -> int:
         return self.model.n
+
+    def memo(self, key, make):
+        """Data derived once per job and robot (packed settings, an analytic solver's geometry...):
+        ``make()`` on the first call with ``key`` (hashable), the stored value afterwards."""
+        value = self._cache.get(key, _MISSING)
+        if value is _MISSING:
+            value = self._cache[key] = make()
+        return value
 
     def working_goal(self, T_goal: np.ndarray) -> np.ndarray:
         """``T_goal`` (4, 4) in the source model's unit -> the working unit (C-contiguous copy)."""

@@ -91,11 +91,7 @@ def packed(method: str, s: JacobianSettings) -> tuple[np.ndarray, np.ndarray]:
 
 def _runner(method: str):
     def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: JacobianSettings, seed: int) -> Raw:
-        key = ("jacobian_packed", method, s)
-        pk = prep._cache.get(key)
-        if pk is None:
-            pk = prep._cache[key] = packed(method, s)
-        ip, fp = pk
+        ip, fp = prep.memo(("jacobian_packed", method, s), lambda: packed(method, s))
         q = np.empty_like(q_start)
         trace = np.zeros((s.max_iterations + 1, _jit.TRACE_COLS))
         times = np.zeros(3, np.int64)

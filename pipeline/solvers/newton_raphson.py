@@ -185,11 +185,7 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: NewtonRaphsonSettings, seed: int) -> Raw:
-    key = ("newton_raphson_packed", s)
-    pk = prep._cache.get(key)
-    if pk is None:
-        pk = prep._cache[key] = packed(s)
-    ip, fp = pk
+    ip, fp = prep.memo(("newton_raphson_packed", s), lambda: packed(s))
     q = np.empty_like(q_start)
     trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
     times = np.zeros(2, np.int64)

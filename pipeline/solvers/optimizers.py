@@ -440,41 +440,40 @@ def _claim(prep: Prepared, T_goal: np.ndarray, q: np.ndarray, s: Settings) -> bo
 
 
 def _bounds(prep: Prepared, s: LBFGSBSettings):
-    key = ("lbfgsb_bounds", s.bounds)
-    if key in prep._cache:
-        return prep._cache[key]
+    return prep.memo(("lbfgsb_bounds", s.bounds), lambda: _make_bounds(prep, s))
+
+
+def _make_bounds(prep: Prepared, s: LBFGSBSettings):
     b = parse_bounds(s.bounds)
     if b == "none":
-        out = None
-    elif b == "limits":
+        return None
+    if b == "limits":
         lim = prep.limits
         out = [(float(lo) if math.isfinite(lo) else None, float(hi) if math.isfinite(hi) else None) for lo, hi in lim]
-        if all(lo is None and hi is None for lo, hi in out):
-            out = None
-    else:
-        if len(b) != prep.n:
-            raise SettingsError(f"solver settings: field 'bounds': {len(b)} pairs for a robot with {prep.n} joints")
-        f = prep.goal_scale
-        out = [(lo * f, hi * f) if prep.prismatic[i] else (lo, hi) for i, (lo, hi) in enumerate(b)]
-    prep._cache[key] = out
-    return out
+        return None if all(lo is None and hi is None for lo, hi in out) else out
+    if len(b) != prep.n:
+        raise SettingsError(f"solver settings: field 'bounds': {len(b)} pairs for a robot with {prep.n} joints")
+    f = prep.goal_scale
+    return [(lo * f, hi * f) if prep.prismatic[i] else (lo, hi) for i, (lo, hi) in enumerate(b)]
+
+
+def _jacobian_args(prep: Prepared, robot_file: str) -> tuple:
+    """Kernel arrays of the robot file whose Jacobian the descent uses (``jacobian_robot``)."""
+    from pipeline.robots import load_robot
+    from pipeline.settings import ROOT
+
+    path = Path(robot_file)
+    jm = load_robot(path if path.is_absolute() else ROOT / path)
+    if jm.n != prep.n:
+        raise SettingsError(f"solver settings: field 'jacobian_robot': {jm.n} joints, the robot has {prep.n}")
+    return Prepared(jm, prep.unit).args
 
 
 # ---- run functions ---------------------------------------------------------------------------
 
 def run_descent(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: DescentSettings, seed: int) -> Raw:
     if s.jacobian_robot:
-        key = ("jpinv_jacobian", s.jacobian_robot)
-        jargs = prep._cache.get(key)
-        if jargs is None:
-            from pipeline.robots import load_robot
-            from pipeline.settings import ROOT
-
-            path = Path(s.jacobian_robot)
-            jm = load_robot(path if path.is_absolute() else ROOT / path)
-            if jm.n != prep.n:
-                raise SettingsError(f"solver settings: field 'jacobian_robot': {jm.n} joints, the robot has {prep.n}")
-            jargs = prep._cache[key] = Prepared(jm, prep.unit).args
+        jargs = prep.memo(("jpinv_jacobian", s.jacobian_robot), lambda: _jacobian_args(prep, s.jacobian_robot))
         own = False
     else:
         jargs, own = prep.args, True

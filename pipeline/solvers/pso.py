@@ -220,10 +220,7 @@ def search_bounds(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray,
         _kin.forward_pose(*prep.args, np.ascontiguousarray(q_start, dtype=float), T0)
         use_window = _kin.position_distance(T0, T_goal) <= s.window_max_distance
     if not use_window:
-        key = ("pso_box",)
-        box = prep._cache.get(key)
-        if box is None:
-            box = prep._cache[key] = prep.search_box()
+        box = prep.memo(("pso_box",), prep.search_box)
         return np.ascontiguousarray(box[:, 0]), np.ascontiguousarray(box[:, 1]), False
     lim = prep.limits
     c = np.clip(q_start, lim[:, 0], lim[:, 1])

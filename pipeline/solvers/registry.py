@@ -51,10 +51,7 @@ class Solver:
         """Why this solver does not apply to the prepared robot, or None."""
         if self.applies_to is None:
             return None
-        key = ("applies", self.name)
-        if key not in prep._cache:
-            prep._cache[key] = self.applies_to(prep)
-        return prep._cache[key]
+        return prep.memo(("applies", self.name), lambda: self.applies_to(prep))
 
 
 _REGISTRY: dict[str, Solver] = {}
@@ -103,11 +100,7 @@ def prepare(name: str, robot: RobotModel | Prepared, settings: Settings) -> Prep
 
 
 def _converted(prep: Prepared, settings: Settings) -> Settings:
-    key = ("settings", settings)
-    conv = prep._cache.get(key)
-    if conv is None:
-        conv = prep._cache[key] = settings.converted()
-    return conv
+    return prep.memo(("settings", settings), settings.converted)
 
 
 def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: np.ndarray,

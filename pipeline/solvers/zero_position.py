@@ -307,11 +307,7 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: ZeroPositionSettings, seed: int) -> Raw:
-    key = ("zero_position_packed", s)
-    pk = prep._cache.get(key)
-    if pk is None:
-        pk = prep._cache[key] = packed(s, prep.prismatic)
-    c, ip, fp = pk
+    c, ip, fp = prep.memo(("zero_position_packed", s), lambda: packed(s, prep.prismatic))
     q = np.empty_like(q_start)
     trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
     times = np.zeros(2, np.int64)
