@@ -17,23 +17,19 @@ from pipeline.io.archive import Archive
 from pipeline.robots import LENGTH_UNITS
 from pipeline.solvers import STOP_REASONS
 from pipeline.studies import FigureSpec, TableSpec
+from pipeline.studies.common import solves_frame
 
 
 def runs_frame(archives: list[Archive]) -> pd.DataFrame:
-    """Every solve record with ``problem_set``, ``method`` and errors in mm (``position_error_mm``)."""
-    frames = []
-    for a in archives:
-        df = a.frame()
-        if df.empty:
-            continue
-        df["problem_set"] = a.metadata.get("problem_set", "")
-        df["method"] = a.metadata.get("method", df.get("method", ""))
-        unit = a.metadata.get("length_unit", "m")
-        df["position_error_mm"] = df["position_error"].astype(float) * LENGTH_UNITS.get(unit, 1.0) * 1e3
-        frames.append(df)
-    if not frames:
+    """Every solve record (:func:`~pipeline.studies.common.solves_frame`) with ``problem_set`` and the
+    position error in mm (``position_error_mm``) whatever the archive's working unit."""
+    archives = [a for a in archives if a.solves]
+    if not archives:
         return pd.DataFrame(columns=["problem_set", "robot", "solver", "method", "success"])
-    return pd.concat(frames, ignore_index=True)
+    df = solves_frame(archives)
+    df["problem_set"] = df["archive"].map({str(a.path): a.metadata.get("problem_set", "") for a in archives})
+    df["position_error_mm"] = df["position_error"].astype(float) * df["length_unit"].map(LENGTH_UNITS) * 1e3
+    return df
 
 
 def _pct(x, q) -> float:
