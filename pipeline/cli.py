@@ -12,6 +12,8 @@ aggregate_tables  compute a study's tables from its archives, beside the publish
 plot_figures      render a study's figures from its archives
 render_report     assemble results/report.html
 inspect           summarise an archive (counts, success, time percentiles, metadata)
+import_urdf       write a robot file (general joint form) from a URDF chain (also: import-urdf)
+export_urdf       write a robot file as a URDF, base_link ... tool0, metres (also: export-urdf)
 """
 
 from __future__ import annotations
@@ -93,8 +95,8 @@ def cmd_make_problems(args) -> None:
     print(f"wrote {len(ps)} problems of set {args.problem_set} for {model.name} to {args.out}")
 
 
-def _solve_to_archive(args, entry, select=None, extra_meta=None) -> None:
-    """Solve the problems of ``args.problems`` (all, or the ids in ``select``) into ``args.out``."""
+def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -> None:
+    """Solve the problems of ``args.problems`` (the first ``limit`` or all, or the ids in ``select``) into ``out``."""
     import pipeline
     from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter, solve_record
     from pipeline.io.problems import read_problems
@@ -108,8 +110,8 @@ def _solve_to_archive(args, entry, select=None, extra_meta=None) -> None:
     ps, _ = read_problems(args.problems)
     if ps.robot != model.name:
         raise CLIError(f"{args.problems}: header field 'robot': {ps.robot!r} but the robot file is {model.name!r}")
-    if getattr(args, "limit", 0):
-        ps = ps.head(args.limit)
+    if limit:
+        ps = ps.head(limit)
     reps = study.repetitions(args.problem_set, args.scale)
     settings = entry.settings
     unit = settings.length_unit
@@ -127,21 +129,24 @@ def _solve_to_archive(args, entry, select=None, extra_meta=None) -> None:
                   "solve() call (pipeline/solvers/timing.py)",
         **(extra_meta or {}),
     }
+    keep_traces = bool(study.doc.get("archive_traces", True))
+    meta["traces"] = "per problem" if keep_traces else "none (study setting archive_traces: false)"
     t0 = time.monotonic()
     n_ok = done = 0
     total = n_sel * reps
     every = max(1, total // 10)
-    with ArchiveWriter(args.out, meta) as w:
+    with ArchiveWriter(out, meta) as w:
         for i, r, q0, res in solve_set(entry.method, settings, model, ps, repetitions=reps, set_seed=spec["seed"],
                                        select=select):
             n_ok += res.success
             done += 1
             rec, trace = solve_record(ps.problem_id[i], model.name, entry.label, unit, q0, ps.goal_position[i] * to_unit,
                                       ps.goal_quat[i], res, method=entry.method, repetition=r, chain=int(ps.chain[i]))
-            w.write(rec, trace if r == 0 else None)  # repetitions repeat the same iterates: one trace per problem
+            # repetitions repeat the same iterates: one trace per problem (none when the study says so)
+            w.write(rec, trace if r == 0 and keep_traces else None)
             if done % every == 0 or done == total:
                 _progress(done, total, t0, f"solved, {n_ok} FK-verified successes")
-    print(f"wrote {args.out}: {total} solves, {n_ok} FK-verified successes")
+    print(f"wrote {out}: {total} solves, {n_ok} FK-verified successes")
 
 
 def _study_solver(args):
@@ -154,12 +159,25 @@ def _study_solver(args):
 
 
 def cmd_solve_problems(args) -> None:
-    study, entry = _study_solver(args)
+    """One archive per solver label given (several labels: one process solves them in turn)."""
+    from pipeline.settings import load_study
+
+    if len(args.solver) != len(args.out):
+        raise CLIError(f"--solver names {len(args.solver)} solvers but --out {len(args.out)} archives")
+    study = load_study(args.study)
     _problem_set(study, args)
-    if args.solver not in study.set_solvers(args.problem_set):
-        raise CLIError(f"{args.study}: field 'problem_sets/{args.problem_set}/solvers': {args.solver!r} does not run "
-                       "on this set")
-    _solve_to_archive(args, entry)
+    for k, (label, out) in enumerate(zip(args.solver, args.out)):
+        if label not in study.solvers:
+            raise CLIError(f"{args.study}: field 'solvers/{label}': no such solver (have: {', '.join(study.solvers)})")
+        if label not in study.set_solvers(args.problem_set):
+            raise CLIError(f"{args.study}: field 'problem_sets/{args.problem_set}/solvers': {label!r} does not run "
+                           "on this set")
+        if len(args.solver) > 1:
+            print(f"[{k + 1}/{len(args.solver)}] {label}", flush=True)
+        limit = study.solver_count(args.problem_set, label, args.scale)
+        if args.limit:
+            limit = min(limit, args.limit)
+        _solve_to_archive(args, study.solvers[label], out, limit=limit)
 
 
 def cmd_rerun_failures(args) -> None:
@@ -181,7 +199,7 @@ def cmd_rerun_failures(args) -> None:
     if original.metadata["solver"] != args.solver:
         raise CLIError(f"{args.archive}: metadata field 'solver' is {original.metadata['solver']!r}, expected {args.solver!r}")
     failed = [r["problem_id"] for r in original.solves if not r["success"]]
-    _solve_to_archive(args, replace(entry, settings=rerun), select=failed, extra_meta={
+    _solve_to_archive(args, replace(entry, settings=rerun), args.out, select=failed, extra_meta={
         "rerun_of": Path(args.archive).name, "rerun_of_settings_hash": original.metadata["settings_hash"]})
 
 
@@ -307,6 +325,72 @@ def cmd_inspect(args) -> None:
     print(describe(arch, failed=args.failed, problem=args.problem, csv_out=args.csv))
 
 
+def _write_checked(out: Path, text: str, check) -> None:
+    """Write ``text`` to ``out`` only after ``check(tmp_path)`` accepted it (temp file, then rename)."""
+    import os
+    import shutil
+    import tempfile
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmpdir = Path(tempfile.mkdtemp(prefix=".tmp-", dir=out.parent))
+    try:
+        tmp = tmpdir / out.name  # same file name: a robot file's name must equal its stem
+        tmp.write_text(text)
+        check(tmp)
+        os.replace(tmp, out)
+    finally:
+        shutil.rmtree(tmpdir, ignore_errors=True)
+
+
+def cmd_import_urdf(args) -> None:
+    """Write ``--out`` (a robot file, general joint form) from the URDF chain ``--base`` ... ``--tip``."""
+    from pipeline.robots import load_robot
+    from pipeline.urdf import URDFImportError, imported_yaml
+
+    out = Path(args.out)
+    name = args.name or out.stem
+    if name != out.stem:
+        raise CLIError(f"--name {name!r}: a robot file's name must equal its file name; use --out "
+                       f"{out.with_name(name + (out.suffix or '.yaml'))}")
+    try:
+        text = imported_yaml(args.urdf, args.base, args.tip, name=name, length_unit=args.length_unit)
+    except URDFImportError as exc:
+        raise CLIError(f"URDFImportError: {exc}") from None
+    _write_checked(out, text, load_robot)
+    model = load_robot(out)
+    print(f"wrote {out}: {model.n} joints ({''.join('P' if p else 'R' for p in model.chain.prismatic)}), "
+          f"links {args.base} -> {args.tip}, lengths in {model.length_unit}")
+
+
+def cmd_export_urdf(args) -> None:
+    """Write ``--out`` (URDF, metres, links base_link ... tool0) from a robot file; re-imported and checked first."""
+    from pipeline.kinematics import fk_htm
+    from pipeline.robots import load_robot, parse_robot
+    from pipeline.urdf import URDFImportError, import_urdf, to_urdf
+
+    model = load_robot(args.robot)
+    text = to_urdf(model, name=args.name)
+
+    def check(tmp: Path) -> None:
+        try:
+            back = parse_robot(import_urdf(tmp, "base_link", "tool0", name=model.name, length_unit=model.length_unit),
+                               str(tmp))
+        except URDFImportError as exc:
+            raise CLIError(f"the written URDF does not import back ({exc})") from None
+        rng = np.random.default_rng(0)
+        lo = np.where(np.isfinite(model.limits[:, 0]), model.limits[:, 0], -np.pi)
+        hi = np.where(np.isfinite(model.limits[:, 1]), model.limits[:, 1], np.pi)
+        q = rng.uniform(lo, hi, (20, model.n))
+        T0, T1 = fk_htm(model.chain, q), fk_htm(back.chain, q)
+        tol = 1e-9 * (1.0 + np.abs(T0[..., :3, 3]).max())
+        if back.n != model.n or not np.allclose(T0, T1, rtol=0, atol=tol):
+            raise CLIError(f"{model.path}: the written URDF's forward kinematics differs from the robot file's "
+                           f"(max {np.abs(T0 - T1).max():.3g}); not written")
+
+    _write_checked(Path(args.out), text, check)
+    print(f"wrote {args.out}: {model.n} joints, links base_link -> tool0, lengths in m")
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m pipeline", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -330,11 +414,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--study", required=True)
     p.add_argument("--problem-set", required=True)
     p.add_argument("--robot", required=True)
-    p.add_argument("--solver", required=True, help="a solver label of the study (`solvers` or a reading variant)")
+    p.add_argument("--solver", required=True, nargs="+",
+                   help="solver label(s) of the study (`solvers` or a reading variant); several run in turn")
     p.add_argument("--problems", required=True, help="problem-set CSV from make_problems")
     p.add_argument("--scale", choices=["full", "quick"], default="full")
     p.add_argument("--limit", type=int, default=0, help="solve only the first N problems (debugging)")
-    p.add_argument("--out", required=True, help="output .mcap")
+    p.add_argument("--out", required=True, nargs="+", help="output .mcap, one per --solver label")
     p.set_defaults(func=cmd_solve_problems)
 
     p = sub.add_parser("rerun_failures", help="rerun a solver's failed problems with the study's rerun overrides")
@@ -386,6 +471,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--problem", type=int, help="show one problem's record and error trace")
     p.add_argument("--csv", metavar="OUT", help="export the solve records as CSV")
     p.set_defaults(func=cmd_inspect)
+
+    p = sub.add_parser("import_urdf", aliases=["import-urdf"],
+                       help="write a robot file (general joint form) from a URDF chain")
+    p.add_argument("urdf", help="the URDF file")
+    p.add_argument("--base", required=True, help="base link of the chain")
+    p.add_argument("--tip", required=True, help="tip link of the chain (below --base)")
+    p.add_argument("--out", required=True, help="robot file to write, data/robots/<name>.yaml")
+    p.add_argument("--name", help="robot name (default and required: the --out file stem)")
+    p.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m", help="the robot file's length unit")
+    p.set_defaults(func=cmd_import_urdf)
+
+    p = sub.add_parser("export_urdf", aliases=["export-urdf"],
+                       help="write a robot file as a URDF (links base_link ... tool0, metres)")
+    p.add_argument("robot", help="data/robots/<name>.yaml")
+    p.add_argument("--out", required=True, help="URDF file to write")
+    p.add_argument("--name", help="robot name in the URDF (default: the robot's)")
+    p.set_defaults(func=cmd_export_urdf)
 
     # study packages may add their own verbs (a module-level ``register_cli(subparsers)``)
     from pipeline.studies import study_cli_modules

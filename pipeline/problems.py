@@ -5,6 +5,9 @@ A study's ``problem_sets`` (data/studies/<id>.yaml) name a *kind*:
 ``random_joint_pairs``  start and goal angles uniform in ``[low, high)`` (000's protocol)
 ``warm_start``          goal angles uniform within the joint limits (``[low, high)`` where a joint
                         has none); start = goal + uniform noise of half-width ``spread`` [rad]
+                        (``clip: true`` clips the start to the limits)
+``within_limits``       start and goal angles independently uniform within the joint limits
+                        (``[low, high)`` where a joint has none): cold starts
 ``generator``           a study's own function ``"pipeline.studies.<id>.<module>:<function>"``
                         with the signature of :data:`Generator`
 
@@ -24,7 +27,7 @@ import numpy as np
 from pipeline.kinematics import fk_htm, matrix_from_quat, quat_from_matrix
 from pipeline.robots import RobotModel
 
-KINDS = ("random_joint_pairs", "warm_start", "generator")
+KINDS = ("random_joint_pairs", "warm_start", "within_limits", "generator")
 
 
 class ProblemSpecError(ValueError):
@@ -120,8 +123,31 @@ def random_joint_pairs(model: RobotModel, count: int, rng: np.random.Generator,
     return from_goal_angles(model, q_start, q_goal)
 
 
+def _box(model: RobotModel, low: float, high: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-joint sampling range: the limits, ``[low, high)`` where a joint has none."""
+    lim = np.array(model.limits, dtype=float)
+    return np.where(np.isfinite(lim[:, 0]), lim[:, 0], low), np.where(np.isfinite(lim[:, 1]), lim[:, 1], high)
+
+
+def within_limits(model: RobotModel, count: int, rng: np.random.Generator, low: float = -np.pi,
+                  high: float = np.pi) -> ProblemSet:
+    """Cold starts: goal angles, then start angles, each uniform within the joint limits.
+
+    Parameters
+    ----------
+    low, high : float [rad | length]
+        Range of a joint without limits in the robot file.
+    """
+    if count < 1:
+        raise ValueError(f"problem count must be >= 1, got {count}")
+    lo, hi = _box(model, low, high)
+    q_goal = lo + (hi - lo) * rng.random((count, model.n))
+    q_start = lo + (hi - lo) * rng.random((count, model.n))
+    return from_goal_angles(model, q_start, q_goal)
+
+
 def warm_start(model: RobotModel, count: int, rng: np.random.Generator, spread: float = 0.3,
-               low: float = -np.pi, high: float = np.pi) -> ProblemSet:
+               low: float = -np.pi, high: float = np.pi, clip: bool = False) -> ProblemSet:
     """Goal angles uniform within the joint limits; start angles within ``spread`` of them.
 
     Parameters
@@ -135,15 +161,17 @@ def warm_start(model: RobotModel, count: int, rng: np.random.Generator, spread: 
     Notes
     -----
     Goals are drawn first, then the noise, so ``spread`` changes only the starts. Start angles are
-    not clipped to the limits (a local method must cope with a start just outside them).
+    clipped to the limits only with ``clip`` (else a local method must cope with a start just
+    outside them).
     """
     if count < 1:
         raise ValueError(f"problem count must be >= 1, got {count}")
-    lim = np.array(model.limits, dtype=float)
-    lo = np.where(np.isfinite(lim[:, 0]), lim[:, 0], low)
-    hi = np.where(np.isfinite(lim[:, 1]), lim[:, 1], high)
+    lo, hi = _box(model, low, high)
     q_goal = lo + (hi - lo) * rng.random((count, model.n))
     q_start = q_goal + rng.uniform(-spread, spread, size=(count, model.n))
+    if clip:
+        lim = np.array(model.limits, dtype=float)
+        q_start = np.clip(q_start, lim[:, 0], lim[:, 1])
     return from_goal_angles(model, q_start, q_goal)
 
 
@@ -175,7 +203,9 @@ def make_problem_set(spec: dict, model: RobotModel, count: int, rng: np.random.G
         return random_joint_pairs(model, count, rng, params.get("low", 0.0), params.get("high", 2 * np.pi))
     if kind == "warm_start":
         return warm_start(model, count, rng, params.get("spread", 0.3), params.get("low", -np.pi),
-                          params.get("high", np.pi))
+                          params.get("high", np.pi), bool(params.get("clip", False)))
+    if kind == "within_limits":
+        return within_limits(model, count, rng, params.get("low", -np.pi), params.get("high", np.pi))
     if kind == "generator":
         ps = load_generator(spec["generator"])(model, count, rng, {"scale": scale, **params}, Path(data_dir))
         if not isinstance(ps, ProblemSet):

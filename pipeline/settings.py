@@ -100,6 +100,7 @@ class Study:
     doc: dict
     solvers: dict[str, SolverEntry]
     readings: dict[str, str] = None  # solver label -> reading label (see `readings` in the schema)
+    refused: dict = None  # (problem set, robot, label) -> why the solver does not apply (skip_inapplicable)
 
     def default_solvers(self) -> list[str]:
         """Solver labels of the default reading (the study's main tables)."""
@@ -122,6 +123,20 @@ class Study:
     def count(self, pset: str, scale: str) -> int:
         return int(self.problem_sets[pset]["count"][scale])
 
+    def solver_count(self, pset: str, label: str, scale: str) -> int:
+        """Problems of the set that solver ``label`` solves (the first N; ``solver_counts``)."""
+        n = self.count(pset, scale)
+        cap = (self.problem_sets[pset].get("solver_counts") or {}).get(label)
+        return min(n, int(cap[scale])) if cap else n
+
+    @property
+    def skip_inapplicable(self) -> bool:
+        return bool(self.doc.get("skip_inapplicable", False))
+
+    @property
+    def job_per_robot(self) -> bool:
+        return bool(self.doc.get("job_per_robot", False))
+
     def repetitions(self, pset: str, scale: str) -> int:
         rep = self.problem_sets[pset].get("repetitions")
         return int(rep[scale]) if rep else 1
@@ -133,8 +148,14 @@ class Study:
         return list(self.problem_sets[pset].get("solvers") or self.solvers)
 
     def jobs(self) -> list[tuple[str, str, str]]:
-        """Every (problem set, robot, solver label) solve job of the study."""
-        return [(ps, r, s) for ps in self.problem_sets for r in self.set_robots(ps) for s in self.set_solvers(ps)]
+        """Every (problem set, robot, solver label) solve job of the study (refused pairs left out)."""
+        refused = self.refused or {}
+        return [(ps, r, s) for ps in self.problem_sets for r in self.set_robots(ps) for s in self.set_solvers(ps)
+                if (ps, r, s) not in refused]
+
+    def robot_solvers(self, pset: str, robot: str) -> list[str]:
+        """Solver labels that run on ``robot`` in set ``pset`` (one job under ``job_per_robot``)."""
+        return [s for p, r, s in self.jobs() if p == pset and r == robot]
 
     def problem_hash(self, pset: str, scale: str) -> dict:
         return {"problem_set": pset, "spec": self.problem_sets[pset], "scale": scale, "count": self.count(pset, scale)}
@@ -143,6 +164,8 @@ class Study:
         """Hash of everything that determines one solve job's archive (timings aside)."""
         blob = {**self.problem_hash(pset, scale), "repetitions": self.repetitions(pset, scale),
                 "solver": self.solvers[solver].as_dict()}
+        if self.solver_count(pset, solver, scale) != self.count(pset, scale):
+            blob["solver_count"] = self.solver_count(pset, solver, scale)
         return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -188,19 +211,37 @@ def load_study(path: str | Path) -> Study:
         for label in spec.get("solvers") or []:
             if label not in solvers:
                 raise ConfigError(f"{where}: field 'solvers': {label!r} is not a solver label ({', '.join(solvers)})")
+        for label in spec.get("solver_counts") or {}:
+            if label not in solvers:
+                raise ConfigError(f"{where}: field 'solver_counts': {label!r} is not a solver label ({', '.join(solvers)})")
     return Study(doc["study"], path, doc, solvers, {k: v.reading for k, v in solvers.items()})
 
 
-def _check_applicable(study: Study, models: dict) -> None:
-    """Every (problem set, robot, solver) job must fit: a solver that does not apply is one line."""
+def refusals(study: Study, models: dict) -> dict:
+    """(problem set, robot, solver label) -> why the solver does not apply, for every job that does not fit."""
     from pipeline.solvers import NotApplicableError, prepare
 
+    out = {}
     for pset, robot, label in study.jobs():
         entry = study.solvers[label]
         try:
             prepare(entry.method, models[robot], entry.settings)
         except NotApplicableError as exc:
-            raise ConfigError(f"{study.path}: problem_sets/{pset}: solver '{label}' on robot '{robot}': {exc}") from None
+            out[(pset, robot, label)] = str(exc).split(" does not apply: ", 1)[-1]
+    return out
+
+
+def _check_applicable(study: Study, models: dict) -> Study:
+    """Every (problem set, robot, solver) job must fit: a solver that does not apply is one line,
+    unless the study skips such jobs (``skip_inapplicable``): then they are recorded in ``refused``."""
+    from dataclasses import replace
+
+    refused = refusals(study, models)
+    if refused and not study.skip_inapplicable:
+        (pset, robot, label), why = next(iter(refused.items()))
+        raise ConfigError(f"{study.path}: problem_sets/{pset}: solver '{label}' on robot '{robot}': "
+                          f"{models[robot].path}: solver '{study.solvers[label].method}' does not apply: {why}")
+    return replace(study, refused=refused)
 
 
 def check_inputs(config: dict, root: Path = Path(".")) -> list[Study]:
@@ -215,8 +256,7 @@ def check_inputs(config: dict, root: Path = Path(".")) -> list[Study]:
         st = load_study(spath)
         robots = set(st.doc["robots"]) | {r for ps in st.problem_sets for r in st.set_robots(ps)}
         models = {robot: load_robot(data / "robots" / f"{robot}.yaml") for robot in sorted(robots)}
-        _check_applicable(st, models)
-        studies.append(st)
+        studies.append(_check_applicable(st, models))
     return studies
 
 

@@ -7,6 +7,7 @@ import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from tests.conftest import ROOT
@@ -122,3 +123,86 @@ def test_a_new_robot_and_a_new_study_build_end_to_end(tmp_path):
     assert list(summary["solver"]) == ["dls", "levenberg_marquardt", "analytic_ur"]
     assert (summary["success [%]"] > 90).all()
     assert (results / "report.html").is_file()
+
+
+def _fk_errors(model, q, T_goal):
+    """Independent numpy FK of q: (|dp| [m], rotation angle [rad])."""
+    from pipeline.kinematics import fk_htm
+    from pipeline.robots import LENGTH_UNITS
+
+    T = fk_htm(model.chain, q)
+    dp = float(np.linalg.norm(T[:3, 3] - T_goal[:3, 3])) * LENGTH_UNITS[model.length_unit]
+    c = (np.trace(T_goal[:3, :3] @ T[:3, :3].T) - 1) / 2
+    return dp, float(np.arccos(np.clip(c, -1, 1)))
+
+
+def test_benchmark_successes_are_within_tolerance_and_limits(built):
+    """Every success in every arm_benchmark archive of the quick run, re-checked from its record alone."""
+    from pipeline.io.archive import goal_from_record, read_archive
+    from pipeline.kinematics import matrix_from_quat
+    from pipeline.robots import load_robot
+    from pipeline.robots import LENGTH_UNITS
+    from pipeline.solvers.base import within_limits
+
+    archives = sorted((built / "arm_benchmark" / "runs").rglob("*.mcap"))
+    assert len(archives) > 300
+    models, n_ok, methods = {}, 0, set()
+    for path in archives:
+        a = read_archive(path)
+        robot = a.metadata["robot"]
+        m = models.setdefault(robot, load_robot(ROOT / "data" / "robots" / f"{robot}.yaml"))
+        methods.add(a.metadata["solver"])
+        for r in a.solves:
+            if not r["success"]:
+                continue
+            n_ok += 1
+            pos, quat = goal_from_record(r["goal"])
+            T = np.eye(4)
+            T[:3, :3] = matrix_from_quat(quat)
+            T[:3, 3] = pos * LENGTH_UNITS[r["length_unit"]] / LENGTH_UNITS[m.length_unit]
+            q = np.array(r["q_solution"], dtype=float)
+            dp, ang = _fk_errors(m, q, T)
+            assert dp <= 1e-4 * (1 + 1e-6) and ang <= 1e-3 * (1 + 1e-6), (path.name, r["problem_id"], dp, ang)
+            assert within_limits(q, m.limits, m.chain.prismatic), (path.name, r["problem_id"], q)
+    assert n_ok > 10000
+    assert {"dls", "dls_restarts", "levenberg_marquardt", "analytic_ur"} <= methods
+
+
+def test_report_opens_with_the_answer(built):
+    import pandas as pd
+
+    html = (built / "report.html").read_text()
+    assert html.index('id="answer"') < html.index('id="cerbaro2019"')
+    ans = pd.read_csv(built / "arm_benchmark" / "tables" / "answer.csv")
+    assert len(ans) == 2 * 13 and ans["answer"].str.contains("solves the most goals").all()
+    heat = pd.read_csv(built / "arm_benchmark" / "tables" / "heatmap.csv")
+    assert len(heat) == 13
+
+
+def test_an_unseen_urdf_arm_joins_the_benchmark(tmp_path):
+    """The README's "Bring your own arm" steps on a URDF the project has never seen."""
+    import shutil
+
+    import pandas as pd
+    import yaml
+
+    from pipeline.cli import main
+
+    data = tmp_path / "data"
+    shutil.copytree(ROOT / "data" / "robots", data / "robots")
+    shutil.copytree(ROOT / "data" / "published", data / "published")
+    (data / "studies").mkdir()
+    assert main(["import-urdf", str(ROOT / "tests" / "data" / "unseen_arm.urdf"), "--base", "base_link",
+                 "--tip", "flange", "--out", str(data / "robots" / "unseen_arm.yaml")]) == 0
+    st = yaml.safe_load((ROOT / "data" / "studies" / "arm_benchmark.yaml").read_text())
+    st["robots"] = ["unseen_arm"]  # the README adds it to the list; alone here to keep the test short
+    (data / "studies" / "arm_benchmark.yaml").write_text(yaml.safe_dump(st, sort_keys=False))
+    results = tmp_path / "r"
+    _snakemake(results, config=(f"data_dir={data}", "studies=[arm_benchmark]"))
+    table = pd.read_csv(results / "arm_benchmark" / "tables" / "robot_unseen_arm.csv")
+    best = table.groupby("problem set")["success [%]"].max()
+    assert (best > 90).all(), best
+    assert set(table["library"]) >= {"ours"}
+    refused = pd.read_csv(results / "arm_benchmark" / "tables" / "not_applicable.csv")
+    assert {"analytic_ur", "analytic_puma"} <= set(refused["solver"])  # a general-form robot: no DH closed form
+    assert 'id="answer-unseen_arm"' in (results / "report.html").read_text()

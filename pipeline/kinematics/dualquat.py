@@ -181,8 +181,43 @@ def dq_from_dh(a, alpha, d, theta, convention: str = "standard") -> np.ndarray:
     raise ValueError(f"unknown DH convention {convention!r}")
 
 
+def dq_axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Unit DQs of the general form's joint motions: ``Rot(axis, q)`` or ``Trans(axis q)``.
+
+    Parameters
+    ----------
+    axes : ndarray, shape (n, 3)          unit joint axes
+    prismatic : ndarray of bool, shape (n,)
+    q : ndarray, shape (..., n) [rad | length]
+
+    Returns
+    -------
+    M : ndarray, shape (..., n, 8)
+    """
+    q = np.asarray(q, dtype=float)
+    k = np.asarray(axes, dtype=float)
+    rev = ~np.asarray(prismatic, dtype=bool)
+    half = 0.5 * q[..., None]
+    M = np.zeros(q.shape + (8,))
+    M[..., 0] = np.where(rev, np.cos(0.5 * q), 1.0)
+    M[..., 1:4] = np.where(rev[:, None], np.sin(half) * k, 0.0)
+    M[..., 5:8] = np.where(rev[:, None], 0.0, half * k)
+    return M
+
+
+def _general_links_dq(chain: Chain, q: np.ndarray) -> np.ndarray:
+    """Per-joint DQs ``origin_i motion_i(q_i)`` of a general-form chain; shape (..., n, 8)."""
+    q = np.asarray(q, dtype=float)
+    if q.shape[-1] != chain.n:
+        raise ValueError(f"expected {chain.n} joint values, got shape {q.shape}")
+    return dq_mul(dq_from_transform(chain.origins), dq_axis_motion(chain.axes, chain.prismatic, q))
+
+
 def fk_dq(chain: Chain, q: np.ndarray) -> np.ndarray:
     """End-effector pose as a unit DQ (eq. 63 of 000: ``Q_0 Q_1 ... Q_n``, then the tool).
+
+    DH chains use the DH link DQ (:func:`dq_from_dh`); a general-form chain the product of its
+    fixed origin's DQ and the joint motion's (:func:`dq_axis_motion`).
 
     Parameters
     ----------
@@ -193,11 +228,16 @@ def fk_dq(chain: Chain, q: np.ndarray) -> np.ndarray:
     -------
     Q : ndarray, shape (..., 8)
     """
-    theta, d = chain.joint_dh(q)
-    links = dq_from_dh(chain.a, chain.alpha, d, theta, chain.convention)
+    if chain.general:
+        links = _general_links_dq(chain, q)
+        batch = links.shape[:-2]
+    else:
+        theta, d = chain.joint_dh(q)
+        links = dq_from_dh(chain.a, chain.alpha, d, theta, chain.convention)
+        batch = theta.shape[:-1]
     identity = np.array([1.0, 0, 0, 0, 0, 0, 0, 0])
     base = dq_from_transform(chain.base) if np.any(chain.base != np.eye(4)) else identity
-    Q = np.broadcast_to(base, theta.shape[:-1] + (8,))
+    Q = np.broadcast_to(base, batch + (8,))
     for i in range(chain.n):
         Q = dq_mul(Q, links[..., i, :])
     if np.any(chain.tool != np.eye(4)):

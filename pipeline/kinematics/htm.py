@@ -47,6 +47,43 @@ def dh_transform(a, alpha, d, theta, convention: str = "standard") -> np.ndarray
     return T
 
 
+def axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Joint motions of the general form: ``Rot(axis, q)`` (Rodrigues) or ``Trans(axis q)``.
+
+    Parameters
+    ----------
+    axes : ndarray, shape (n, 3)         unit joint axes
+    prismatic : ndarray of bool, shape (n,)
+    q : ndarray, shape (..., n) [rad | length]
+
+    Returns
+    -------
+    M : ndarray, shape (..., n, 4, 4)
+    """
+    q = np.asarray(q, dtype=float)
+    th = np.where(prismatic, 0.0, q)[..., None, None]
+    k = np.asarray(axes, dtype=float)
+    K = np.zeros(k.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = k[..., 2], -k[..., 1], k[..., 0]
+    M = np.zeros(q.shape + (4, 4))
+    M[..., :3, :3] = np.eye(3) + np.sin(th) * K + (1.0 - np.cos(th)) * (K @ K)
+    M[..., :3, 3] = np.where(prismatic[:, None], k * q[..., None], 0.0)
+    M[..., 3, 3] = 1.0
+    return M
+
+
+def link_transforms(chain: Chain, q: np.ndarray) -> np.ndarray:
+    """Every joint's link transform ``T_i(q_i)``, any convention: shape (..., n, 4, 4)."""
+    q = np.asarray(q, dtype=float)
+    if chain.general:
+        if q.shape[-1] != chain.n:
+            raise ValueError(f"expected {chain.n} joint values, got shape {q.shape}")
+        return chain.origins @ axis_motion(chain.axes, chain.prismatic, q)
+    theta, d = chain.joint_dh(q)
+    return dh_transform(chain.a, chain.alpha, d, theta, chain.convention)
+
+
 def fk_frames(chain: Chain, q: np.ndarray) -> np.ndarray:
     """Frames of every link, base included, tool excluded.
 
@@ -60,9 +97,8 @@ def fk_frames(chain: Chain, q: np.ndarray) -> np.ndarray:
     frames : ndarray, shape (..., n + 1, 4, 4)
         ``frames[..., 0]`` is the base, ``frames[..., i]`` is ``base @ T_1 @ ... @ T_i``.
     """
-    theta, d = chain.joint_dh(q)
-    links = dh_transform(chain.a, chain.alpha, d, theta, chain.convention)
-    out = np.empty(theta.shape[:-1] + (chain.n + 1, 4, 4))
+    links = link_transforms(chain, q)
+    out = np.empty(links.shape[:-3] + (chain.n + 1, 4, 4))
     out[..., 0, :, :] = chain.base
     for i in range(chain.n):
         out[..., i + 1, :, :] = out[..., i, :, :] @ links[..., i, :, :]

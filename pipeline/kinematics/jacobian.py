@@ -1,4 +1,4 @@
-"""Geometric Jacobian of a DH chain."""
+"""Geometric Jacobian of a serial chain (DH or general form)."""
 
 from __future__ import annotations
 
@@ -19,10 +19,18 @@ def joint_axes(chain: Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
     Returns
     -------
     z : ndarray, shape (..., n, 3)      unit axis of each joint
-    o : ndarray, shape (..., n, 3)      a point on each axis [length]
+    o : ndarray, shape (..., n, 3)      a point on each axis [length]: the frame the joint acts in
+                                        (DH: origin of frame i-1, or after Rx Tx for modified;
+                                        general: after joint i's fixed origin), before its motion
     p : ndarray, shape (..., 3)         tool position [length]
     """
     frames = fk_frames(chain, q)
+    if chain.general:
+        # joint i acts after its fixed origin; its axis is given in that frame
+        axes_frames = frames[..., :-1, :, :] @ chain.origins
+        p = (frames[..., -1, :, :] @ chain.tool)[..., :3, 3]
+        z = (axes_frames[..., :3, :3] @ chain.axes[:, :, None])[..., 0]
+        return z, axes_frames[..., :3, 3], p
     if chain.modified:
         # joint i acts after Rx(alpha_{i-1}) Tx(a_{i-1}) of its own row
         pre = dh_transform(chain.a, chain.alpha, 0.0, 0.0, "modified")

@@ -8,8 +8,9 @@ approach ``u_a`` (z) and orientation ``u_t`` (y), all in the world frame (base t
 Forward kinematics is then a product of rotations about the zero-position axes (eqs 3.5-3.17,
 the product of exponentials): :func:`pz_fk`.
 
-:func:`pz_from_dh` derives the description from any DH chain (standard or modified, prismatic
-joints, base and tool) through :func:`pipeline.kinematics.jacobian.joint_axes`. The
+:func:`pz_from_dh` (alias :func:`pz_from_chain`) derives the description from any chain (standard
+or modified DH, or the general origin/axis form; prismatic joints, base and tool) through
+:func:`pipeline.kinematics.jacobian.joint_axes`. The
 Zero-Position IK method (:mod:`pipeline.solvers.zero_position`) uses the same quantities at the
 current configuration, which :func:`pipeline.solvers._kin.forward` returns directly.
 """
@@ -45,7 +46,11 @@ class PZModel:
 
 
 def pz_from_dh(chain: Chain, q0) -> PZModel:
-    """Appendix 1 Case 3: a DH chain at ``q0`` (n,) -> its zero-position description."""
+    """Appendix 1 Case 3: a chain at ``q0`` (n,) -> its zero-position description.
+
+    Any convention: for a DH chain the axis points are the DH origins the joint acts at; for a
+    general-form chain each joint's frame after its fixed origin (before its own motion).
+    """
     q0 = np.asarray(q0, dtype=float)
     u, o, p = joint_axes(chain, q0)
     O = np.vstack([o, p])
@@ -53,6 +58,9 @@ def pz_from_dh(chain: Chain, q0) -> PZModel:
     T_tool = fk_htm(chain, q0)
     types = tuple("p" if x else "r" for x in chain.prismatic)
     return PZModel(types, b, u, T_tool[:3, 2].copy(), T_tool[:3, 1].copy(), q0)
+
+
+pz_from_chain = pz_from_dh  # the name says what it takes since chains are not only DH
 
 
 def axis_angle_matrix(theta: float, u: np.ndarray) -> np.ndarray:

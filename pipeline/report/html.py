@@ -44,6 +44,29 @@ def _benchmarks(folder: Path) -> list[dict]:
     return rows
 
 
+def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | None:
+    """The at-a-glance answer of a benchmark study (``tables/answer.csv``), or None.
+
+    Per robot: the answer sentences, its table ``robot_<name>`` and its figures (``extra.robot``);
+    the heat maps (``extra.answer``) go first.
+    """
+    f = folder / "tables" / "answer.csv"
+    if not f.is_file():
+        return None
+    ans = pd.read_csv(f)
+    if ans.empty or "answer" not in ans:
+        return None
+    by_name = {t["name"]: t for t in tables}
+    robots = []
+    for robot, g in ans.groupby("robot", sort=False):
+        table = by_name.get(f"robot_{robot}")
+        if table is None:
+            continue
+        robots.append({"robot": robot, "sentences": list(g["answer"]), "table": table,
+                       "figures": [x for x in figures if x.get("extra", {}).get("robot") == robot]})
+    return {"robots": robots, "figures": [x for x in figures if x.get("extra", {}).get("answer")]}
+
+
 def study_context(study: Study, results: Path) -> dict:
     folder = results / study.id
     tables = []
@@ -75,7 +98,14 @@ def study_context(study: Study, results: Path) -> dict:
     if study.settings:
         solvers_html += ("<p>Study settings:</p><pre>" + html_escape(yaml.safe_dump(study.settings, sort_keys=False,
                                                                               allow_unicode=True)) + "</pre>")
+    answer = _answer(folder, tables, figures)
+    if answer:
+        answer["id"] = study.id  # shown at the top of the report; the study's section keeps the rest
+        shown = {id(x) for r in answer["robots"] for x in (r["table"], *r["figures"])} | {id(f) for f in answer["figures"]}
+        tables = [t for t in tables if id(t) not in shown and t["name"] != "answer"]
+        figures = [f for f in figures if id(f) not in shown]
     return {
+        "answer": answer,
         "id": study.id, "title": study.doc["title"], "document": study.doc["document"],
         "notes": study.doc.get("notes", ""), "robots": study.doc["robots"],
         "problems_yaml": yaml.safe_dump(study.problem_sets, sort_keys=False) if study.generic else "",
@@ -95,8 +125,10 @@ def render_report(studies: list[Study], config: dict, results: Path, out: Path) 
             versions[p] = _md.version(p)
         except _md.PackageNotFoundError:
             versions[p] = "not installed"
+    contexts = [study_context(s, results) for s in studies]
+    answers = [c for c in contexts if c["answer"]]
     html = env.get_template("report.html").render(
-        studies=[study_context(s, results) for s in studies], config=config,
+        studies=contexts, answer=answers[0]["answer"] if answers else None, config=config,
         version=pipeline.__version__, commit=git_commit(), python=platform.python_version(),
         machine=f"{platform.machine()} {platform.processor() or ''}".strip(), versions=versions,
         built=_dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),

@@ -49,9 +49,34 @@ def now_ns(buf):
 def link_transform(a, alpha, d, offs, prism, modified, q, i, L):
     """Rows 0-2 of joint ``i``'s link transform into ``L`` (4, 4); returns (cos alpha_i, sin alpha_i).
 
-    Standard DH: Rz(theta) Tz(d) Tx(a) Rx(alpha); modified DH: Rx(alpha) Tx(a) Rz(theta) Tz(d), with
-    ``q[i]`` added to theta (revolute) or d (prismatic). Row 3 is left to the caller (0 0 0 1).
+    ``modified`` is the chain's form code (:attr:`pipeline.kinematics.Chain.form_code`; a bool
+    works for the two DH forms). Standard DH (0): Rz(theta) Tz(d) Tx(a) Rx(alpha); modified DH (1):
+    Rx(alpha) Tx(a) Rz(theta) Tz(d), with ``q[i]`` added to theta (revolute) or d (prismatic).
+    General form (2): ``a`` holds rows 0-2 of every joint's origin transform, flattened (12 n,),
+    ``alpha`` the unit joint axes (3 n,); the link is ``origin_i Rot(axis_i, q_i)`` (Rodrigues) or
+    ``origin_i Trans(axis_i q_i)``; the returned pair is then (1, 0) and unused.
+    Row 3 is left to the caller (0 0 0 1).
     """
+    if modified == 2:
+        o = 12 * i
+        k0, k1, k2 = alpha[3 * i], alpha[3 * i + 1], alpha[3 * i + 2]
+        if prism[i]:
+            for r in range(3):
+                L[r, 0], L[r, 1], L[r, 2] = a[o + 4 * r], a[o + 4 * r + 1], a[o + 4 * r + 2]
+                L[r, 3] = a[o + 4 * r + 3] + q[i] * (L[r, 0] * k0 + L[r, 1] * k1 + L[r, 2] * k2)
+        else:
+            c, s = np.cos(q[i]), np.sin(q[i])
+            v = 1.0 - c
+            m00, m01, m02 = c + v * k0 * k0, v * k0 * k1 - s * k2, v * k0 * k2 + s * k1
+            m10, m11, m12 = v * k0 * k1 + s * k2, c + v * k1 * k1, v * k1 * k2 - s * k0
+            m20, m21, m22 = v * k0 * k2 - s * k1, v * k1 * k2 + s * k0, c + v * k2 * k2
+            for r in range(3):
+                o0, o1, o2 = a[o + 4 * r], a[o + 4 * r + 1], a[o + 4 * r + 2]
+                L[r, 0] = o0 * m00 + o1 * m10 + o2 * m20
+                L[r, 1] = o0 * m01 + o1 * m11 + o2 * m21
+                L[r, 2] = o0 * m02 + o1 * m12 + o2 * m22
+                L[r, 3] = a[o + 4 * r + 3]
+        return 1.0, 0.0
     th = offs[i]
     di = d[i]
     if prism[i]:
@@ -80,6 +105,13 @@ def forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
     L[3, 0], L[3, 1], L[3, 2], L[3, 3] = 0.0, 0.0, 0.0, 1.0
     for i in range(n):
         ca, sa = link_transform(a, alpha, d, offs, prism, modified, q, i, L)
+        if modified == 2:
+            # the axis is fixed by its own rotation: axis_i = R(C @ L) k_i, origin = p(C @ L)
+            C = C @ L
+            for r in range(3):
+                axes[i, r] = C[r, 0] * alpha[3 * i] + C[r, 1] * alpha[3 * i + 1] + C[r, 2] * alpha[3 * i + 2]
+                origins[i, r] = C[r, 3]
+            continue
         if modified:
             # pre-transform Rx(alpha) Tx(a): the joint axis is z of C @ pre
             for r in range(3):

@@ -90,6 +90,8 @@ def geometry(prep: Prepared) -> Geometry | str:
         return f"needs 4 joints (a yaw joint then a planar 3R arm, 003), the robot has {c.n}"
     if c.prismatic.any():
         return f"needs 4 revolute joints, joint {int(np.argmax(c.prismatic)) + 1} is prismatic"
+    if c.general:
+        return "needs a DH table (the robot file is in the general URDF-style form)"
     a, al, d, off = (np.asarray(x, dtype=float) for x in (c.a, c.alpha, c.d, c.theta_offset))
     if c.modified:
         need = "alpha = (any, +-pi/2, 0, 0) in modified DH"

@@ -61,6 +61,8 @@ def _geometry_reason(prep: Prepared) -> str | None:
     right = lambda x: abs(abs(x) - math.pi / 2) <= ANGLE_TOL  # noqa: E731
     if prep.n != 6:
         return f"needs 6 joints (PUMA-type arm), the robot has {prep.n}"
+    if c.general:
+        return "needs a DH table (the robot file is in the general URDF-style form)"
     if bool(c.modified):
         return "standard DH only (the closed form is written for standard DH)"
     if prep.prismatic.any():

@@ -62,6 +62,8 @@ def applies_to(prep: Prepared) -> str | None:
         return f"not a UR-type arm: needs 6 joints, the robot has {c.n}"
     if c.prismatic.any():
         return "not a UR-type arm: needs 6 revolute joints (the robot has prismatic ones)"
+    if c.general:
+        return "needs a standard-DH table (the robot file is in the general URDF-style form)"
     if c.modified:
         return "not a UR-type arm: needs a standard-DH table (the robot file is modified DH)"
     if not np.allclose(c.alpha, UR_ALPHA, atol=UR_TOL):
@@ -100,7 +102,7 @@ def _inv_rigid(A, out):
 def _link_inv(a, alpha, d, offs, prism, i, theta, I4, q1, A, Ai):
     """Inverse of link ``i``'s transform at DH angle ``theta`` into ``Ai`` (via a one-joint chain)."""
     q1[0] = theta - offs[i]
-    _kin.forward_pose(a[i:i + 1], alpha[i:i + 1], d[i:i + 1], offs[i:i + 1], prism[i:i + 1], False, I4, I4, q1, A)
+    _kin.forward_pose(a[i:i + 1], alpha[i:i + 1], d[i:i + 1], offs[i:i + 1], prism[i:i + 1], 0, I4, I4, q1, A)
     _inv_rigid(A, Ai)
 
 
@@ -182,7 +184,7 @@ def ur_solve(a, alpha, d, offs, prism, base, tool, Tb, Tg, q_start, wrist_eps, t
                 qq[5] = _wrap(th6 - offs[5])
                 for j in range(n):
                     Q[row, j] = qq[j]
-                _kin.forward_pose(a, alpha, d, offs, prism, False, base, tool, qq, T)
+                _kin.forward_pose(a, alpha, d, offs, prism, 0, base, tool, qq, T)
                 dp = _kin.position_distance(Tg, T)
                 ang = _kin.rotation_angle(Tg, T)
                 err[row, 0] = dp

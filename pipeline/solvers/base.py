@@ -54,6 +54,7 @@ class StopReason(IntEnum):
     NON_FINITE = 5
     FK_CHECK_FAILED = 6  # the method claimed success; an independent FK contradicts it
     NO_SOLUTION = 7      # analytic: no real solution (goal out of reach) or none passes the FK check
+    OUT_OF_LIMITS = 8    # the pose was reached, outside the joint limits (only with require_limits)
 
     @property
     def text(self) -> str:
@@ -68,6 +69,7 @@ _STOP_TEXT = {
     StopReason.NON_FINITE: "non-finite value (numerical failure)",
     StopReason.FK_CHECK_FAILED: "claimed success contradicted by forward kinematics",
     StopReason.NO_SOLUTION: "no solution (analytic: goal out of reach)",
+    StopReason.OUT_OF_LIMITS: "pose reached outside the joint limits (require_limits)",
 }
 STOP_REASONS = {int(r): r.text for r in StopReason}
 
@@ -119,6 +121,16 @@ class Settings:
     tol_rot: float = setting(1e-3, "orientation tolerance (rotation angle)", unit="rad", minimum=0.0)
     tol_dq: float = setting(1 + 1e-6, "dual-quaternion norm tolerance (1 + epsilon; dq_norm criteria only)",
                             minimum=1.0)
+    require_limits: bool = setting(False, "a success must also lie within the robot file's joint limits "
+                                   "(revolute joints wrapped by 2 pi first, and returned wrapped; an analytic "
+                                   "method returns the nearest solution within the limits)")
+    restarts: int = setting(0, "random restarts after a failed search (iterative methods): each restart starts "
+                            "uniformly within the joint limits (+-pi for unbounded revolute joints) and the "
+                            "first success ends the call; iterations and solve time add up over the searches",
+                            minimum=0, maximum=100000)
+    time_budget: float = setting(0.0, "wall-time budget of all restarts together, 0 = none (the search under way "
+                                 "is finished; a budget makes results depend on the machine's speed)",
+                                 unit="s", minimum=0.0)
 
     # ---- construction and validation -------------------------------------------------------
     @classmethod
@@ -227,7 +239,10 @@ class Prepared:
     model : RobotModel              the model in ``unit``
     unit : str                      working length unit
     goal_scale : float              factor from ``source``'s unit to ``unit``
-    args : tuple                    ``a, alpha, d, offs, prism, modified, base, tool`` for :mod:`._kin`
+    args : tuple                    ``a, alpha, d, offs, prism, form, base, tool`` for :mod:`._kin`
+                                    (``form`` = 0 standard / 1 modified DH / 2 general; for the
+                                    general form ``a`` holds the origins' rows 0-2 (12 n,) and
+                                    ``alpha`` the unit axes (3 n,), see ``_kin.link_transform``)
     limits : ndarray, shape (n, 2)  joint limits [rad | unit]; +-inf where the file gives none
     """
 
@@ -243,8 +258,12 @@ class Prepared:
         # writable C-contiguous copies: the model's arrays are read-only, and numba compiles kernels
         # taking read-only arrays into code measured 2-3.5x slower (inverse Jacobian on the KR6)
         own = lambda x, dt=float: np.array(x, dtype=dt, order="C", copy=True)  # noqa: E731
-        self.args = (own(c.a), own(c.alpha), own(c.d), own(c.theta_offset), own(c.prismatic, np.bool_),
-                     bool(c.modified), own(c.base), own(c.tool))
+        if c.general:
+            a, alpha = own(c.origins[:, :3, :].ravel()), own(c.axes.ravel())
+        else:
+            a, alpha = own(c.a), own(c.alpha)
+        self.args = (a, alpha, own(c.d), own(c.theta_offset), own(c.prismatic, np.bool_),
+                     int(c.form_code), own(c.base), own(c.tool))
         self.limits = own(self.model.limits)
         self.prismatic = np.asarray(c.prismatic, dtype=bool)
         self._cache: dict = {}  # see memo()
@@ -421,7 +440,44 @@ def within_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray, tol:
     return bool(np.all(wrapped >= lo - tol) and np.all(wrapped <= hi + tol))
 
 
-def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, call_ns: int = 0) -> IKResult:
+def wrap_into_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray) -> np.ndarray:
+    """``q`` with each revolute joint moved by a multiple of 2 pi into its limits where that fits.
+
+    Joints that do not fit either way (and prismatic or unbounded joints) keep their value, so
+    the pose is unchanged up to rounding of ``q +- 2 k pi``.
+    """
+    q = np.array(q, dtype=float)
+    lo, hi = limits[:, 0], limits[:, 1]
+    for i in range(q.shape[0]):
+        if prismatic[i] or not math.isfinite(lo[i]) or not math.isfinite(q[i]) or lo[i] <= q[i] <= hi[i]:
+            continue
+        w = lo[i] + math.fmod(q[i] - lo[i], 2 * math.pi) % (2 * math.pi)
+        if w <= hi[i]:
+            q[i] = w
+    return q
+
+
+def _within_limit_choice(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings,
+                         q_start: np.ndarray | None) -> np.ndarray:
+    """The returned angles under ``require_limits``: wrapped into the limits; for an analytic method
+    whose chosen solution is outside them, the FK-valid solution within them nearest the start."""
+    q = wrap_into_limits(raw.q, prep.limits, prep.prismatic)
+    if raw.solutions is None or within_limits(q, prep.limits, prep.prismatic) or len(raw.solutions) == 0:
+        return q
+    ref = q if q_start is None else np.asarray(q_start, dtype=float)
+    best, best_d = None, math.inf
+    for cand in np.asarray(raw.solutions, dtype=float):
+        c = wrap_into_limits(cand, prep.limits, prep.prismatic)
+        if not within_limits(c, prep.limits, prep.prismatic) or not verify(prep.model, T_goal, c, settings)[0]:
+            continue
+        dist = float(np.abs(c - ref).sum())
+        if dist < best_d:
+            best, best_d = c, dist
+    return q if best is None else best
+
+
+def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, call_ns: int = 0,
+           q_start: np.ndarray | None = None) -> IKResult:
     """Turn a kernel's raw output into the result: FK check, stop reason, limits, timings.
 
     Parameters
@@ -431,8 +487,13 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
     raw : Raw
     settings : Settings              converted to the working unit
     call_ns : int                    the whole call's duration so far [ns] (set again by the registry)
+    q_start : ndarray, shape (n,), optional   the start (for an analytic method's choice under
+                                              ``require_limits``)
     """
-    q = np.asarray(raw.q, dtype=float)
+    if settings.require_limits:
+        q = _within_limit_choice(prep, T_goal, raw, settings, q_start)
+    else:
+        q = np.asarray(raw.q, dtype=float)
     ok, dp, ang = verify(prep.model, T_goal, q, settings)
     code = int(raw.code)
     claimed = code == StopReason.SUCCESS
@@ -446,9 +507,12 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
         trace[0, 7] = dp
     else:
         trace = np.asarray(trace)[: raw.iterations + 1]
+    inside = within_limits(q, prep.limits, prep.prismatic)
+    if code == StopReason.SUCCESS and settings.require_limits and not inside:
+        code = int(StopReason.OUT_OF_LIMITS)
     return IKResult(q=q, success=bool(claimed and ok and code == StopReason.SUCCESS), stop_reason=code,
                     iterations=int(raw.iterations), trace=trace, solve_time_s=raw.solve_ns * 1e-9,
                     ik_time_s=raw.ik_ns * 1e-9, position_error=dp,
                     orientation_error=float("nan") if settings.criterion == "position" else ang,
-                    claimed_success=claimed, within_limits=within_limits(q, prep.limits, prep.prismatic),
+                    claimed_success=claimed, within_limits=inside,
                     call_time_s=call_ns * 1e-9, length_unit=prep.unit, solutions=raw.solutions, info=dict(raw.info))

@@ -58,7 +58,7 @@ P_WP, P_WR, P_SQ, P_MOD = 0, 1, 2, 3
 P_GOAL = 4     # p (3), R row-major (9)
 P_BASE = 16    # 4 x 4 row-major
 P_TOOL = 32
-P_CHAIN = 48   # a, alpha, d, offs, prism (n each; prism as 0/1)
+P_CHAIN = 48   # a, alpha, d, offs, prism (n each, prism as 0/1; general form: a 12 n, alpha 3 n)
 
 
 @numba.njit(cache=True)
@@ -198,9 +198,12 @@ def descent(a, alpha, d, offs, prism, modified, base, tool, ja, jalpha, jd, joff
 
 @numba.njit(cache=True)
 def _chain_of(P, n):
+    form = int(P[P_MOD])
+    na, nal = (12 * n, 3 * n) if form == 2 else (n, n)  # general form: origins and axes, see _kin
     c = P_CHAIN
-    return (P[c:c + n], P[c + n:c + 2 * n], P[c + 2 * n:c + 3 * n], P[c + 3 * n:c + 4 * n], P[c + 4 * n:c + 5 * n],
-            P[P_MOD] != 0.0, P[P_BASE:P_BASE + 16].reshape((4, 4)), P[P_TOOL:P_TOOL + 16].reshape((4, 4)))
+    e = c + na + nal
+    return (P[c:c + na], P[c + na:e], P[e:e + n], P[e + n:e + 2 * n], P[e + 2 * n:e + 3 * n],
+            form, P[P_BASE:P_BASE + 16].reshape((4, 4)), P[P_TOOL:P_TOOL + 16].reshape((4, 4)))
 
 
 @numba.njit(cache=True)
@@ -426,7 +429,7 @@ def packed_cost(prep: Prepared, T_goal: np.ndarray, s: CostSettings) -> np.ndarr
     a, alpha, d, offs, prism, modified, base, tool = prep.args
     k = _m_per_unit(prep)
     wp = s.position_weight * (k * k if s.squared else k)
-    head = np.array([wp, s.rotation_weight, 1.0 if s.squared else 0.0, 1.0 if modified else 0.0])
+    head = np.array([wp, s.rotation_weight, 1.0 if s.squared else 0.0, float(modified)])
     goal = np.concatenate([T_goal[:3, 3], T_goal[:3, :3].ravel()])
     return np.ascontiguousarray(np.concatenate([head, goal, base.ravel(), tool.ravel(), a, alpha, d, offs,
                                                 prism.astype(float)]))

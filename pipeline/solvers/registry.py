@@ -9,7 +9,7 @@ applicability, timing of the whole call, FK check, limits).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -143,11 +143,50 @@ def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: 
     if scaled:
         q0[prep.prismatic] *= prep.goal_scale
     raw: Raw = spec.run(prep, Tg, q0, sc, int(seed))
-    res = finish(prep, Tg, raw, sc)
+    res = finish(prep, Tg, raw, sc, q_start=q0)
+    if sc.restarts and not res.success and spec.kind != "analytic":
+        res = _restart(spec, prep, Tg, sc, int(seed), res, t0)
     if scaled:  # joint values go back in the robot file's unit
         res.q[prep.prismatic] /= prep.goal_scale
     object.__setattr__(res, "call_time_s", (clock_ns() - t0) * 1e-9)
     return res
+
+
+def _restart(spec: Solver, prep: Prepared, Tg: np.ndarray, sc: Settings, seed: int, first: IKResult,
+             t0: int) -> IKResult:
+    """Random restarts after a failed search (``settings.restarts``, ``settings.time_budget``).
+
+    Restart k starts uniformly in :meth:`Prepared.search_box` (a generator seeded by ``seed``, so
+    restarts are reproducible) and stochastic methods get seed ``seed + k``. The result is the first
+    success, else the search whose pose came closest (position error, then rotation angle), with
+    ``iterations``, ``solve_time_s`` and ``ik_time_s`` summed over every search and
+    ``info["restarts"]`` the number of restarts run.
+    """
+    try:
+        box = prep.memo("restart_box", prep.search_box)
+    except NotApplicableError:
+        return first
+    rng = np.random.default_rng([seed, 0x5EED])
+    budget_ns = int(sc.time_budget * 1e9)
+    best, iters, solve_s, ik_s = first, first.iterations, first.solve_time_s, first.ik_time_s
+    k = 0
+    while k < sc.restarts and (budget_ns <= 0 or clock_ns() - t0 < budget_ns):
+        k += 1
+        q0 = box[:, 0] + (box[:, 1] - box[:, 0]) * rng.random(prep.n)
+        res = finish(prep, Tg, spec.run(prep, Tg, q0, sc, seed + k), sc, q_start=q0)
+        iters, solve_s, ik_s = iters + res.iterations, solve_s + res.solve_time_s, ik_s + res.ik_time_s
+        if res.success or _closer(res, best):
+            best = res
+        if res.success:
+            break
+    info = {**best.info, "restarts": k}
+    return replace(best, iterations=iters, solve_time_s=solve_s, ik_time_s=ik_s, info=info)
+
+
+def _closer(a: IKResult, b: IKResult) -> bool:
+    key = lambda r: (r.position_error if np.isfinite(r.position_error) else np.inf,  # noqa: E731
+                     r.orientation_error if np.isfinite(r.orientation_error) else np.inf)
+    return key(a) < key(b)
 
 
 def warm_up(name: str, prep: Prepared, settings: Settings) -> None:

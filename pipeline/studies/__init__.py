@@ -78,5 +78,6 @@ def write_tables(tables: list[TableSpec], out_dir: Path) -> None:
 
 
 def write_figure_index(figs: list[FigureSpec], out_dir: Path) -> None:
-    index = [{"files": f.files, "title": f.title, "caption": f.caption} for f in figs]
+    index = [{"files": f.files, "title": f.title, "caption": f.caption, **({"extra": f.extra} if f.extra else {})}
+             for f in figs]
     (out_dir / "index.json").write_text(json.dumps(index, indent=1, ensure_ascii=False))

@@ -38,6 +38,9 @@ STUDY_ARCHIVES = {
     for sid, st in STUDIES.items()
 }
 GENERIC_STUDIES = "|".join(sid for sid, st in STUDIES.items() if st.generic) or "__none__"
+# studies whose solve jobs run one per (problem set, robot) (`job_per_robot`), and the others
+PER_ROBOT_STUDIES = [sid for sid, st in STUDIES.items() if st.generic and st.job_per_robot]
+SOLO_STUDIES = "|".join(sid for sid, st in STUDIES.items() if st.generic and not st.job_per_robot) or "__none__"
 
 
 def problem_set_files(wildcards):

@@ -29,7 +29,7 @@ rule solve_problems:
     output:
         f"{RESULTS}/{{study}}/runs/{{pset}}/{{robot}}__{{solver}}.mcap",
     wildcard_constraints:
-        study=GENERIC_STUDIES,
+        study=SOLO_STUDIES,
     params:
         settings=study_file,
         solver=lambda w: STUDIES[w.study].solvers[w.solver].as_dict(),  # a changed setting re-runs the job
@@ -43,3 +43,40 @@ rule solve_problems:
         "{ENV} python -m pipeline solve_problems --study {params.settings} --problem-set {wildcards.pset}"
         " --robot {input.robot} --solver {wildcards.solver} --problems {input.problems}"
         " --scale {params.scale} --out {output} > {log} 2>&1"
+
+
+# A study with `job_per_robot: true` runs every solver of a (problem set, robot) in one job: one
+# rule per pair, since the solver labels that apply differ from robot to robot. The archives are
+# the same files (and contents, timings aside) as one job per solver would write.
+for _sid in PER_ROBOT_STUDIES:
+    _st = STUDIES[_sid]
+    for _pset in _st.problem_sets:
+        for _robot in _st.set_robots(_pset):
+            _labels = _st.robot_solvers(_pset, _robot)
+            if not _labels:
+                continue
+
+            rule:
+                name:
+                    f"solve_{_sid}__{_pset}__{_robot}"
+                input:
+                    problems=f"{RESULTS}/{_sid}/problems/{_pset}/{_robot}.csv",
+                    robot=f"{DATA}/robots/{_robot}.yaml",
+                output:
+                    [f"{RESULTS}/{_sid}/runs/{_pset}/{_robot}__{lab}.mcap" for lab in _labels],
+                params:
+                    settings=f"{DATA}/studies/{_sid}.yaml",
+                    # a changed setting of any solver re-runs the job
+                    solvers=[_st.solvers[lab].as_dict() for lab in _labels],
+                    counts=[_st.solver_count(_pset, lab, SCALE) for lab in _labels],
+                    labels=" ".join(_labels),
+                    pset=_pset,
+                    scale=SCALE,
+                log:
+                    f"{RESULTS}/{_sid}/logs/solve_problems__{_pset}__{_robot}.log",
+                benchmark:
+                    f"{RESULTS}/{_sid}/benchmarks/{_pset}__{_robot}.tsv"
+                shell:
+                    "{ENV} python -m pipeline solve_problems --study {params.settings} --problem-set {params.pset}"
+                    " --robot {input.robot} --solver {params.labels} --problems {input.problems}"
+                    " --scale {params.scale} --out {output} > {log} 2>&1"

@@ -57,9 +57,14 @@ def cmd_robot(args) -> None:
                 q0 = np.where(model.chain.prismatic, vals, np.radians(vals))
             else:
                 q0 = np.zeros(model.n)
-            dh = M.dh_model_from_chain(model.chain, types, q0)
-            pz = M.pz_from_dh(model.chain, q0)
-            text = M.report_txt(model.name, dh, pz, limits=model.limits)
+            if model.chain.general:  # no DH table: origins, axes and zero-position vectors
+                from pipeline.robots import describe_general
+
+                text = describe_general(model, q0)
+            else:
+                dh = M.dh_model_from_chain(model.chain, types, q0)
+                pz = M.pz_from_dh(model.chain, q0)
+                text = M.report_txt(model.name, dh, pz, limits=model.limits)
     except _known_errors() + (ValueError,) as exc:
         raise _cli_error(exc) from None
     if args.out:
