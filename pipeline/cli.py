@@ -110,7 +110,7 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
     ps, _ = read_problems(args.problems)
     if ps.robot != model.name:
         raise CLIError(f"{args.problems}: header field 'robot': {ps.robot!r} but the robot file is {model.name!r}")
-    if limit:
+    if limit and limit < len(ps):
         ps = ps.head(limit)
     reps = study.repetitions(args.problem_set, args.scale)
     settings = entry.settings
@@ -174,9 +174,8 @@ def cmd_solve_problems(args) -> None:
                            "on this set")
         if len(args.solver) > 1:
             print(f"[{k + 1}/{len(args.solver)}] {label}", flush=True)
-        limit = study.solver_count(args.problem_set, label, args.scale)
-        if args.limit:
-            limit = min(limit, args.limit)
+        limit = min(x for x in (study.solver_cap(args.problem_set, label, args.scale), args.limit or None, 10**12)
+                    if x is not None)
         _solve_to_archive(args, study.solvers[label], out, limit=limit)
 
 

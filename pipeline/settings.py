@@ -123,11 +123,11 @@ class Study:
     def count(self, pset: str, scale: str) -> int:
         return int(self.problem_sets[pset]["count"][scale])
 
-    def solver_count(self, pset: str, label: str, scale: str) -> int:
-        """Problems of the set that solver ``label`` solves (the first N; ``solver_counts``)."""
-        n = self.count(pset, scale)
+    def solver_cap(self, pset: str, label: str, scale: str) -> int | None:
+        """At most this many problems (the first N of the file) for solver ``label`` (``solver_counts``),
+        None when the label solves every problem of the set."""
         cap = (self.problem_sets[pset].get("solver_counts") or {}).get(label)
-        return min(n, int(cap[scale])) if cap else n
+        return int(cap[scale]) if cap else None
 
     @property
     def skip_inapplicable(self) -> bool:
@@ -164,8 +164,8 @@ class Study:
         """Hash of everything that determines one solve job's archive (timings aside)."""
         blob = {**self.problem_hash(pset, scale), "repetitions": self.repetitions(pset, scale),
                 "solver": self.solvers[solver].as_dict()}
-        if self.solver_count(pset, solver, scale) != self.count(pset, scale):
-            blob["solver_count"] = self.solver_count(pset, solver, scale)
+        if self.solver_cap(pset, solver, scale) is not None:
+            blob["solver_count"] = self.solver_cap(pset, solver, scale)
         return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -219,13 +219,15 @@ def load_study(path: str | Path) -> Study:
 
 def refusals(study: Study, models: dict) -> dict:
     """(problem set, robot, solver label) -> why the solver does not apply, for every job that does not fit."""
-    from pipeline.solvers import NotApplicableError, prepare
+    from pipeline.solvers import NotApplicableError, Prepared, prepare
 
-    out = {}
+    out, preps = {}, {}
     for pset, robot, label in study.jobs():
         entry = study.solvers[label]
+        unit = entry.settings.length_unit  # one Prepared per robot and unit: applicability is memoised
+        prep = preps.get((robot, unit)) or preps.setdefault((robot, unit), Prepared(models[robot], unit))
         try:
-            prepare(entry.method, models[robot], entry.settings)
+            prepare(entry.method, prep, entry.settings)
         except NotApplicableError as exc:
             out[(pset, robot, label)] = str(exc).split(" does not apply: ", 1)[-1]
     return out

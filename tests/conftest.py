@@ -51,3 +51,20 @@ def lwr():
     from pipeline.robots import load_robot
 
     return load_robot(DATA / "robots" / "kuka_lwr.yaml")
+
+
+def rodrigues(axis, angle) -> np.ndarray:
+    """Rotation (3, 3) about ``axis`` by ``angle`` [rad], written out (not from pipeline.kinematics)."""
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def homogeneous(R=None, t=None) -> np.ndarray:
+    """4 x 4 transform from a rotation (3, 3) and a translation (3,) (identity parts when omitted)."""
+    T = np.eye(4)
+    if R is not None:
+        T[:3, :3] = R
+    if t is not None:
+        T[:3, 3] = t
+    return T

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from pipeline.kinematics import Chain, dq_to_transform, fk_dq, fk_htm, geometric_jacobian
 from pipeline.kinematics.zero_position import pz_axes, pz_fk, pz_from_chain, pz_from_dh
 from pipeline.robots import RobotFileError, describe_general, load_robot, rpy_from_matrix, rpy_matrix
-from tests.conftest import DATA, random_chain, random_rotation, random_transform
+from tests.conftest import DATA, random_chain, random_rotation, random_transform, homogeneous, rodrigues
 
 ROBOTS = sorted((DATA / "robots").glob("*.yaml"))
 FD_STEP = 1e-6
@@ -38,19 +38,7 @@ GOOD = {
 # independent reference (written out here, not taken from pipeline.kinematics)
 
 
-def _rot(axis, angle):
-    k = np.asarray(axis, float) / np.linalg.norm(axis)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
-
-
-def _h(R=None, t=None):
-    T = np.eye(4)
-    if R is not None:
-        T[:3, :3] = R
-    if t is not None:
-        T[:3, 3] = t
-    return T
+_rot, _h = rodrigues, homogeneous  # shared test helpers (tests/conftest.py)
 
 
 def _urdf_origin(xyz, rpy):

@@ -48,6 +48,11 @@ def _needs(solver: str):
     return pytest.importorskip(LIBRARY[solver])
 
 
+# TRAC-IK's budget is wall time: on a loaded CI machine its 5 ms default fails goals it solves when idle,
+# so the tests give it 50 ms (the benchmark keeps the default and says so)
+LENIENT = {"trac_ik": {"timeout": 0.05}}
+
+
 def test_every_peer_is_registered():
     assert set(PEERS) <= set(names())
 
@@ -57,7 +62,7 @@ def test_every_peer_is_registered():
 def test_warm_start_success(solver, robot):
     _needs(solver)
     model = _robot(robot)
-    s = make_settings(solver)
+    s = make_settings(solver, LENIENT.get(solver))
     if solver == "ur_analytic_ik" and robot != "ur5e":
         with pytest.raises(NotApplicableError):
             prepare(solver, model, s)
@@ -86,7 +91,7 @@ def test_working_unit_other_than_metres(solver):
     peer and back; errors in cm, joint values in the file's mm."""
     _needs(solver)
     model = _robot("stanford")
-    s = make_settings(solver, {"length_unit": "cm"})
+    s = make_settings(solver, {"length_unit": "cm", **LENIENT.get(solver, {})})
     prep = prepare(solver, model, s)
     Q, Q0, T = _goals(model, 10, seed=5)
     ok = 0

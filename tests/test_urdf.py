@@ -23,24 +23,12 @@ from pipeline.urdf import (
     robot_yaml,
     to_urdf,
 )
-from tests.conftest import DATA
+from tests.conftest import DATA, homogeneous, rodrigues
 
 ROBOTS = sorted((DATA / "robots").glob("*.yaml"))
 
 
-def _rot(axis, angle):
-    k = np.asarray(axis, float) / np.linalg.norm(axis)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
-
-
-def _h(R=None, t=None):
-    T = np.eye(4)
-    if R is not None:
-        T[:3, :3] = R
-    if t is not None:
-        T[:3, 3] = t
-    return T
+_rot, _h = rodrigues, homogeneous  # shared test helpers (tests/conftest.py)
 
 
 def _sample_q(model, rng, count):

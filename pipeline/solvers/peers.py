@@ -331,15 +331,20 @@ def _srand(seed: int) -> None:
     _libc.srand(ctypes.c_uint(seed & 0xFFFFFFFF))
 
 
-def _rtb_applies(prep: Prepared) -> str | None:
-    why = _missing("roboticstoolbox")
+def _model_applies(prep: Prepared, module: str, key: str, build, what: str) -> str | None:
+    """A peer applies when its library imports and it can build its model of the robot (memoised)."""
+    why = _missing(module)
     if why:
         return why
     try:
-        prep.memo(("peers", "rtb_ets"), lambda: _rtb_ets(prep))
+        prep.memo(("peers", key), lambda: build(prep))
     except Exception as exc:  # noqa: BLE001
-        return f"rtb could not build the ETS ({type(exc).__name__}: {str(exc).splitlines()[0][:120]})"
+        return f"{what} ({type(exc).__name__}: {str(exc).splitlines()[0][:120]})"
     return None
+
+
+def _rtb_applies(prep: Prepared) -> str | None:
+    return _model_applies(prep, "roboticstoolbox", "rtb_ets", _rtb_ets, "rtb could not build the ETS")
 
 
 def _rtb_run(method: str):
@@ -503,14 +508,7 @@ def _pin_model(prep: Prepared):
 
 
 def _pin_applies(prep: Prepared) -> str | None:
-    why = _missing("pinocchio")
-    if why:
-        return why
-    try:
-        prep.memo(("peers", "pin"), lambda: _pin_model(prep))
-    except Exception as exc:  # noqa: BLE001
-        return f"Pinocchio could not build the model ({type(exc).__name__}: {str(exc).splitlines()[0][:120]})"
-    return None
+    return _model_applies(prep, "pinocchio", "pin", _pin_model, "Pinocchio could not build the model")
 
 
 def _clik(pin, model, data, jid, tool, tool_inv_action, oMdes, q, eps, it_max, dt, damp, jlog6):

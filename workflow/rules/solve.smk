@@ -68,7 +68,7 @@ for _sid in PER_ROBOT_STUDIES:
                     settings=f"{DATA}/studies/{_sid}.yaml",
                     # a changed setting of any solver re-runs the job
                     solvers=[_st.solvers[lab].as_dict() for lab in _labels],
-                    counts=[_st.solver_count(_pset, lab, SCALE) for lab in _labels],
+                    caps=[_st.solver_cap(_pset, lab, SCALE) for lab in _labels],
                     labels=" ".join(_labels),
                     pset=_pset,
                     scale=SCALE,
