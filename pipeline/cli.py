@@ -12,6 +12,7 @@ aggregate_tables  compute a study's tables from its archives, beside the publish
 plot_figures      render a study's figures from its archives
 render_report     assemble results/report.html
 inspect           summarise an archive (counts, success, time percentiles, metadata)
+verify            recompute every table from the archives, check archives and report (exit 1 on a difference)
 import_urdf       write a robot file (general joint form) from a URDF chain (also: import-urdf)
 export_urdf       write a robot file as a URDF, base_link ... tool0, metres (also: export-urdf)
 """
@@ -102,6 +103,7 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
     from pipeline.io.problems import read_problems
     from pipeline.robots import LENGTH_UNITS, load_robot
     from pipeline.runner import solve_set
+    from pipeline.provenance import environment
     from pipeline.settings import file_sha256, git_commit, load_study
 
     study = load_study(args.study)
@@ -127,6 +129,7 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
         "length_unit": unit, "package_version": pipeline.__version__, "git_commit": git_commit(),
         "timing": "solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "
                   "solve() call (pipeline/solvers/timing.py)",
+        "environment": json.dumps(environment(), sort_keys=True),
         **(extra_meta or {}),
     }
     keep_traces = bool(study.doc.get("archive_traces", True))
@@ -159,24 +162,34 @@ def _study_solver(args):
 
 
 def cmd_solve_problems(args) -> None:
-    """One archive per solver label given (several labels: one process solves them in turn)."""
+    """One archive per (problem set, solver label) given: several run in turn in one process.
+
+    ``--problem-set`` and ``--problems`` pair up; ``--out`` holds one archive per set and label,
+    set-major (all labels of the first set, then of the second...).
+    """
+    from argparse import Namespace
+
     from pipeline.settings import load_study
 
-    if len(args.solver) != len(args.out):
-        raise CLIError(f"--solver names {len(args.solver)} solvers but --out {len(args.out)} archives")
+    if len(args.problem_set) != len(args.problems):
+        raise CLIError(f"--problem-set names {len(args.problem_set)} sets but --problems {len(args.problems)} files")
+    jobs = [(ps, pf, label) for ps, pf in zip(args.problem_set, args.problems) for label in args.solver]
+    if len(jobs) != len(args.out):
+        raise CLIError(f"{len(args.problem_set)} problem set(s) x {len(args.solver)} solver(s) need {len(jobs)} "
+                       f"--out archives, got {len(args.out)}")
     study = load_study(args.study)
-    _problem_set(study, args)
-    for k, (label, out) in enumerate(zip(args.solver, args.out)):
+    for k, ((pset, pfile, label), out) in enumerate(zip(jobs, args.out)):
+        one = Namespace(**{**vars(args), "problem_set": pset, "problems": pfile})
+        _problem_set(study, one)
         if label not in study.solvers:
             raise CLIError(f"{args.study}: field 'solvers/{label}': no such solver (have: {', '.join(study.solvers)})")
-        if label not in study.set_solvers(args.problem_set):
-            raise CLIError(f"{args.study}: field 'problem_sets/{args.problem_set}/solvers': {label!r} does not run "
-                           "on this set")
-        if len(args.solver) > 1:
-            print(f"[{k + 1}/{len(args.solver)}] {label}", flush=True)
-        limit = min(x for x in (study.solver_cap(args.problem_set, label, args.scale), args.limit or None, 10**12)
+        if label not in study.set_solvers(pset):
+            raise CLIError(f"{args.study}: field 'problem_sets/{pset}/solvers': {label!r} does not run on this set")
+        if len(jobs) > 1:
+            print(f"[{k + 1}/{len(jobs)}] {pset}: {label}", flush=True)
+        limit = min(x for x in (study.solver_cap(pset, label, args.scale), args.limit or None, 10**12)
                     if x is not None)
-        _solve_to_archive(args, study.solvers[label], out, limit=limit)
+        _solve_to_archive(one, study.solvers[label], out, limit=limit)
 
 
 def cmd_rerun_failures(args) -> None:
@@ -316,6 +329,16 @@ def cmd_render_report(args) -> None:
     print(f"wrote {args.out}")
 
 
+def cmd_verify(args) -> None:
+    """Recompute every table from its archives, check the archives and the report; exit 1 on any difference."""
+    from pipeline.verify import verify
+
+    ok, lines = verify(Path(args.results), Path(args.data))
+    print("\n".join(lines))
+    if not ok:
+        raise SystemExit(1)
+
+
 def cmd_inspect(args) -> None:
     from pipeline.io.archive import read_archive
     from pipeline.report.inspect import describe
@@ -411,14 +434,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("solve_problems", help="solve a problem set with one solver into an MCAP archive")
     p.add_argument("--study", required=True)
-    p.add_argument("--problem-set", required=True)
+    p.add_argument("--problem-set", required=True, nargs="+", help="problem set(s) of the study")
     p.add_argument("--robot", required=True)
     p.add_argument("--solver", required=True, nargs="+",
                    help="solver label(s) of the study (`solvers` or a reading variant); several run in turn")
-    p.add_argument("--problems", required=True, help="problem-set CSV from make_problems")
+    p.add_argument("--problems", required=True, nargs="+", help="problem-set CSV(s) from make_problems, one per set")
     p.add_argument("--scale", choices=["full", "quick"], default="full")
     p.add_argument("--limit", type=int, default=0, help="solve only the first N problems (debugging)")
-    p.add_argument("--out", required=True, nargs="+", help="output .mcap, one per --solver label")
+    p.add_argument("--out", required=True, nargs="+",
+                   help="output .mcap, one per (set, label), set-major")
     p.set_defaults(func=cmd_solve_problems)
 
     p = sub.add_parser("rerun_failures", help="rerun a solver's failed problems with the study's rerun overrides")
@@ -463,6 +487,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="KEY=VALUE")
     p.add_argument("--out", required=True)
     p.set_defaults(func=cmd_render_report)
+
+    p = sub.add_parser("verify", help="recompute every table from its archives and check archives and report")
+    p.add_argument("results", nargs="?", default="results", help="results folder (default results)")
+    p.add_argument("--data", default="data", help="data folder (study settings, published tables)")
+    p.set_defaults(func=cmd_verify)
 
     p = sub.add_parser("inspect", help="summarise an archive")
     p.add_argument("archive")

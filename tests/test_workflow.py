@@ -206,3 +206,85 @@ def test_an_unseen_urdf_arm_joins_the_benchmark(tmp_path):
     refused = pd.read_csv(results / "arm_benchmark" / "tables" / "not_applicable.csv")
     assert {"analytic_ur", "analytic_puma"} <= set(refused["solver"])  # a general-form robot: no DH closed form
     assert 'id="answer-unseen_arm"' in (results / "report.html").read_text()
+
+
+def _verify(results):
+    return subprocess.run([sys.executable, "-m", "pipeline", "verify", str(results)], cwd=ROOT,
+                          capture_output=True, text=True, timeout=900)
+
+
+@pytest.fixture(scope="module")
+def verified_copy(built, tmp_path_factory):
+    """A copy of the quick build that `verify` passes (the tests below each break one thing in a copy)."""
+    import shutil
+
+    copy = tmp_path_factory.mktemp("verify") / "results"
+    shutil.copytree(built, copy)
+    proc = _verify(copy)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "cerbaro2019: ok" in proc.stdout and "report: ok" in proc.stdout
+    return copy
+
+
+def _broken_copy(verified_copy, tmp_path):
+    import shutil
+
+    out = tmp_path / "results"
+    shutil.copytree(verified_copy, out)
+    return out
+
+
+def test_verify_catches_an_edited_table(verified_copy, tmp_path):
+    res = _broken_copy(verified_copy, tmp_path)
+    csv = res / "every_method" / "tables" / "summary.csv"
+    lines = csv.read_text().splitlines()
+    cells = lines[1].split(",")
+    k = next(i for i, c in enumerate(cells) if re.fullmatch(r"\d+(\.\d+)?", c))
+    cells[k] = str(float(cells[k]) + 1)
+    csv.write_text("\n".join([lines[0], ",".join(cells), *lines[2:]]) + "\n")
+    proc = _verify(res)
+    assert proc.returncode == 1
+    assert "every_method: " in proc.stdout and "summary.csv: differs from a recomputation" in proc.stdout
+    assert "report: " in proc.stdout and "embeds other tables" in proc.stdout
+
+
+def test_verify_catches_an_edited_report(verified_copy, tmp_path):
+    res = _broken_copy(verified_copy, tmp_path)
+    report = res / "report.html"
+    report.write_text(report.read_text().replace("Which IK method for your arm?", "Which IK method for my arm?", 1))
+    proc = _verify(res)
+    assert proc.returncode == 1 and "report.html: its text differs" in proc.stdout
+    assert "cerbaro2019: ok" in proc.stdout
+
+
+def test_verify_catches_an_archive_from_another_study(verified_copy, tmp_path):
+    import shutil
+
+    res = _broken_copy(verified_copy, tmp_path)
+    target = res / "every_method" / "runs" / "warm" / "kuka_lwr__dls.mcap"
+    shutil.copy(res / "cerbaro2019" / "runs" / "random" / "kuka_lwr__dls.mcap", target)
+    proc = _verify(res)
+    assert proc.returncode == 1
+    assert "kuka_lwr__dls.mcap: an archive of study 'cerbaro2019', not 'every_method'" in proc.stdout
+
+
+def test_rebuilding_from_the_same_archives_is_byte_identical(verified_copy, tmp_path):
+    """Tables, figures (PNG and SVG) and the report rebuilt twice: identical but for the build-time line."""
+    import shutil
+
+    runs = []
+    for k in range(2):
+        res = tmp_path / f"r{k}"
+        shutil.copytree(verified_copy, res)
+        for d in list(res.glob("*/tables")) + list(res.glob("*/figures")) + [res / "report.html"]:
+            shutil.rmtree(d) if d.is_dir() else d.unlink()
+        _snakemake(res)
+        runs.append(res)
+    a, b = runs
+    files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file() and ("tables" in p.parts or "figures" in p.parts))
+    assert files and any(f.suffix == ".svg" for f in files) and any(f.suffix == ".png" for f in files)
+    for f in files:
+        assert (a / f).read_bytes() == (b / f).read_bytes(), f
+    ra, rb = ((r / "report.html").read_text().splitlines() for r in runs)
+    diff = [(x, y) for x, y in zip(ra, rb) if x != y]
+    assert len(ra) == len(rb) and all("data-build-time" in x for x, _ in diff), diff[:3]

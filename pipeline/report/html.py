@@ -7,7 +7,6 @@ from html import escape as html_escape
 import datetime as _dt
 import json
 import platform
-from importlib import metadata as _md
 from pathlib import Path
 
 import jinja2
@@ -15,10 +14,11 @@ import pandas as pd
 import yaml
 
 import pipeline
+from pipeline.provenance import environment
 from pipeline.settings import Study, git_commit
+from pipeline.verify import INPUTS_DIGEST, REPORT_DIGEST, inputs_digest, seal_report
 
 TEMPLATES = Path(__file__).parent / "templates"
-PACKAGES = ("numpy", "scipy", "numba", "pandas", "matplotlib", "mcap", "snakemake")
 
 
 def _img(path: Path) -> str:
@@ -119,21 +119,18 @@ def render_report(studies: list[Study], config: dict, results: Path, out: Path) 
     """Write ``out`` (normally results/report.html) from the studies' tables and figures."""
     env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)), autoescape=True,
                              undefined=jinja2.StrictUndefined)
-    versions = {}
-    for p in PACKAGES:
-        try:
-            versions[p] = _md.version(p)
-        except _md.PackageNotFoundError:
-            versions[p] = "not installed"
+    env_info = environment()
     contexts = [study_context(s, results) for s in studies]
     answers = [c for c in contexts if c["answer"]]
     html = env.get_template("report.html").render(
         studies=contexts, answer=answers[0]["answer"] if answers else None, config=config,
         version=pipeline.__version__, commit=git_commit(), python=platform.python_version(),
-        machine=f"{platform.machine()} {platform.processor() or ''}".strip(), versions=versions,
+        machine=f"{platform.machine()} {platform.processor() or ''}".strip(), versions=env_info["libraries"],
+        cpu=env_info["cpu"], blas=env_info["blas"], digest_names={"report": REPORT_DIGEST, "inputs": INPUTS_DIGEST},
+        inputs_digest=inputs_digest(results, [s.id for s in studies]),
         built=_dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
     )
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".partial")
-    tmp.write_text(html)
+    tmp.write_text(seal_report(html))
     tmp.replace(out)

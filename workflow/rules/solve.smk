@@ -45,38 +45,41 @@ rule solve_problems:
         " --scale {params.scale} --out {output} > {log} 2>&1"
 
 
-# A study with `job_per_robot: true` runs every solver of a (problem set, robot) in one job: one
-# rule per pair, since the solver labels that apply differ from robot to robot. The archives are
-# the same files (and contents, timings aside) as one job per solver would write.
+# A study with `job_per_robot: true` runs every solver of every problem set of a robot in one job
+# (one process start and one kernel warm-up per robot): one rule per robot, since the solver labels
+# that apply differ from robot to robot. The archives are the same files (and contents, timings
+# aside) as one job per solver would write.
 for _sid in PER_ROBOT_STUDIES:
     _st = STUDIES[_sid]
-    for _pset in _st.problem_sets:
-        for _robot in _st.set_robots(_pset):
-            _labels = _st.robot_solvers(_pset, _robot)
-            if not _labels:
-                continue
+    for _robot in dict.fromkeys(r for _p in _st.problem_sets for r in _st.set_robots(_p)):
+        _sets = [_p for _p in _st.problem_sets if _robot in _st.set_robots(_p)]
+        _labels = _st.robot_solvers(_sets[0], _robot)
+        if not _labels:
+            continue
+        if any(_st.robot_solvers(_p, _robot) != _labels for _p in _sets):
+            sys.exit(f"error: {_st.path}: job_per_robot needs the same solvers on every problem set of {_robot}")
 
-            rule:
-                name:
-                    f"solve_{_sid}__{_pset}__{_robot}"
-                input:
-                    problems=f"{RESULTS}/{_sid}/problems/{_pset}/{_robot}.csv",
-                    robot=f"{DATA}/robots/{_robot}.yaml",
-                output:
-                    [f"{RESULTS}/{_sid}/runs/{_pset}/{_robot}__{lab}.mcap" for lab in _labels],
-                params:
-                    settings=f"{DATA}/studies/{_sid}.yaml",
-                    # a changed setting of any solver re-runs the job
-                    solvers=[_st.solvers[lab].as_dict() for lab in _labels],
-                    caps=[_st.solver_cap(_pset, lab, SCALE) for lab in _labels],
-                    labels=" ".join(_labels),
-                    pset=_pset,
-                    scale=SCALE,
-                log:
-                    f"{RESULTS}/{_sid}/logs/solve_problems__{_pset}__{_robot}.log",
-                benchmark:
-                    f"{RESULTS}/{_sid}/benchmarks/{_pset}__{_robot}.tsv"
-                shell:
-                    "{ENV} python -m pipeline solve_problems --study {params.settings} --problem-set {params.pset}"
-                    " --robot {input.robot} --solver {params.labels} --problems {input.problems}"
-                    " --scale {params.scale} --out {output} > {log} 2>&1"
+        rule:
+            name:
+                f"solve_{_sid}__{_robot}"
+            input:
+                problems=[f"{RESULTS}/{_sid}/problems/{_p}/{_robot}.csv" for _p in _sets],
+                robot=f"{DATA}/robots/{_robot}.yaml",
+            output:
+                [f"{RESULTS}/{_sid}/runs/{_p}/{_robot}__{lab}.mcap" for _p in _sets for lab in _labels],
+            params:
+                settings=f"{DATA}/studies/{_sid}.yaml",
+                # a changed setting of any solver re-runs the job
+                solvers=[_st.solvers[lab].as_dict() for lab in _labels],
+                caps=[[_st.solver_cap(_p, lab, SCALE) for lab in _labels] for _p in _sets],
+                labels=" ".join(_labels),
+                psets=" ".join(_sets),
+                scale=SCALE,
+            log:
+                f"{RESULTS}/{_sid}/logs/solve_problems__{_robot}.log",
+            benchmark:
+                f"{RESULTS}/{_sid}/benchmarks/{_robot}.tsv"
+            shell:
+                "{ENV} python -m pipeline solve_problems --study {params.settings} --problem-set {params.psets}"
+                " --robot {input.robot} --solver {params.labels} --problems {input.problems}"
+                " --scale {params.scale} --out {output} > {log} 2>&1"

@@ -1,0 +1,70 @@
+"""What produced a number: library versions, Python, CPU model and BLAS (archives and the report).
+
+Everything here is read, never guessed: a library that is not installed is reported as such, a CPU
+or BLAS that cannot be identified as ``unknown``.
+"""
+
+from __future__ import annotations
+
+import platform
+from functools import lru_cache
+from importlib import metadata as _md
+from pathlib import Path
+
+# every library that touches the numbers (solvers, tables, figures, archives, the workflow),
+# and the peer libraries the benchmark runs as baselines
+LIBRARIES = ("numpy", "numba", "scipy", "pandas", "matplotlib", "mcap", "zstandard", "snakemake", "pyyaml",
+             "jsonschema", "jinja2", "yourdfpy", "roboticstoolbox-python", "spatialmath-python", "pytracik", "pin",
+             "ur-analytic-ik")
+
+
+def library_versions(names=LIBRARIES) -> dict[str, str]:
+    """Installed version of each distribution, or ``"not installed"``."""
+    out = {}
+    for name in names:
+        try:
+            out[name] = _md.version(name)
+        except _md.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``; ``platform.processor()`` elsewhere)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.lower().startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def blas() -> str:
+    """The BLAS numpy was built against, with its version and (when known) the CPU kernel in use."""
+    import numpy as np
+
+    name = "unknown"
+    try:
+        cfg = np.show_config(mode="dicts")
+        b = cfg.get("Build Dependencies", {}).get("blas", {})
+        name = " ".join(str(b[k]) for k in ("name", "version") if b.get(k)) or name
+    except Exception:  # noqa: BLE001  (older numpy: no dict mode)
+        pass
+    try:
+        from threadpoolctl import threadpool_info
+
+        for info in threadpool_info():
+            if info.get("user_api") == "blas":
+                core = info.get("architecture")
+                return f"{name} (core {core})" if core else name
+    except Exception:  # noqa: BLE001  (threadpoolctl is optional)
+        pass
+    return name
+
+
+@lru_cache(maxsize=1)
+def environment() -> dict:
+    """Python, platform, CPU, BLAS and library versions (cached: the same for a whole process)."""
+    return {"python": platform.python_version(), "platform": platform.platform(), "cpu": cpu_model(),
+            "blas": blas(), "libraries": library_versions()}

@@ -1,0 +1,147 @@
+"""``python -m pipeline verify``: prove that a results folder's tables and report match its archives.
+
+Per study (every ``results/<id>/tables/provenance.json``):
+
+1. every archive the tables were built from exists, reads without error, holds as many solve
+   records as its metadata promises, belongs to the study, and is the archive the tables recorded
+   (study, solver, settings hash, problem-file hash, problem count);
+2. its problem set on disk (``problems/<set>/<robot>.csv``) has the hash the archive recorded;
+3. every table is recomputed from those archives and compared byte for byte with the CSV on disk.
+
+For the report: the digest of its inputs (every study's tables and figures) recorded in
+``report.html`` equals the digest of the files on disk, and the digest of the report's own text
+(without the build-time line) equals the one it records, so a hand-edited report is caught.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import tempfile
+from pathlib import Path
+
+REPORT_DIGEST = "ik-pipeline-report-sha256"
+INPUTS_DIGEST = "ik-pipeline-inputs-sha256"
+BUILD_MARK = "data-build-time"
+_META = re.compile(r'<meta name="(ik-pipeline-[a-z0-9-]+)" content="([0-9a-f]*)">')
+_CHECKED = ("study", "solver", "settings_hash", "problem_sha256", "problems", "problem_set", "robot")
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def inputs_digest(results: Path, study_ids) -> str:
+    """sha256 over every file of the studies' ``tables/`` and ``figures/`` folders (names and bytes)."""
+    h = hashlib.sha256()
+    for sid in study_ids:
+        for sub in ("tables", "figures"):
+            folder = results / sid / sub
+            for f in sorted(folder.rglob("*")) if folder.is_dir() else []:
+                if f.is_file():
+                    h.update(f"{sid}/{sub}/{f.relative_to(folder).as_posix()}\0{_sha(f)}\n".encode())
+    return h.hexdigest()
+
+
+def report_digest(html: str) -> str:
+    """sha256 of the report's text without its build-time line and its own digest line."""
+    keep = [ln for ln in html.splitlines() if BUILD_MARK not in ln and REPORT_DIGEST not in ln]
+    return hashlib.sha256("\n".join(keep).encode()).hexdigest()
+
+
+def seal_report(html: str) -> str:
+    """Write the report's own digest into its (empty) ``REPORT_DIGEST`` meta line."""
+    digest = report_digest(html)
+    return html.replace(f'<meta name="{REPORT_DIGEST}" content="">', f'<meta name="{REPORT_DIGEST}" content="{digest}">')
+
+
+def _archive_path(results: Path, sid: str, recorded: str) -> Path:
+    parts = Path(recorded).parts
+    return results.joinpath(*parts[parts.index(sid):]) if sid in parts else Path(recorded)
+
+
+def verify_study(results: Path, data: Path, sid: str) -> list[str]:
+    """What differs for study ``sid`` (empty list: everything matches)."""
+    from pipeline.io.archive import read_archive
+    from pipeline.settings import load_study
+    from pipeline.studies import get_study_module, write_tables
+
+    folder = results / sid
+    prov = json.loads((folder / "tables" / "provenance.json").read_text())
+    problems, archives = [], []
+    for rec in prov:
+        path = _archive_path(results, sid, rec["archive"])
+        if not path.is_file():
+            problems.append(f"{path}: archive missing")
+            continue
+        try:
+            a = read_archive(path)
+        except Exception as exc:  # noqa: BLE001  (every reader error is one line)
+            problems.append(f"{path}: unreadable archive ({str(exc).splitlines()[0]})")
+            continue
+        m = a.metadata
+        want = int(m.get("problems", -1)) * int(m.get("repetitions", 1))
+        if len(a.solves) != want:
+            problems.append(f"{path}: {len(a.solves)} solve records, metadata promises {want}")
+        if m.get("study") != sid:
+            problems.append(f"{path}: an archive of study {m.get('study')!r}, not {sid!r}")
+        diff = [k for k in _CHECKED if k in rec and str(rec[k]) != str(m.get(k))]
+        if diff:
+            problems.append(f"{path}: not the archive the tables were built from (differs in {', '.join(diff)})")
+        pfile = folder / "problems" / str(m.get("problem_set")) / f"{m.get('robot')}.csv"
+        if pfile.is_file() and m.get("problem_sha256") and _sha(pfile)[:16] != m["problem_sha256"]:
+            problems.append(f"{pfile}: hash differs from the one archive {path.name} recorded")
+        archives.append(a)
+    if problems:
+        return problems
+    study = load_study(data / "studies" / f"{sid}.yaml")
+    with tempfile.TemporaryDirectory() as tmp:
+        tables = get_study_module(sid).build_tables(study, archives, data / "published")
+        write_tables(tables, Path(tmp))
+        index = json.loads((Path(tmp) / "index.json").read_text())
+        for name in [t["file"] for t in index] + ["index.json"]:
+            disk = folder / "tables" / name
+            if not disk.is_file():
+                problems.append(f"{disk}: missing (a recomputation from the archives writes it)")
+            elif disk.read_bytes() != (Path(tmp) / name).read_bytes():
+                problems.append(f"{disk}: differs from a recomputation from the archives")
+        extra = {f.name for f in (folder / "tables").glob("*.csv")} - {t["file"] for t in index}
+        problems += [f"{folder / 'tables' / x}: not a table the archives produce" for x in sorted(extra)]
+    return problems
+
+
+def verify_report(results: Path, study_ids) -> list[str]:
+    report = results / "report.html"
+    if not report.is_file():
+        return [f"{report}: missing"]
+    html = report.read_text()
+    meta = dict(_META.findall(html))
+    problems = []
+    if meta.get(REPORT_DIGEST) != report_digest(html):
+        problems.append(f"{report}: its text differs from what was rendered (edited after the build?)")
+    if meta.get(INPUTS_DIGEST) != inputs_digest(results, study_ids):
+        problems.append(f"{report}: embeds other tables or figures than the ones in {results}")
+    return problems
+
+
+def report_studies(results: Path) -> list[str]:
+    """Study ids the report was rendered from (its section ids, in order)."""
+    html = (results / "report.html").read_text() if (results / "report.html").is_file() else ""
+    return re.findall(r'<section id="([a-z0-9_]+)" class="study">', html)
+
+
+def verify(results: Path, data: Path) -> tuple[bool, list[str]]:
+    """One line per study and one for the report; True when everything matches."""
+    lines, ok = [], True
+    studies = sorted(p.parent.parent.name for p in results.glob("*/tables/provenance.json"))
+    if not studies:
+        return False, [f"{results}: no study tables (tables/provenance.json) to verify"]
+    for sid in studies:
+        diffs = verify_study(results, data, sid)
+        ok &= not diffs
+        lines.append(f"{sid}: ok" if not diffs else f"{sid}: " + "; ".join(diffs))
+    diffs = verify_report(results, report_studies(results) or studies)
+    ok &= not diffs
+    lines.append("report: ok" if not diffs else "report: " + "; ".join(diffs))
+    return ok, lines
