@@ -229,7 +229,7 @@ def _iter_messages(path: Path, topics):
 
     try:
         with open(path, "rb") as fh:
-            reader = make_reader(fh)
+            reader = make_reader(fh, validate_crcs=True)  # chunk CRCs checked on every read
             for schema, channel, msg in reader.iter_messages(topics=topics):
                 yield schema, channel, msg
     except ArchiveError:
@@ -257,7 +257,7 @@ def read_archive(path: str | Path) -> Archive:
             if fh.read(8) != b"\x89MCAP0\r\n":
                 raise ArchiveError(f"{path}: not an MCAP file (bad magic)")
             fh.seek(0)
-            reader = make_reader(fh)
+            reader = make_reader(fh, validate_crcs=True)  # chunk CRCs checked on every read
             summary = reader.get_summary()
             if summary is None:
                 raise ArchiveError(f"{path}: truncated archive (no summary section; the job did not finish)")

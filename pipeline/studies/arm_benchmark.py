@@ -31,7 +31,7 @@ from pipeline.studies.generic import runs_frame
 
 PEERS = ("rtb_ik_lm", "rtb_ik_nr", "rtb_ik_gn", "trac_ik", "pinocchio_clik", "ur_analytic_ik")
 CLOSE_PP = 1.0  # "within 1 percentage point" of the best success rate
-MIN_SHARE = 0.25  # labels run on at least this share of a set's goals compete for the answer
+MIN_SHARE = 0.1  # labels run on at least this share of a set's goals compete for the answer
 
 
 def _p(x, q) -> float:
