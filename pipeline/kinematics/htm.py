@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from pipeline.kinematics.chain import Chain
@@ -117,4 +119,29 @@ def fk_htm(chain: Chain, q: np.ndarray) -> np.ndarray:
     -------
     T : ndarray, shape (..., 4, 4) [length for the translation]
     """
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 1 and not chain.general:
+        return _fk_one(chain, q)
     return fk_frames(chain, q)[..., -1, :, :] @ chain.tool
+
+
+def _fk_one(chain: Chain, q: np.ndarray) -> np.ndarray:
+    """:func:`fk_htm` of one joint vector of a DH chain, link by link: the same arithmetic as
+    :func:`dh_transform` and the same products, so bit-identical, without the batch machinery
+    (about 2x faster for one pose: the FK check of every solve)."""
+    if q.shape[0] != chain.n:
+        raise ValueError(f"expected {chain.n} joint values, got shape {q.shape}")
+    a, al, d0, off, pr = chain.a.tolist(), chain.alpha.tolist(), chain.d.tolist(), chain.theta_offset.tolist(), \
+        chain.prismatic.tolist()
+    T = chain.base
+    for i, qi in enumerate(q.tolist()):
+        th, d = (off[i], d0[i] + qi) if pr[i] else (off[i] + qi, d0[i])
+        ct, st, ca, sa = math.cos(th), math.sin(th), math.cos(al[i]), math.sin(al[i])
+        if chain.modified:
+            L = np.array([[ct, -st, 0.0, a[i]], [st * ca, ct * ca, -sa, -sa * d], [st * sa, ct * sa, ca, ca * d],
+                          [0.0, 0.0, 0.0, 1.0]])
+        else:
+            L = np.array([[ct, -st * ca, st * sa, a[i] * ct], [st, ct * ca, -ct * sa, a[i] * st], [0.0, sa, ca, d],
+                          [0.0, 0.0, 0.0, 1.0]])
+        T = T @ L
+    return T @ chain.tool
