@@ -284,8 +284,10 @@ def test_rebuilding_from_the_same_archives_is_byte_identical(verified_copy, tmp_
     a, b = runs
     files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file() and ("tables" in p.parts or "figures" in p.parts))
     assert files and any(f.suffix == ".svg" for f in files) and any(f.suffix == ".png" for f in files)
-    for f in files:
-        assert (a / f).read_bytes() == (b / f).read_bytes(), f
+    for f in files:  # provenance.json names the archives by path: the two copies live in different folders
+        left = (a / f).read_bytes().replace(str(a).encode(), b"RESULTS")
+        right = (b / f).read_bytes().replace(str(b).encode(), b"RESULTS")
+        assert left == right, f
     ra, rb = ((r / "report.html").read_text().splitlines() for r in runs)
     diff = [(x, y) for x, y in zip(ra, rb) if x != y]
     assert len(ra) == len(rb) and all("data-build-time" in x for x, _ in diff), diff[:3]
