@@ -18,7 +18,9 @@ import numpy as np
 
 from pipeline.problems import ProblemSet
 from pipeline.robots import LENGTH_UNITS, RobotModel
-from pipeline.solvers import IKResult, Settings, prepare, solve, warm_up
+from pipeline.solvers import IKResult, Settings, bind, get, prepare, solve_batch, warm_up
+
+BATCH = 2000  # problems per batch call (progress is reported between batches)
 
 
 def problem_seed(set_seed: int, problem_id: int, repetition: int = 0) -> int:
@@ -27,8 +29,12 @@ def problem_seed(set_seed: int, problem_id: int, repetition: int = 0) -> int:
 
 
 def solve_set(method: str, settings: Settings, model: RobotModel, ps: ProblemSet, *, repetitions: int = 1,
-              set_seed: int = 0, select=None) -> Iterator[tuple[int, int, np.ndarray, IKResult]]:
+              set_seed: int = 0, select=None, threads: int = 1) -> Iterator[tuple[int, int, np.ndarray, IKResult]]:
     """Yield ``(row index, repetition, q_start used, result)`` for every solve of the set.
+
+    Independent problems (no chain continues, one repetition) of a method with a batch kernel go
+    through :func:`pipeline.solvers.solve_batch` in batches of :data:`BATCH` on ``threads``
+    threads; everything else is solved one call at a time. Both give the same results (tested).
 
     Parameters
     ----------
@@ -47,6 +53,18 @@ def solve_set(method: str, settings: Settings, model: RobotModel, ps: ProblemSet
     if ps.length_unit != model.length_unit:
         T_goals[:, :3, 3] *= LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[model.length_unit]
     idx = np.arange(len(ps)) if select is None else np.flatnonzero(np.isin(ps.problem_id, list(select)))
+    chains = ps.chain[idx]
+    independent = repetitions == 1 and len(np.unique(chains[chains >= 0])) == int((chains >= 0).sum())
+    if independent and get(method).batch is not None:
+        seeds = np.array([problem_seed(set_seed, ps.problem_id[i], 0) for i in idx], dtype=np.int64)
+        for lo in range(0, len(idx), BATCH):
+            part = idx[lo:lo + BATCH]
+            res = solve_batch(method, prep, T_goals[part], ps.q_start[part], settings, seeds=seeds[lo:lo + BATCH],
+                              threads=threads)
+            for k, i in enumerate(part):
+                yield int(i), 0, ps.q_start[i], res.result(k)
+        return
+    b = bind(method, prep, settings)
     last: dict[int, np.ndarray] = {}
     for i in idx:
         ch = int(ps.chain[i])
@@ -55,7 +73,7 @@ def solve_set(method: str, settings: Settings, model: RobotModel, ps: ProblemSet
             q0 = last[ch]
         first = None
         for r in range(repetitions):
-            res = solve(method, prep, T_goals[i], q0, settings, seed=problem_seed(set_seed, ps.problem_id[i], r))
+            res = b.solve(T_goals[i], q0, problem_seed(set_seed, ps.problem_id[i], r))
             first = first or res
             yield int(i), r, q0, res
         if ch >= 0:

@@ -86,7 +86,7 @@ def test_claimed_success_contradicted_by_fk(lwr):
     def lying_run(prep, T_goal, q_start, settings, seed):
         return Raw(q=q_start.copy(), code=StopReason.SUCCESS, iterations=1, solve_ns=1)
 
-    registry._REGISTRY["liar"] = replace(get("dls"), name="liar", run=lying_run)
+    registry._REGISTRY["liar"] = replace(get("dls"), name="liar", run=lying_run, bind=None, batch=None)
     try:
         qg = np.full(7, 0.5)
         res = solve("liar", lwr, fk_htm(lwr.chain, qg), np.zeros(7))

@@ -7,7 +7,8 @@ Layout
 ------
 ``base``      StopReason, Settings (+ ``setting`` fields), Prepared robot, Raw kernel output,
               IKResult, the independent FK check (``finish``), joint-limit test
-``registry``  name -> Solver (settings type, applicability, kernel call); ``solve``, ``prepare``
+``registry``  name -> Solver (settings type, applicability, kernel call); ``solve``, ``solve_batch``,
+              ``bind`` (a solver bound to a robot and settings: per-job work done once), ``prepare``
 ``timing``    the one timing definition (solve_time_s, ik_time_s, call_time_s)
 ``_kin``      the compiled kinematics layer (numba) every iterative method uses
 ``jacobian``  Jacobian transpose, pseudoinverse, DLS, SDLS (000)
@@ -21,6 +22,7 @@ Importing this package registers every method (kernels compile lazily, on first 
 
 from pipeline.solvers.base import (
     STOP_REASONS,
+    BatchResult,
     IKResult,
     NotApplicableError,
     Prepared,
@@ -32,10 +34,11 @@ from pipeline.solvers.base import (
     verify,
     within_limits,
 )
-from pipeline.solvers.registry import Solver, catalogue, get, make_settings, names, prepare, register, solve, warm_up
+from pipeline.solvers.registry import (Bound, Solver, bind, catalogue, get, make_settings, names, prepare, register, solve,
+                                       solve_batch, warm_up)
 from pipeline.solvers import jacobian  # noqa: F401  (registers the four Jacobian methods)
 from pipeline.solvers import _methods  # noqa: F401  (registers the methods of the other studies)
 
-__all__ = ["STOP_REASONS", "IKResult", "NotApplicableError", "Prepared", "Raw", "Settings", "SettingsError",
-           "Solver", "StopReason", "catalogue", "finish", "get", "make_settings", "names", "prepare", "register",
-           "solve", "verify", "warm_up", "within_limits"]
+__all__ = ["STOP_REASONS", "BatchResult", "Bound", "IKResult", "NotApplicableError", "Prepared", "Raw", "Settings", "SettingsError",
+           "Solver", "StopReason", "bind", "catalogue", "finish", "get", "make_settings", "names", "prepare", "register",
+           "solve", "solve_batch", "verify", "warm_up", "within_limits"]

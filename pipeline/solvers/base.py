@@ -6,7 +6,8 @@ Call shape (see :mod:`pipeline.solvers.registry`)::
 
 A registered method supplies only its kernel call, ``run(prep, T_goal, q_start, settings, seed) ->
 Raw``; :func:`finish` turns that raw output into an :class:`IKResult`: it re-checks the returned
-angles with the numpy reference forward kinematics (never the kernel's own FK), sets ``success``
+angles with forward kinematics that share no code with the solvers' (compiled dual-quaternion FK,
+:mod:`pipeline.kinematics.fkcheck`; never the kernel's own FK), sets ``success``
 only when the method claimed success *and* that check passes, marks a contradicted claim as
 :attr:`StopReason.FK_CHECK_FAILED`, and records whether the solution lies within the robot file's
 joint limits.
@@ -32,7 +33,10 @@ from enum import IntEnum
 
 import numpy as np
 
+import numba
+
 from pipeline.kinematics import fk_htm
+from pipeline.kinematics.fkcheck import check_model, check_one
 from pipeline.robots import LENGTH_UNITS, RobotModel
 
 
@@ -267,10 +271,16 @@ class Prepared:
         self.limits = own(self.model.limits)
         self.prismatic = np.asarray(c.prismatic, dtype=bool)
         self._cache: dict = {}  # see memo()
+        self._bound: dict = {}  # (solver name, id(settings)) -> registry.Bound (see registry.bind)
 
     @property
     def n(self) -> int:
         return self.model.n
+
+    @property
+    def check(self) -> tuple:
+        """The independent FK check's model of the working-unit chain (:func:`pipeline.kinematics.fkcheck.check_model`)."""
+        return self.memo("fkcheck", lambda: check_model(self.model.chain))
 
     def memo(self, key, make):
         """Data derived once per job and robot (packed settings, an analytic solver's geometry...):
@@ -345,7 +355,7 @@ class Raw:
     info: dict = field(default_factory=dict)
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class IKResult:
     """Outcome of one IK solve.
 
@@ -383,6 +393,130 @@ class IKResult:
     length_unit: str = "m"
     solutions: np.ndarray | None = None
     info: dict = field(default_factory=dict)
+
+
+@dataclass
+class BatchRaw:
+    """What a method's batch kernel returns for N problems (before the FK check).
+
+    Attributes
+    ----------
+    q : ndarray, shape (N, n)               final joint values [rad | working unit]
+    code, iterations : ndarray, shape (N,)  the method's stop codes and iteration counts
+    solve_ns, ik_ns : ndarray, shape (N,)   per-problem times [ns] (as in :class:`Raw`)
+    trace_rows : ndarray, shape (M, 8), optional       every problem's trace rows, concatenated
+    trace_offsets : ndarray, shape (N + 1,), optional  problem i's rows are ``offsets[i]:offsets[i+1]``
+    solutions : ndarray, shape (N, m, n), optional     analytic methods: every solution ...
+    n_solutions : ndarray, shape (N,), optional        ... of which the first n_solutions[i] hold
+    info : list of dict, optional           per-problem counters
+    """
+
+    q: np.ndarray
+    code: np.ndarray
+    iterations: np.ndarray
+    solve_ns: np.ndarray
+    ik_ns: np.ndarray
+    trace_rows: np.ndarray | None = None
+    trace_offsets: np.ndarray | None = None
+    solutions: np.ndarray | None = None
+    n_solutions: np.ndarray | None = None
+    info: list | None = None
+
+
+@dataclass
+class BatchResult:
+    """Outcome of N solves as arrays (:func:`pipeline.solvers.solve_batch`); fields as in :class:`IKResult`.
+
+    Attributes
+    ----------
+    q : ndarray, shape (N, n) [rad | robot file's length unit]
+    success, claimed_success, within_limits : ndarray of bool, shape (N,)
+    stop_reason, iterations : ndarray of int, shape (N,)
+    solve_time_s, ik_time_s : ndarray, shape (N,) [s]   per problem, measured inside the kernel
+    position_error : ndarray, shape (N,) [length_unit]  by the independent FK check
+    orientation_error : ndarray, shape (N,) [rad]       NaN for position-only criteria
+    call_time_s : float [s]                             the whole batch call
+    length_unit : str
+    trace_rows, trace_offsets : see :class:`BatchRaw` (None when traces were not kept)
+    solutions, n_solutions, info : see :class:`BatchRaw`
+    """
+
+    q: np.ndarray
+    success: np.ndarray
+    stop_reason: np.ndarray
+    iterations: np.ndarray
+    solve_time_s: np.ndarray
+    ik_time_s: np.ndarray
+    position_error: np.ndarray
+    orientation_error: np.ndarray
+    claimed_success: np.ndarray
+    within_limits: np.ndarray
+    call_time_s: float
+    length_unit: str
+    trace_rows: np.ndarray | None = None
+    trace_offsets: np.ndarray | None = None
+    solutions: np.ndarray | None = None
+    n_solutions: np.ndarray | None = None
+    info: list | None = None
+
+    def __len__(self) -> int:
+        return int(self.q.shape[0])
+
+    def trace(self, i: int) -> np.ndarray:
+        """Problem ``i``'s trace (iterations + 1, 8); one row of NaN but |dp| when none was kept."""
+        if self.trace_rows is None:
+            t = np.full((1, TRACE_COLS), np.nan)
+            t[0, 7] = self.position_error[i]
+            return t
+        return self.trace_rows[self.trace_offsets[i]:self.trace_offsets[i + 1]]
+
+    def result(self, i: int) -> IKResult:
+        """Problem ``i`` as an :class:`IKResult` (``call_time_s`` = the batch's time / N)."""
+        sols = None
+        if self.solutions is not None:
+            sols = self.solutions[i, : int(self.n_solutions[i])]
+        return IKResult(q=self.q[i], success=bool(self.success[i]), stop_reason=int(self.stop_reason[i]),
+                        iterations=int(self.iterations[i]), trace=self.trace(i),
+                        solve_time_s=float(self.solve_time_s[i]), ik_time_s=float(self.ik_time_s[i]),
+                        position_error=float(self.position_error[i]),
+                        orientation_error=float(self.orientation_error[i]),
+                        claimed_success=bool(self.claimed_success[i]), within_limits=bool(self.within_limits[i]),
+                        call_time_s=self.call_time_s / max(1, len(self)), length_unit=self.length_unit,
+                        solutions=sols, info=dict(self.info[i]) if self.info is not None else {})
+
+
+@numba.njit(cache=True)
+def _within_many(Q, limits, prismatic, out):
+    for k in range(Q.shape[0]):
+        out[k] = _within(Q[k], limits, prismatic, 1e-9)
+
+
+def finish_batch(prep: Prepared, goals: np.ndarray, raw: BatchRaw, settings: Settings) -> BatchResult:
+    """:func:`finish` for N problems at once (not for ``require_limits``; the registry handles that per problem).
+
+    ``goals`` (N, 4, 4) and ``settings`` in the working unit; ``call_time_s`` is left at 0.
+    """
+    from pipeline.kinematics.fkcheck import check_many
+
+    q = np.ascontiguousarray(raw.q, dtype=float)
+    N = q.shape[0]
+    ok = np.zeros(N, dtype=np.bool_)
+    err = np.empty((N, 3))
+    check_many(*prep.check, q, np.ascontiguousarray(goals, dtype=float), CRITERION_CODE[settings.criterion],
+               settings.tol_pos, settings.tol_rot, settings.tol_dq, ok, err)
+    code = np.asarray(raw.code, dtype=np.int64).copy()
+    claimed = code == int(StopReason.SUCCESS)
+    code[claimed & ~ok] = int(StopReason.FK_CHECK_FAILED)
+    code[~np.isfinite(q).all(axis=1)] = int(StopReason.NON_FINITE)
+    inside = np.zeros(N, dtype=np.bool_)
+    _within_many(q, prep.limits, np.ascontiguousarray(prep.prismatic), inside)
+    ang = np.full(N, np.nan) if settings.criterion == "position" else err[:, 1]
+    return BatchResult(q=q, success=claimed & ok & (code == int(StopReason.SUCCESS)), stop_reason=code,
+                       iterations=np.asarray(raw.iterations, dtype=np.int64), solve_time_s=raw.solve_ns * 1e-9,
+                       ik_time_s=raw.ik_ns * 1e-9, position_error=err[:, 0], orientation_error=ang,
+                       claimed_success=claimed, within_limits=inside, call_time_s=0.0, length_unit=prep.unit,
+                       trace_rows=raw.trace_rows, trace_offsets=raw.trace_offsets, solutions=raw.solutions,
+                       n_solutions=raw.n_solutions, info=raw.info)
 
 
 def pose_errors(model: RobotModel, T_goal: np.ndarray, q: np.ndarray) -> tuple[float, float, float]:
@@ -425,25 +559,37 @@ def verify(model: RobotModel, T_goal: np.ndarray, q: np.ndarray, settings: Setti
     return meets(settings, dp, ang, t), dp, ang
 
 
-def within_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray, tol: float = 1e-9) -> bool:
-    """True when every joint lies within its limits; a revolute joint may first be wrapped by 2 pi.
+def check(prep: Prepared, T_goal: np.ndarray, q: np.ndarray, settings: Settings) -> tuple[bool, float, float]:
+    """:func:`verify` by the compiled dual-quaternion FK (:mod:`pipeline.kinematics.fkcheck`): the
+    check every solve gets. ``T_goal`` and ``settings`` in the working unit; returns (ok, |dp|, angle)."""
+    ok, dp, ang, _ = check_one(*prep.check, np.asarray(q, dtype=float), T_goal, CRITERION_CODE[settings.criterion],
+                               settings.tol_pos, settings.tol_rot, settings.tol_dq, np.empty(8))
+    return bool(ok), dp, ang
 
-    A wrapped value just below ``lo + 2 pi`` (within ``tol``) counts as ``lo``. Written as a loop over
-    the joints (called once per solve; a numpy version cost 4x more for 6-7 joints).
-    """
-    qs = np.asarray(q, dtype=float).tolist()
-    lim = np.asarray(limits, dtype=float).tolist()
-    pr = np.asarray(prismatic, dtype=bool).tolist()
-    for x, (lo, hi), p in zip(qs, lim, pr):
+
+@numba.njit(cache=True)
+def _within(q, limits, prismatic, tol):
+    for i in range(q.shape[0]):
+        x, lo, hi = q[i], limits[i, 0], limits[i, 1]
         if not math.isfinite(x):
             return False
-        if not p and math.isfinite(lo):
-            x = lo + float(np.mod(x - lo, 2 * math.pi))
+        if not prismatic[i] and math.isfinite(lo):
+            x = lo + np.mod(x - lo, 2 * math.pi)
             if abs(x - 2 * math.pi - lo) <= tol:
                 x = lo
         if x < lo - tol or x > hi + tol:
             return False
     return True
+
+
+def within_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray, tol: float = 1e-9) -> bool:
+    """True when every joint lies within its limits; a revolute joint may first be wrapped by 2 pi.
+
+    A wrapped value just below ``lo + 2 pi`` (within ``tol``) counts as ``lo``. Compiled (called
+    once per solve).
+    """
+    return bool(_within(np.asarray(q, dtype=float), np.asarray(limits, dtype=float), np.asarray(prismatic, dtype=np.bool_),
+                        float(tol)))
 
 
 def wrap_into_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray) -> np.ndarray:
@@ -474,7 +620,7 @@ def _within_limit_choice(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings:
     best, best_d = None, math.inf
     for cand in np.asarray(raw.solutions, dtype=float):
         c = wrap_into_limits(cand, prep.limits, prep.prismatic)
-        if not within_limits(c, prep.limits, prep.prismatic) or not verify(prep.model, T_goal, c, settings)[0]:
+        if not within_limits(c, prep.limits, prep.prismatic) or not check(prep, T_goal, c, settings)[0]:
             continue
         dist = float(np.abs(c - ref).sum())
         if dist < best_d:
@@ -500,7 +646,9 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
         q = _within_limit_choice(prep, T_goal, raw, settings, q_start)
     else:
         q = np.asarray(raw.q, dtype=float)
-    ok, dp, ang = verify(prep.model, T_goal, q, settings)
+    ok, dp, ang, _ = check_one(*prep.check, q, T_goal, CRITERION_CODE[settings.criterion], settings.tol_pos,
+                               settings.tol_rot, settings.tol_dq, np.empty(8))
+    ok = bool(ok)
     code = int(raw.code)
     claimed = code == StopReason.SUCCESS
     if claimed and not ok:
@@ -513,7 +661,7 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
         trace[0, 7] = dp
     else:
         trace = np.asarray(trace)[: raw.iterations + 1]
-    inside = within_limits(q, prep.limits, prep.prismatic)
+    inside = bool(_within(q, prep.limits, prep.prismatic, 1e-9))
     if code == StopReason.SUCCESS and settings.require_limits and not inside:
         code = int(StopReason.OUT_OF_LIMITS)
     return IKResult(q=q, success=bool(claimed and ok and code == StopReason.SUCCESS), stop_reason=code,

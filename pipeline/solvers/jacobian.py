@@ -1,7 +1,8 @@
 """Jacobian transpose, pseudoinverse, DLS and SDLS (000_7e3cb7ad5ee98ff0.txt §3, eqs. 47-61).
 
-One compiled loop (:func:`pipeline.solvers._jit.solve_one`) serves the four methods; each is
-registered under its own name with the settings it uses. The stop rules are the document's:
+One compiled loop serves the four methods (:func:`pipeline.solvers._lean.solve`, the allocation-free
+form of the reference :func:`pipeline.solvers._jit.solve_one`; its batch form runs on every core);
+each is registered under its own name with the settings it uses. The stop rules are the document's:
 success (code 1), pose change below the stall threshold (2), error grew ``grow_limit`` times in a
 row (3), iteration cap (4), non-finite value (5).
 """
@@ -13,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.solvers import _jit
-from pipeline.solvers.base import Prepared, Raw, Settings, setting
+from pipeline.solvers import _jit, _lean
+from pipeline.solvers.base import BatchRaw, Prepared, Raw, Settings, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "000_7e3cb7ad5ee98ff0.txt (Cerbaro 2019) §3"
@@ -89,17 +90,74 @@ def packed(method: str, s: JacobianSettings) -> tuple[np.ndarray, np.ndarray]:
     return ip, fp
 
 
+def _bind(method: str):
+    def bind(prep: Prepared, s: JacobianSettings):
+        ip, fp = packed(method, s)
+        chain = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
+        rows = s.max_iterations + 1
+        kernel = _lean.solve
+
+        def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+            q = np.empty_like(q_start)
+            trace = np.empty((rows, _jit.TRACE_COLS))
+            times = np.zeros(3, np.int64)
+            code, iters = kernel(*chain, T_goal, q_start, ip, fp, q, trace, times)
+            return Raw(q=q, code=code, iterations=iters, solve_ns=int(times[0]), trace=trace[: iters + 1].copy(),
+                       ik_ns=int(times[1]))
+
+        return run1
+
+    return bind
+
+
 def _runner(method: str):
+    bind = _bind(method)
+
     def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: JacobianSettings, seed: int) -> Raw:
-        ip, fp = prep.memo(("jacobian_packed", method, s), lambda: packed(method, s))
-        q = np.empty_like(q_start)
-        trace = np.zeros((s.max_iterations + 1, _jit.TRACE_COLS))
-        times = np.zeros(3, np.int64)
-        code, iters = _jit.solve_one(*prep.args, T_goal, q_start, ip, fp, q, trace, times)
-        return Raw(q=q, code=int(code), iterations=int(iters), solve_ns=int(times[0]), trace=trace,
-                   ik_ns=int(times[1]))
+        return bind(prep, s)(T_goal, q_start, seed)
 
     return run
+
+
+TRACE_BUDGET = 64 * 2**20  # [bytes] per chunk of a batch's trace buffer (N x (max_iterations + 1) x 8 floats)
+
+
+def _batch(method: str):
+    def batch(prep: Prepared, s: JacobianSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
+        ip, fp = packed(method, s)
+        chain = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
+        N, n = starts.shape
+        rows = s.max_iterations + 1 if keep_traces else 1
+        chunk = max(1, min(N, TRACE_BUDGET // (rows * _jit.TRACE_COLS * 8)))
+        Q = np.empty((N, n))
+        codes = np.zeros(N, np.int64)
+        iters = np.zeros(N, np.int64)
+        times = np.zeros((N, 3), np.int64)
+        parts, counts = [], []
+        for lo in range(0, N, chunk):
+            hi = min(N, lo + chunk)
+            buf = np.empty((hi - lo, rows, _jit.TRACE_COLS))
+            _lean.solve_batch(*chain, goals[lo:hi], starts[lo:hi], ip, fp, Q[lo:hi], codes[lo:hi], iters[lo:hi],
+                              times[lo:hi], buf)
+            if keep_traces:
+                k = iters[lo:hi] + 1
+                parts.append(buf[np.arange(hi - lo).repeat(k), _ragged_index(k)])
+                counts.append(k)
+        rows_out = offsets = None
+        if keep_traces:
+            rows_out = np.concatenate(parts) if parts else np.empty((0, _jit.TRACE_COLS))
+            offsets = np.concatenate([[0], np.cumsum(np.concatenate(counts))]).astype(np.int64)
+        return BatchRaw(q=Q, code=codes, iterations=iters, solve_ns=times[:, 0], ik_ns=times[:, 1],
+                        trace_rows=rows_out, trace_offsets=offsets)
+
+    return batch
+
+
+def _ragged_index(k: np.ndarray) -> np.ndarray:
+    """0..k[0]-1, 0..k[1]-1, ... concatenated."""
+    total = int(k.sum())
+    starts = np.repeat(np.cumsum(k) - k, k)
+    return np.arange(total) - starts
 
 
 for _name, _title, _cls in (
@@ -108,4 +166,4 @@ for _name, _title, _cls in (
     ("dls", "damped least squares J^T (J J^T + lambda^2 I)^-1 e (eq. 50)", DLSSettings),
     ("sdls", "selectively damped least squares (Buss & Kim 2004; eqs. 56-61)", SDLSSettings),
 ):
-    register(Solver(_name, _title, "local", _cls, _runner(_name), source=SOURCE))
+    register(Solver(_name, _title, "local", _cls, _runner(_name), source=SOURCE, bind=_bind(_name), batch=_batch(_name)))

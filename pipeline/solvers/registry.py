@@ -15,7 +15,8 @@ from typing import Callable
 import numpy as np
 
 from pipeline.robots import RobotModel
-from pipeline.solvers.base import IKResult, NotApplicableError, Prepared, Raw, Settings, SettingsError, finish
+from pipeline.solvers.base import (BatchResult, IKResult, NotApplicableError, Prepared, Raw, Settings, SettingsError,
+                                   finish, finish_batch)
 from pipeline.solvers.timing import clock_ns
 
 KINDS = ("local", "global", "analytic")
@@ -37,6 +38,12 @@ class Solver:
     applies_to : callable           ``applies_to(prep) -> str | None``: why the method does not fit
                                     the robot (None = it does)
     source : str                    where the method comes from (document, section, reference)
+    bind : callable, optional       ``bind(prep, settings) -> run1(T_goal, q_start, seed) -> Raw``:
+                                    ``run`` with everything per job (packed settings, robot arrays)
+                                    done once; the public call uses it when given
+    batch : callable, optional      ``batch(prep, settings, goals, starts, seeds, threads, traces) ->
+                                    BatchRaw``: N problems in one compiled call (see
+                                    :func:`solve_batch`); without it a batch runs ``run`` per problem
     """
 
     name: str
@@ -46,6 +53,8 @@ class Solver:
     run: Callable
     applies_to: Callable | None = None
     source: str = ""
+    bind: Callable | None = None
+    batch: Callable | None = None
 
     def refusal(self, prep: Prepared) -> str | None:
         """Why this solver does not apply to the prepared robot, or None."""
@@ -103,6 +112,66 @@ def _converted(prep: Prepared, settings: Settings) -> Settings:
     return prep.memo(("settings", settings), settings.converted)
 
 
+class Bound:
+    """A solver bound to a prepared robot and its settings: what is done once per job, done once.
+
+    Holds the validated settings converted to the working unit, the method's packed parameters
+    (through ``Solver.bind``) and the FK check's model, so that :meth:`solve` costs the kernel plus a
+    few microseconds. Obtain one with :func:`bind`; :func:`solve` uses a cached one when given a
+    :class:`Prepared` robot and a :class:`Settings` object.
+    """
+
+    __slots__ = ("spec", "prep", "settings", "sc", "run1", "scaled")
+
+    def __init__(self, spec: Solver, prep: Prepared, settings: Settings):
+        self.spec, self.prep, self.settings = spec, prep, settings
+        self.sc = _converted(prep, settings)
+        if spec.bind is not None:
+            self.run1 = spec.bind(prep, self.sc)
+        else:
+            run, sc = spec.run, self.sc
+            self.run1 = lambda Tg, q0, seed: run(prep, Tg, q0, sc, seed)
+        prep.check  # noqa: B018  (build the FK check's model now, not in the first timed call)
+        self.scaled = prep.goal_scale != 1.0 and bool(prep.prismatic.any())
+
+    def solve(self, T_goal: np.ndarray, q_start: np.ndarray, seed: int = 0, t0: int | None = None) -> IKResult:
+        """One problem (see :func:`solve`); ``t0`` = the caller's start time on the call clock [ns]."""
+        t0 = clock_ns() if t0 is None else t0
+        prep, sc = self.prep, self.sc
+        Tg = prep.working_goal(T_goal)
+        q0 = np.array(q_start, dtype=float, order="C")
+        if q0.shape != (prep.n,):
+            raise SettingsError(f"q_start: expected shape ({prep.n},), got {q0.shape}")
+        if self.scaled:
+            q0[prep.prismatic] *= prep.goal_scale
+        res = finish(prep, Tg, self.run1(Tg, q0, int(seed)), sc, q_start=q0)
+        if sc.restarts and not res.success and self.spec.kind != "analytic":
+            res = _restart(self.spec, prep, Tg, sc, int(seed), res, t0)
+        if self.scaled:  # joint values go back in the robot file's unit
+            res.q[prep.prismatic] /= prep.goal_scale
+        res.call_time_s = (clock_ns() - t0) * 1e-9
+        return res
+
+
+def bind(name: str, robot: RobotModel | Prepared, settings: Settings | dict | None = None) -> Bound:
+    """Solver ``name`` bound to ``robot`` and ``settings`` (validated; NotApplicableError if it does not fit).
+
+    With a :class:`Prepared` robot and a :class:`Settings` object the binding is cached on the
+    prepared robot (keyed by the settings object's identity), so repeated calls are cheap.
+    """
+    spec = get(name)
+    if isinstance(robot, Prepared) and isinstance(settings, spec.settings):
+        hit = robot._bound.get((name, id(settings)))
+        if hit is not None and hit.settings is settings:
+            return hit
+    s = settings if isinstance(settings, spec.settings) else make_settings(name, settings)
+    prep = prepare(name, robot, s)
+    b = Bound(spec, prep, s)
+    if isinstance(robot, Prepared) and robot is prep and s is settings:
+        robot._bound[(name, id(s))] = b  # the Bound holds s, so the id stays unique while cached
+    return b
+
+
 def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: np.ndarray,
           settings: Settings | dict | None = None, *, seed: int = 0) -> IKResult:
     """Solve one IK problem with a registered method.
@@ -110,8 +179,9 @@ def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: 
     Parameters
     ----------
     name : str                          a registered solver (``python -m pipeline solvers``)
-    robot : RobotModel or Prepared      a Prepared robot (from :func:`prepare`) saves the
-                                        conversion when solving many problems
+    robot : RobotModel or Prepared      a Prepared robot (from :func:`prepare`) together with a
+                                        Settings object makes repeated calls cheap (the binding
+                                        of :func:`bind` is cached)
     T_goal : ndarray, shape (4, 4)      goal pose in the robot file's length unit
     q_start : ndarray, shape (n,)       start joint values [rad | robot file's length unit]
     settings : Settings, mapping or None
@@ -131,25 +201,105 @@ def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: 
         One line naming the field, or the robot and why the method does not fit it.
     """
     t0 = clock_ns()
-    spec = get(name)
-    s = settings if isinstance(settings, spec.settings) else make_settings(name, settings)
-    prep = prepare(name, robot, s)
-    sc = _converted(prep, s)
-    Tg = prep.working_goal(T_goal)
-    q0 = np.array(q_start, dtype=float, order="C")
-    if q0.shape != (prep.n,):
-        raise SettingsError(f"q_start: expected shape ({prep.n},), got {q0.shape}")
-    scaled = prep.goal_scale != 1.0 and bool(prep.prismatic.any())
-    if scaled:
-        q0[prep.prismatic] *= prep.goal_scale
-    raw: Raw = spec.run(prep, Tg, q0, sc, int(seed))
-    res = finish(prep, Tg, raw, sc, q_start=q0)
-    if sc.restarts and not res.success and spec.kind != "analytic":
-        res = _restart(spec, prep, Tg, sc, int(seed), res, t0)
-    if scaled:  # joint values go back in the robot file's unit
-        res.q[prep.prismatic] /= prep.goal_scale
-    object.__setattr__(res, "call_time_s", (clock_ns() - t0) * 1e-9)
+    return bind(name, robot, settings).solve(T_goal, q_start, seed, t0)
+
+
+def solve_batch(name: str, robot: RobotModel | Prepared, goals: np.ndarray, starts: np.ndarray,
+                settings: Settings | dict | None = None, *, seeds=None, threads: int | None = None,
+                traces: bool = True) -> BatchResult:
+    """Solve N independent IK problems in one call; results as arrays.
+
+    Methods with a batch kernel (``Solver.batch``: the Jacobian methods and the analytic solvers)
+    solve the problems in compiled code on ``threads`` threads (numba ``prange``); each problem
+    reads only shared inputs and writes only its own outputs, so results are the same whatever the
+    thread count. Other methods, and any method with ``require_limits`` or ``restarts``, run
+    :meth:`Bound.solve` per problem and are stacked into the same arrays.
+
+    Parameters
+    ----------
+    name : str
+    robot : RobotModel or Prepared
+    goals : ndarray, shape (N, 4, 4)     goal poses in the robot file's length unit
+    starts : ndarray, shape (N, n)       start joint values [rad | robot file's length unit]
+    settings : Settings, mapping or None
+    seeds : array_like of int, shape (N,), optional   per-problem seeds (stochastic methods); default 0..N-1
+    threads : int, optional              compiled threads (default: numba's, i.e. every core)
+    traces : bool                        keep every problem's per-iteration trace
+
+    Returns
+    -------
+    BatchResult
+        ``call_time_s`` is the whole call; per-problem ``solve_time_s`` is measured inside the kernel.
+    """
+    t0 = clock_ns()
+    b = bind(name, robot, settings)
+    prep, sc = b.prep, b.sc
+    G = np.array(goals, dtype=float, order="C")
+    S = np.array(starts, dtype=float, order="C")
+    if G.ndim != 3 or G.shape[1:] != (4, 4):
+        raise SettingsError(f"goals: expected shape (N, 4, 4), got {G.shape}")
+    if S.shape != (G.shape[0], prep.n):
+        raise SettingsError(f"starts: expected shape ({G.shape[0]}, {prep.n}), got {S.shape}")
+    seeds = np.arange(len(G), dtype=np.int64) if seeds is None else np.asarray(seeds, dtype=np.int64)
+    if b.spec.batch is None or sc.require_limits or sc.restarts:
+        res = _stack([b.solve(G[i], S[i], int(seeds[i])) for i in range(len(G))], prep.unit, traces)
+    else:
+        if prep.goal_scale != 1.0:
+            G[:, :3, 3] *= prep.goal_scale
+        if b.scaled:
+            S[:, prep.prismatic] *= prep.goal_scale
+        with _numba_threads(threads):
+            raw = b.spec.batch(prep, sc, G, S, seeds, traces)
+        res = finish_batch(prep, G, raw, sc)
+        if b.scaled:
+            res.q[:, prep.prismatic] /= prep.goal_scale
+    res.call_time_s = (clock_ns() - t0) * 1e-9
     return res
+
+
+class _numba_threads:
+    """Context: numba's thread count set to ``n`` (None = unchanged), restored afterwards."""
+
+    def __init__(self, n: int | None):
+        self.n, self.old = n, None
+
+    def __enter__(self):
+        if self.n is not None:
+            import numba
+
+            self.old = numba.get_num_threads()
+            numba.set_num_threads(max(1, min(int(self.n), numba.config.NUMBA_NUM_THREADS)))
+
+    def __exit__(self, *exc):
+        if self.old is not None:
+            import numba
+
+            numba.set_num_threads(self.old)
+
+
+def _stack(results: list[IKResult], unit: str, traces: bool) -> BatchResult:
+    """Per-problem results as one :class:`BatchResult` (``call_time_s`` set by the caller)."""
+    col = lambda f, dt=float: np.array([getattr(r, f) for r in results], dtype=dt)  # noqa: E731
+    n_sol = sols = rows = offs = None
+    if traces and results:
+        tr = [np.asarray(r.trace, dtype=float) for r in results]
+        offs = np.concatenate([[0], np.cumsum([len(t) for t in tr])]).astype(np.int64)
+        rows = np.concatenate(tr, axis=0)
+    if any(r.solutions is not None for r in results):
+        n_sol = np.array([0 if r.solutions is None else len(r.solutions) for r in results], dtype=np.int64)
+        n = results[0].q.shape[0]
+        sols = np.full((len(results), max(1, int(n_sol.max())), n), np.nan)
+        for i, r in enumerate(results):
+            if n_sol[i]:
+                sols[i, : n_sol[i]] = r.solutions
+    q = np.array([r.q for r in results], dtype=float).reshape(len(results), -1)
+    return BatchResult(q=q, success=col("success", bool), stop_reason=col("stop_reason", np.int64),
+                       iterations=col("iterations", np.int64), solve_time_s=col("solve_time_s"),
+                       ik_time_s=col("ik_time_s"), position_error=col("position_error"),
+                       orientation_error=col("orientation_error"), claimed_success=col("claimed_success", bool),
+                       within_limits=col("within_limits", bool), call_time_s=0.0, length_unit=unit,
+                       trace_rows=rows, trace_offsets=offs, solutions=sols, n_solutions=n_sol,
+                       info=[r.info for r in results])
 
 
 def _restart(spec: Solver, prep: Prepared, Tg: np.ndarray, sc: Settings, seed: int, first: IKResult,

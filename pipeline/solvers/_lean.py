@@ -1,0 +1,317 @@
+"""Allocation-free hot loop of the Jacobian IK methods, and their batch form on every core.
+
+:func:`pipeline.solvers._jit.solve_one` is the reference transcription of 000's loop; this module
+computes the same iterates without allocating inside the loop:
+
+* forward kinematics multiplies the running 3x4 frame by each link in place, with the link's
+  cos/sin alpha computed once per robot (:func:`lean_chain`), about 36 multiply-adds per link;
+* the geometric Jacobian is written into a preallocated (6, n) array;
+* the transpose, pseudoinverse and DLS steps form ``J J^T + lambda^2 I`` (6x6, lower half),
+  factor it by Cholesky in place and solve two triangular systems; when the factor meets a
+  non-positive pivot (``J J^T`` singular, pseudoinverse) the reference step
+  (:func:`pipeline.solvers._jit.step`: LU, then the SVD pseudoinverse) takes over for that
+  iteration. SDLS always uses the reference step (its SVD allocates, and it is not on the hot path
+  of any study).
+
+Flops of one 7-DoF DLS iteration (what :mod:`benchmarks.bench_solve` reports as the floor): FK
+7 x 36 + tool 36 = 288 plus 7 sin/cos pairs; Jacobian 7 x 9 = 63; pose error ~75; ``J J^T`` 21 x 7 x 2
+= 294; Cholesky 6x6 ~ 91; two triangular solves 72; ``J^T y`` 84; update 7: about 980 flops and 7
+sin/cos pairs (:data:`FLOPS_DLS`).
+
+:func:`solve_batch` runs N problems with ``numba.prange``: each problem only reads shared inputs
+and writes its own rows, so results do not depend on the number of threads.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from pipeline.solvers import _jit
+from pipeline.solvers._kin import now_ns, relative_rotation, relative_translation_norm
+
+
+def flops_per_iteration(n: int) -> int:
+    """Multiply-add count of one DLS iteration on an n-joint chain (each counted as 2 flops where fused)."""
+    fk = 36 * n + 36
+    jac = 9 * n
+    err = 75
+    jjt = 21 * n * 2
+    chol = 91
+    tri = 72
+    upd = 12 * n + n
+    return fk + jac + err + jjt + chol + tri + upd
+
+
+def lean_chain(args: tuple) -> tuple:
+    """``Prepared.args`` -> the lean kernels' chain tuple ``(form, a, ca, sa, d, offs, prism, base, tool)``."""
+    a, alpha, d, offs, prism, form, base, tool = args
+    if form == 2:
+        ca, sa = alpha.copy(), np.zeros(1)  # general form: alpha holds the axes (see _kin.link_transform)
+    else:
+        ca, sa = np.cos(alpha), np.sin(alpha)
+    return (int(form), a, np.ascontiguousarray(ca), np.ascontiguousarray(sa), d, offs, prism, base, tool)
+
+
+@numba.njit(cache=True, inline="always")
+def _mul_rows(C, l00, l01, l02, l03, l10, l11, l12, l13, l20, l21, l22, l23):
+    """C (3, 4) := C @ L with L the 3x4 rows of a rigid transform (row 3 = 0 0 0 1), in place."""
+    for r in range(3):
+        c0, c1, c2, c3 = C[r, 0], C[r, 1], C[r, 2], C[r, 3]
+        C[r, 0] = c0 * l00 + c1 * l10 + c2 * l20
+        C[r, 1] = c0 * l01 + c1 * l11 + c2 * l21
+        C[r, 2] = c0 * l02 + c1 * l12 + c2 * l22
+        C[r, 3] = c0 * l03 + c1 * l13 + c2 * l23 + c3
+
+
+@numba.njit(cache=True)
+def fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C):
+    """Tool pose into ``T`` (4, 4) (row 3 untouched), joint axes/origins into (n, 3); ``C`` (3, 4) scratch."""
+    for r in range(3):
+        for c in range(4):
+            C[r, c] = base[r, c]
+    n = q.shape[0]
+    for i in range(n):
+        if form == 2:
+            o = 12 * i
+            k0, k1, k2 = ca[3 * i], ca[3 * i + 1], ca[3 * i + 2]
+            _mul_rows(C, a[o], a[o + 1], a[o + 2], a[o + 3], a[o + 4], a[o + 5], a[o + 6], a[o + 7],
+                      a[o + 8], a[o + 9], a[o + 10], a[o + 11])
+            if prism[i]:
+                x = q[i]
+                for r in range(3):
+                    C[r, 3] += x * (C[r, 0] * k0 + C[r, 1] * k1 + C[r, 2] * k2)
+            else:
+                c, s = math.cos(q[i]), math.sin(q[i])
+                v = 1.0 - c
+                _mul_rows(C, c + v * k0 * k0, v * k0 * k1 - s * k2, v * k0 * k2 + s * k1, 0.0,
+                          v * k0 * k1 + s * k2, c + v * k1 * k1, v * k1 * k2 - s * k0, 0.0,
+                          v * k0 * k2 - s * k1, v * k1 * k2 + s * k0, c + v * k2 * k2, 0.0)
+            for r in range(3):
+                axes[i, r] = C[r, 0] * k0 + C[r, 1] * k1 + C[r, 2] * k2
+                origins[i, r] = C[r, 3]
+            continue
+        th = offs[i]
+        di = d[i]
+        if prism[i]:
+            di += q[i]
+        else:
+            th += q[i]
+        ct, st = math.cos(th), math.sin(th)
+        cal, sal, ai = ca[i], sa[i], a[i]
+        if form == 1:  # modified: Rx(alpha) Tx(a) Rz(theta) Tz(d); axis = z after Rx(alpha) Tx(a)
+            for r in range(3):
+                c0, c1, c2, c3 = C[r, 0], C[r, 1], C[r, 2], C[r, 3]
+                u = c1 * cal + c2 * sal
+                z = c2 * cal - c1 * sal
+                axes[i, r] = z
+                origins[i, r] = c0 * ai + c3
+                C[r, 0] = c0 * ct + u * st
+                C[r, 1] = u * ct - c0 * st
+                C[r, 2] = z
+                C[r, 3] = c0 * ai + z * di + c3
+        else:  # standard: Rz(theta) Tz(d) Tx(a) Rx(alpha); axis = z before the link
+            for r in range(3):
+                c0, c1, c2, c3 = C[r, 0], C[r, 1], C[r, 2], C[r, 3]
+                axes[i, r] = c2
+                origins[i, r] = c3
+                x0 = c0 * ct + c1 * st
+                y0 = c1 * ct - c0 * st
+                C[r, 0] = x0
+                C[r, 1] = y0 * cal + c2 * sal
+                C[r, 2] = c2 * cal - y0 * sal
+                C[r, 3] = ai * x0 + c2 * di + c3
+    for r in range(3):
+        c0, c1, c2, c3 = C[r, 0], C[r, 1], C[r, 2], C[r, 3]
+        for c in range(4):
+            T[r, c] = c0 * tool[0, c] + c1 * tool[1, c] + c2 * tool[2, c]
+        T[r, 3] += c3
+
+
+@numba.njit(cache=True)
+def _jacobian(prism, axes, origins, T, J):
+    n = axes.shape[0]
+    p0, p1, p2 = T[0, 3], T[1, 3], T[2, 3]
+    for i in range(n):
+        z0, z1, z2 = axes[i, 0], axes[i, 1], axes[i, 2]
+        if prism[i]:
+            J[0, i], J[1, i], J[2, i] = z0, z1, z2
+            J[3, i], J[4, i], J[5, i] = 0.0, 0.0, 0.0
+        else:
+            r0, r1, r2 = p0 - origins[i, 0], p1 - origins[i, 1], p2 - origins[i, 2]
+            J[0, i] = z1 * r2 - z2 * r1
+            J[1, i] = z2 * r0 - z0 * r2
+            J[2, i] = z0 * r1 - z1 * r0
+            J[3, i], J[4, i], J[5, i] = z0, z1, z2
+
+
+@numba.njit(cache=True)
+def _step(method, J, e, lam2, A, y, dq):
+    """Transpose / pseudoinverse / DLS step into ``dq`` (n,); False when J J^T + lam2 I is not
+    positive definite (the caller then uses the reference step)."""
+    n = J.shape[1]
+    if method == 0:  # g = J^T e; alpha = <e, J g> / |J g|^2 (eq. 48 of 000)
+        for j in range(n):
+            s = 0.0
+            for r in range(6):
+                s += J[r, j] * e[r]
+            dq[j] = s
+        num = 0.0
+        den = 0.0
+        for r in range(6):
+            s = 0.0
+            for j in range(n):
+                s += J[r, j] * dq[j]
+            num += e[r] * s
+            den += s * s
+        alpha = num / den if den > 0 else 0.0
+        for j in range(n):
+            dq[j] *= alpha
+        return True
+    for r in range(6):  # lower half of J J^T + lam2 I
+        for c in range(r + 1):
+            s = 0.0
+            for j in range(n):
+                s += J[r, j] * J[c, j]
+            A[r, c] = s
+        A[r, r] += lam2
+    for c in range(6):  # Cholesky in place (lower)
+        s = A[c, c]
+        for k in range(c):
+            s -= A[c, k] * A[c, k]
+        if not s > 0.0:
+            return False
+        dcc = math.sqrt(s)
+        A[c, c] = dcc
+        for r in range(c + 1, 6):
+            s = A[r, c]
+            for k in range(c):
+                s -= A[r, k] * A[c, k]
+            A[r, c] = s / dcc
+    for r in range(6):  # L z = e
+        s = e[r]
+        for k in range(r):
+            s -= A[r, k] * y[k]
+        y[r] = s / A[r, r]
+    for r in range(5, -1, -1):  # L^T y = z
+        s = y[r]
+        for k in range(r + 1, 6):
+            s -= A[k, r] * y[k]
+        y[r] = s / A[r, r]
+    for j in range(n):
+        s = 0.0
+        for r in range(6):
+            s += J[r, j] * y[r]
+        dq[j] = s
+    return True
+
+
+@numba.njit(cache=True)
+def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace, times):
+    """One problem, the same contract as :func:`pipeline.solvers._jit.solve_one`.
+
+    Writes the solution into ``q`` (n,), trace rows ``0..iterations`` of ``trace`` (k, 8) (rows
+    beyond its length are not written: pass ``k = 0`` rows... at least 1), and ``times`` (3,) =
+    (total, IK block, 0) [ns]. Returns ``(stop code, iterations)``.
+    """
+    clk = np.zeros(2, np.int64)
+    t_start = now_ns(clk)
+    n = q0.shape[0]
+    for i in range(n):
+        q[i] = q0[i]
+    axes = np.empty((n, 3))
+    origins = np.empty((n, 3))
+    T = np.zeros((4, 4))
+    T[3, 3] = 1.0
+    Tprev = np.zeros((4, 4))
+    Tprev[3, 3] = 1.0
+    C = np.empty((3, 4))
+    J = np.empty((6, n))
+    e = np.empty(6)
+    A = np.empty((6, 6))
+    y = np.empty(6)
+    dq = np.empty(n)
+    qa = np.empty(4)
+    qb = np.empty(4)
+    method = ip[_jit.I_METHOD]
+    max_iter = ip[_jit.I_MAX_ITER]
+    crit = ip[_jit.I_CRITERION]
+    lam = fp[_jit.F_LAMBDA] if method == 2 else 0.0
+    lam2 = lam * lam
+    rows = trace.shape[0]
+    fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
+    err, dp, ang = _jit.pose_error(Tg, T, ip, fp, qa, qb, e)
+    trace[0, 0] = err
+    for r in range(6):
+        trace[0, 1 + r] = e[r]
+    trace[0, 7] = dp
+    t_ik = 0
+    code = 0
+    it = 0
+    grew = 0
+    if not math.isfinite(err):
+        code = _jit.NON_FINITE
+    elif (crit != 1 and err <= fp[_jit.F_TOL_DQ]) or (crit == 1 and dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]):
+        code = _jit.SUCCESS
+    while code == 0:
+        it += 1
+        _jacobian(prism, axes, origins, T, J)
+        t0 = now_ns(clk)
+        if method == 3 or not _step(method, J, e, lam2, A, y, dq):
+            ref = _jit.step(method, J, e, ip, fp)
+            for j in range(n):
+                dq[j] = ref[j]
+        t_ik += now_ns(clk) - t0
+        for j in range(n):
+            q[j] += dq[j]
+        for r in range(3):
+            for c in range(4):
+                Tprev[r, c] = T[r, c]
+        fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
+        prev_err = err
+        err, dp, ang = _jit.pose_error(Tg, T, ip, fp, qa, qb, e)
+        if it < rows:
+            trace[it, 0] = err
+            for r in range(6):
+                trace[it, 1 + r] = e[r]
+            trace[it, 7] = dp
+        if crit == 0 or crit == 2:
+            if crit == 0:
+                t = relative_translation_norm(T, Tprev)
+            else:
+                t = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
+            stalled = math.sqrt(1.0 + 0.25 * t * t) < fp[_jit.F_STALL_DQ]
+            ok = err <= fp[_jit.F_TOL_DQ]
+        else:
+            w, x, yy, z = relative_rotation(T, Tprev, qa, qb)
+            dmove = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
+            rmove = 2.0 * math.atan2(math.sqrt(x * x + yy * yy + z * z), w)
+            stalled = dmove < fp[_jit.F_STALL_POS] and rmove < fp[_jit.F_STALL_ROT]
+            ok = dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]
+        grew = grew + 1 if err > prev_err else 0
+        if not math.isfinite(err):
+            code = _jit.NON_FINITE
+        elif ok:
+            code = _jit.SUCCESS
+        elif stalled and ip[_jit.I_NO_STALL] == 0:
+            code = _jit.STALLED
+        elif grew >= ip[_jit.I_GROW_LIMIT] and ip[_jit.I_NO_GROW] == 0:
+            code = _jit.DIVERGING
+        elif it >= max_iter:
+            code = _jit.ITERATION_CAP
+    times[0] = now_ns(clk) - t_start
+    times[1] = t_ik
+    times[2] = 0
+    return code, it
+
+
+@numba.njit(cache=True, parallel=True)
+def solve_batch(form, a, ca, sa, d, offs, prism, base, tool, goals, starts, ip, fp, Q, codes, iters, times, traces):
+    """:func:`solve` for every row: ``goals`` (N, 4, 4), ``starts`` (N, n) -> ``Q`` (N, n),
+    ``codes``/``iters`` (N,), ``times`` (N, 3), ``traces`` (N, k, 8) (k >= 1; rows past k dropped)."""
+    for i in numba.prange(goals.shape[0]):
+        c, it = solve(form, a, ca, sa, d, offs, prism, base, tool, goals[i], starts[i], ip, fp, Q[i], traces[i], times[i])
+        codes[i] = c
+        iters[i] = it
