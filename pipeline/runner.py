@@ -18,7 +18,8 @@ import numpy as np
 
 from pipeline.problems import ProblemSet
 from pipeline.robots import LENGTH_UNITS, RobotModel
-from pipeline.solvers import IKResult, Settings, bind, get, prepare, solve_batch, warm_up
+from pipeline.solvers import BatchResult, IKResult, Settings, bind, get, prepare, solve_batch, warm_up
+from pipeline.solvers.registry import _stack
 
 BATCH = 2000  # problems per batch call (progress is reported between batches)
 
@@ -32,10 +33,6 @@ def solve_set(method: str, settings: Settings, model: RobotModel, ps: ProblemSet
               set_seed: int = 0, select=None, threads: int = 1) -> Iterator[tuple[int, int, np.ndarray, IKResult]]:
     """Yield ``(row index, repetition, q_start used, result)`` for every solve of the set.
 
-    Independent problems (no chain continues, one repetition) of a method with a batch kernel go
-    through :func:`pipeline.solvers.solve_batch` in batches of :data:`BATCH` on ``threads``
-    threads; everything else is solved one call at a time. Both give the same results (tested).
-
     Parameters
     ----------
     method : str                registered solver name
@@ -46,6 +43,23 @@ def solve_set(method: str, settings: Settings, model: RobotModel, ps: ProblemSet
     set_seed : int              the problem set's seed (stochastic solvers)
     select : iterable of int, optional
         Problem ids to solve (default all); chains are followed only within the selection.
+    threads : int               compiled threads of a batch kernel (results do not depend on it)
+    """
+    for rows, reps, starts, res in solve_set_batches(method, settings, model, ps, repetitions=repetitions,
+                                                     set_seed=set_seed, select=select, threads=threads):
+        for k in range(len(rows)):
+            yield int(rows[k]), int(reps[k]), starts[k], res.result(k)
+
+
+def solve_set_batches(method: str, settings: Settings, model: RobotModel, ps: ProblemSet, *, repetitions: int = 1,
+                      set_seed: int = 0, select=None, threads: int = 1
+                      ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, BatchResult]]:
+    """:func:`solve_set` in batches: yield ``(row indices (k,), repetitions (k,), starts (k, n), BatchResult)``.
+
+    Independent problems (no chain continues, one repetition) of a method with a batch kernel go
+    through :func:`pipeline.solvers.solve_batch`, :data:`BATCH` problems per call on ``threads``
+    threads; everything else is solved one call at a time (in file order, following chains) and
+    stacked into batches of the same size. Both ways give the same results (tests/test_runner.py).
     """
     prep = prepare(method, model, settings)
     warm_up(method, prep, settings)  # compile / load cached kernels before the first timed solve
@@ -55,17 +69,19 @@ def solve_set(method: str, settings: Settings, model: RobotModel, ps: ProblemSet
     idx = np.arange(len(ps)) if select is None else np.flatnonzero(np.isin(ps.problem_id, list(select)))
     chains = ps.chain[idx]
     independent = repetitions == 1 and len(np.unique(chains[chains >= 0])) == int((chains >= 0).sum())
-    if independent and get(method).batch is not None:
-        seeds = np.array([problem_seed(set_seed, ps.problem_id[i], 0) for i in idx], dtype=np.int64)
+    spec = get(method)
+    if independent and spec.batch is not None:
         for lo in range(0, len(idx), BATCH):
             part = idx[lo:lo + BATCH]
-            res = solve_batch(method, prep, T_goals[part], ps.q_start[part], settings, seeds=seeds[lo:lo + BATCH],
-                              threads=threads)
-            for k, i in enumerate(part):
-                yield int(i), 0, ps.q_start[i], res.result(k)
+            seeds = None  # batch kernels are deterministic methods; a stochastic one gets per-problem seeds
+            if spec.kind == "global":
+                seeds = np.array([problem_seed(set_seed, ps.problem_id[i], 0) for i in part], dtype=np.int64)
+            res = solve_batch(method, prep, T_goals[part], ps.q_start[part], settings, seeds=seeds, threads=threads)
+            yield part, np.zeros(len(part), np.int64), ps.q_start[part], res
         return
     b = bind(method, prep, settings)
     last: dict[int, np.ndarray] = {}
+    rows, reps, starts, results = [], [], [], []
     for i in idx:
         ch = int(ps.chain[i])
         q0 = ps.q_start[i]
@@ -75,6 +91,17 @@ def solve_set(method: str, settings: Settings, model: RobotModel, ps: ProblemSet
         for r in range(repetitions):
             res = b.solve(T_goals[i], q0, problem_seed(set_seed, ps.problem_id[i], r))
             first = first or res
-            yield int(i), r, q0, res
+            rows.append(int(i)), reps.append(r), starts.append(q0), results.append(res)
         if ch >= 0:
             last[ch] = first.q
+        if len(results) >= BATCH:
+            yield _batch_of(rows, reps, starts, results, prep.unit)
+            rows, reps, starts, results = [], [], [], []
+    if results:
+        yield _batch_of(rows, reps, starts, results, prep.unit)
+
+
+def _batch_of(rows, reps, starts, results, unit) -> tuple:
+    res = _stack(results, unit, traces=True)
+    res.call_time_s = float(np.sum(res.call_times_s))
+    return np.array(rows, dtype=np.int64), np.array(reps, dtype=np.int64), np.array(starts, dtype=float), res

@@ -439,6 +439,8 @@ class BatchResult:
     length_unit : str
     trace_rows, trace_offsets : see :class:`BatchRaw` (None when traces were not kept)
     solutions, n_solutions, info : see :class:`BatchRaw`
+    call_times_s : ndarray, shape (N,), optional [s]  per-problem call times when the problems were
+                                                      solved one call at a time (else None)
     """
 
     q: np.ndarray
@@ -458,6 +460,7 @@ class BatchResult:
     solutions: np.ndarray | None = None
     n_solutions: np.ndarray | None = None
     info: list | None = None
+    call_times_s: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.q.shape[0])
@@ -471,7 +474,7 @@ class BatchResult:
         return self.trace_rows[self.trace_offsets[i]:self.trace_offsets[i + 1]]
 
     def result(self, i: int) -> IKResult:
-        """Problem ``i`` as an :class:`IKResult` (``call_time_s`` = the batch's time / N)."""
+        """Problem ``i`` as an :class:`IKResult` (``call_time_s``: its own call, or the batch's time / N)."""
         sols = None
         if self.solutions is not None:
             sols = self.solutions[i, : int(self.n_solutions[i])]
@@ -481,7 +484,8 @@ class BatchResult:
                         position_error=float(self.position_error[i]),
                         orientation_error=float(self.orientation_error[i]),
                         claimed_success=bool(self.claimed_success[i]), within_limits=bool(self.within_limits[i]),
-                        call_time_s=self.call_time_s / max(1, len(self)), length_unit=self.length_unit,
+                        call_time_s=(float(self.call_times_s[i]) if self.call_times_s is not None
+                                     else self.call_time_s / max(1, len(self))), length_unit=self.length_unit,
                         solutions=sols, info=dict(self.info[i]) if self.info is not None else {})
 
 
@@ -510,10 +514,10 @@ def finish_batch(prep: Prepared, goals: np.ndarray, raw: BatchRaw, settings: Set
     code[~np.isfinite(q).all(axis=1)] = int(StopReason.NON_FINITE)
     inside = np.zeros(N, dtype=np.bool_)
     _within_many(q, prep.limits, np.ascontiguousarray(prep.prismatic), inside)
-    ang = np.full(N, np.nan) if settings.criterion == "position" else err[:, 1]
+    ang = np.full(N, np.nan) if settings.criterion == "position" else err[:, 1].copy()
     return BatchResult(q=q, success=claimed & ok & (code == int(StopReason.SUCCESS)), stop_reason=code,
                        iterations=np.asarray(raw.iterations, dtype=np.int64), solve_time_s=raw.solve_ns * 1e-9,
-                       ik_time_s=raw.ik_ns * 1e-9, position_error=err[:, 0], orientation_error=ang,
+                       ik_time_s=raw.ik_ns * 1e-9, position_error=err[:, 0].copy(), orientation_error=ang,
                        claimed_success=claimed, within_limits=inside, call_time_s=0.0, length_unit=prep.unit,
                        trace_rows=raw.trace_rows, trace_offsets=raw.trace_offsets, solutions=raw.solutions,
                        n_solutions=raw.n_solutions, info=raw.info)

@@ -299,7 +299,7 @@ def _stack(results: list[IKResult], unit: str, traces: bool) -> BatchResult:
                        orientation_error=col("orientation_error"), claimed_success=col("claimed_success", bool),
                        within_limits=col("within_limits", bool), call_time_s=0.0, length_unit=unit,
                        trace_rows=rows, trace_offsets=offs, solutions=sols, n_solutions=n_sol,
-                       info=[r.info for r in results])
+                       info=[r.info for r in results], call_times_s=col("call_time_s"))
 
 
 def _restart(spec: Solver, prep: Prepared, Tg: np.ndarray, sc: Settings, seed: int, first: IKResult,

@@ -1,0 +1,240 @@
+"""Speed of the fast path against the peer libraries, on the same problems, interleaved in one process.
+
+Usage::
+
+    python benchmarks/bench_fast.py [--problems 2000] [--batch 10000] [--repeat 2] [--json out.json]
+                                    [--only public,hotloop,batch,analytic]
+
+Sections (each prints medians and 95th percentiles; every time is per problem unless it says so):
+
+``public``    KUKA LWR (data/robots/kuka_lwr.yaml), ``--problems`` random joint pairs (start and
+              goal uniform in [0, 2 pi), seed 1), single search: our DLS through the public call
+              ``pipeline.solvers.solve`` (registry defaults) and, on the same goal from the same
+              start, each installed peer (Robotics Toolbox ik_LM / ik_NR / ik_GN, TRAC-IK,
+              Pinocchio CLIK). Problem i runs every method before problem i + 1 (interleaved), so
+              a slow phase of the machine hits every method alike. Ours: the whole call
+              (``call_time_s``: settings, conversion, kernel, independent FK check, result) and
+              the kernel alone (``solve_time_s``); peers: the library call (``solve_time_s``,
+              pipeline/solvers/peers.py). Ratio = our public call / rtb ik_LM's call.
+``hotloop``   One DLS iteration in the kernel's loop: 2 000 iterations per problem with the stop
+              tests disabled (tolerances 0), time / iterations; against the flop floor
+              (:func:`pipeline.solvers._lean.flops_per_iteration` multiply-adds at this machine's
+              measured scalar rate, plus 7 sin/cos pairs at their measured cost).
+``batch``     ``pipeline.solvers.solve_batch`` at the cerbaro2019 DLS settings
+              (data/studies/cerbaro2019.yaml) on ``--batch`` of its random problems, on 1 and 2
+              threads: solves per second (wall time of the whole call).
+``analytic``  UR5 (data/robots/ur5.yaml) and PUMA 560: all solutions per pose through the public
+              call, ur_analytic_ik (peer, C++) on the same poses, and UR5 poses per second through
+              the batch call.
+
+Each section runs ``--repeat`` times (default 2); the machine's load average is printed with each
+run so a busy machine shows. ``--json`` writes every number for the report's performance table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.problems import random_joint_pairs
+from pipeline.robots import load_robot
+from pipeline.solvers import NotApplicableError, make_settings, prepare, solve, solve_batch, warm_up
+
+ROOT = Path(__file__).resolve().parent.parent
+PEERS = ("rtb_ik_lm", "rtb_ik_nr", "rtb_ik_gn", "trac_ik", "pinocchio_clik")
+
+
+def _stats(x) -> dict:
+    x = np.asarray(x, dtype=float)
+    return {"p50": float(np.median(x)), "p95": float(np.percentile(x, 95))}
+
+
+def _load() -> str:
+    try:
+        return " ".join(f"{v:.2f}" for v in os.getloadavg())
+    except OSError:
+        return "?"
+
+
+def _prepared(name: str, model, mapping=None):
+    s = make_settings(name, mapping)
+    try:
+        prep = prepare(name, model, s)
+    except NotApplicableError as exc:
+        print(f"  {name}: skipped ({exc})")
+        return None
+    warm_up(name, prep, s)
+    return prep, s
+
+
+def public(n: int) -> dict:
+    lwr = load_robot(ROOT / "data" / "robots" / "kuka_lwr.yaml")
+    ps = random_joint_pairs(lwr, n, np.random.default_rng(1))
+    T = ps.goal_transforms()
+    methods = {"dls": _prepared("dls", lwr)}
+    for p in PEERS:
+        methods[p] = _prepared(p, lwr)
+    methods = {k: v for k, v in methods.items() if v is not None}
+    rows = {k: {"call": [], "solve": [], "ok": []} for k in methods}
+    for i in range(len(ps)):
+        for name, (prep, s) in methods.items():
+            r = solve(name, prep, T[i], ps.q_start[i], s, seed=i)
+            rows[name]["call"].append(r.call_time_s * 1e6)
+            rows[name]["solve"].append(r.solve_time_s * 1e6)
+            rows[name]["ok"].append(r.success)
+    out = {}
+    print(f"LWR, {n} random joint pairs, one search each [us per solve]")
+    print(f"  {'method':16s} {'success':>8s} {'call p50':>9s} {'call p95':>9s} {'lib/kernel p50':>15s} {'p95':>9s}")
+    for name, r in rows.items():
+        c, k = _stats(r["call"]), _stats(r["solve"])
+        out[name] = {"success": float(np.mean(r["ok"])), "call_us": c, "solve_us": k}
+        print(f"  {name:16s} {100 * np.mean(r['ok']):7.1f}% {c['p50']:9.1f} {c['p95']:9.1f} {k['p50']:15.1f} {k['p95']:9.1f}")
+    if "rtb_ik_lm" in out:
+        ratio = out["dls"]["call_us"]["p50"] / out["rtb_ik_lm"]["solve_us"]["p50"]
+        out["ratio_dls_call_to_rtb_lm"] = ratio
+        print(f"  our DLS public call / rtb ik_LM call (medians): {ratio:.2f}")
+    return out
+
+
+def _calibrate() -> tuple[float, float]:
+    """This machine's scalar multiply-add time and sin+cos pair time [ns], from compiled loops."""
+    import numba
+
+    @numba.njit(cache=False)
+    def fma(n):
+        a0 = a1 = a2 = a3 = 1.0
+        for _ in range(n):  # four independent chains: throughput, not latency
+            a0 = a0 * 0.999999 + 1e-9
+            a1 = a1 * 0.999998 + 2e-9
+            a2 = a2 * 0.999997 + 3e-9
+            a3 = a3 * 0.999996 + 4e-9
+        return a0 + a1 + a2 + a3
+
+    @numba.njit(cache=False)
+    def trig(n):
+        s = 0.0
+        x = 0.1
+        for _ in range(n):
+            s += math.sin(x) + math.cos(x)
+            x += 1e-3
+        return s
+
+    fma(10), trig(10)
+    best_f = best_t = math.inf
+    for _ in range(5):
+        t = time.perf_counter_ns(); fma(2_000_000); best_f = min(best_f, (time.perf_counter_ns() - t) / 8_000_000)
+        t = time.perf_counter_ns(); trig(1_000_000); best_t = min(best_t, (time.perf_counter_ns() - t) / 1_000_000)
+    return best_f, best_t
+
+
+def hotloop(n: int) -> dict:
+    from pipeline.solvers._lean import flops_per_iteration
+
+    lwr = load_robot(ROOT / "data" / "robots" / "kuka_lwr.yaml")
+    mapping = {"tol_pos": 0.0, "tol_rot": 0.0, "disable_stall": True, "disable_grow": True, "max_iterations": 2000}
+    prep, s = _prepared("dls", lwr, mapping)
+    ps = random_joint_pairs(lwr, n, np.random.default_rng(2))
+    T = ps.goal_transforms()
+    per = [r.solve_time_s * 1e9 / r.iterations for r in (solve("dls", prep, T[i], ps.q_start[i], s) for i in range(len(ps)))]
+    fma_ns, trig_ns = _calibrate()
+    flops = flops_per_iteration(7)
+    floor = flops / 2 * fma_ns + 7 * trig_ns  # flops counts a multiply-add as 2
+    st = _stats(per)
+    print(f"DLS hot loop, LWR, {n} problems x 2000 iterations [ns per iteration]")
+    print(f"  achieved p50 {st['p50']:.0f}  p95 {st['p95']:.0f};  floor {floor:.0f} ns = {flops} flops at "
+          f"{fma_ns:.2f} ns per multiply-add + 7 sin/cos pairs at {trig_ns:.1f} ns;  achieved / floor = {st['p50'] / floor:.1f}")
+    return {"ns_per_iteration": st, "flops_per_iteration": flops, "floor_ns": floor, "fma_ns": fma_ns,
+            "sincos_ns": trig_ns, "achieved_over_floor": st["p50"] / floor}
+
+
+def batch(n: int) -> dict:
+    from pipeline.settings import load_study
+
+    study = load_study(ROOT / "data" / "studies" / "cerbaro2019.yaml")
+    spec = study.problem_sets["random"]
+    entry = study.solvers["dls"]
+    lwr = load_robot(ROOT / "data" / "robots" / "kuka_lwr.yaml")
+    ps = random_joint_pairs(lwr, n, np.random.default_rng(spec["seed"]), **spec.get("params", {}))
+    T = ps.goal_transforms()
+    prep = prepare("dls", lwr, entry.settings)
+    warm_up("dls", prep, entry.settings)
+    out = {}
+    print(f"batch: cerbaro2019 DLS settings, {n} of its random problems [solves per second, whole call]")
+    for threads in (1, 2):
+        best = 0.0
+        for _ in range(3):
+            t = time.perf_counter()
+            res = solve_batch("dls", prep, T, ps.q_start, entry.settings, threads=threads)
+            best = max(best, n / (time.perf_counter() - t))
+        out[f"threads_{threads}"] = best
+        print(f"  {threads} thread(s): {best:10.0f} solves/s  (success {100 * res.success.mean():.1f} %, "
+              f"mean {res.iterations.mean():.1f} iterations)")
+    return out
+
+
+def analytic(n: int) -> dict:
+    out = {}
+    for robot, names in (("ur5", ("analytic_ur", "ur_analytic_ik")), ("puma560", ("analytic_puma",))):
+        model = load_robot(ROOT / "data" / "robots" / f"{robot}.yaml")
+        ps = random_joint_pairs(model, n, np.random.default_rng(3), low=-math.pi, high=math.pi)
+        T = ps.goal_transforms()
+        methods = {k: v for k in names if (v := _prepared(k, model)) is not None}
+        rows = {k: {"call": [], "solve": []} for k in methods}
+        for i in range(len(ps)):
+            for name, (prep, s) in methods.items():
+                r = solve(name, prep, T[i], ps.q_start[i], s)
+                rows[name]["call"].append(r.call_time_s * 1e6)
+                rows[name]["solve"].append(r.solve_time_s * 1e6)
+        print(f"{robot}: all solutions per pose, {n} poses [us]")
+        for name, r in rows.items():
+            c, k = _stats(r["call"]), _stats(r["solve"])
+            out[f"{robot}/{name}"] = {"call_us": c, "solve_us": k}
+            print(f"  {name:16s} public call p50 {c['p50']:7.2f} p95 {c['p95']:7.2f}   kernel/library p50 {k['p50']:7.2f} p95 {k['p95']:7.2f}")
+        if robot == "ur5" and "analytic_ur" in methods:
+            prep, s = methods["analytic_ur"]
+            big = random_joint_pairs(model, 100_000, np.random.default_rng(4), low=-math.pi, high=math.pi)
+            G = big.goal_transforms()
+            for threads in (1, 2):
+                best = 0.0
+                for _ in range(3):
+                    t = time.perf_counter()
+                    solve_batch("analytic_ur", prep, G, big.q_start, s, threads=threads, traces=False)
+                    best = max(best, len(G) / (time.perf_counter() - t))
+                out[f"ur5/batch_threads_{threads}"] = best
+                print(f"  batch, {threads} thread(s): {best:10.0f} poses/s (100 000 poses, whole call)")
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--problems", type=int, default=2000, help="problems of the per-call sections")
+    ap.add_argument("--batch", type=int, default=10000, help="problems of the batch section")
+    ap.add_argument("--repeat", type=int, default=2, help="runs of every section")
+    ap.add_argument("--only", default="public,hotloop,batch,analytic", help="comma-separated sections")
+    ap.add_argument("--json", help="write every number to this JSON file")
+    args = ap.parse_args()
+    sections = {"public": lambda: public(args.problems), "hotloop": lambda: hotloop(min(args.problems, 200)),
+                "batch": lambda: batch(args.batch), "analytic": lambda: analytic(args.problems)}
+    wanted = [s.strip() for s in args.only.split(",") if s.strip()]
+    unknown = [s for s in wanted if s not in sections]
+    if unknown:
+        ap.error(f"--only: unknown section(s) {unknown} (have {list(sections)})")
+    report = {"machine": {"python": platform.python_version(), "cpu": platform.processor() or platform.machine(),
+                          "cores": os.cpu_count()}, "runs": []}
+    for k in range(args.repeat):
+        print(f"=== run {k + 1}/{args.repeat} (load average {_load()})")
+        report["runs"].append({"load": _load(), **{s: sections[s]() for s in wanted}})
+    if args.json:
+        Path(args.json).write_text(json.dumps(report, indent=1))
+        print(f"wrote {args.json}")
+
+
+if __name__ == "__main__":
+    main()
