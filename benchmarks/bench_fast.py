@@ -16,10 +16,11 @@ Sections (each prints medians and 95th percentiles; every time is per problem un
               (``call_time_s``: settings, conversion, kernel, independent FK check, result) and
               the kernel alone (``solve_time_s``); peers: the library call (``solve_time_s``,
               pipeline/solvers/peers.py). Ratio = our public call / rtb ik_LM's call.
-``hotloop``   One DLS iteration in the kernel's loop: 2 000 iterations per problem with the stop
-              tests disabled (tolerances 0), time / iterations; against the flop floor
-              (:func:`pipeline.solvers._lean.flops_per_iteration` multiply-adds at this machine's
-              measured scalar rate, plus 7 sin/cos pairs at their measured cost).
+``hotloop``   One iteration in the kernel's loop (Jacobian transpose, pseudoinverse, DLS): 2 000
+              iterations per problem with the stop tests disabled (tolerances 0), time / iterations
+              (the kernel's own clock, so the once-per-solve set-up is spread over 2 000
+              iterations); against the flop floor (:func:`pipeline.solvers._lean.flops_per_iteration`
+              at this machine's measured multiply-add rate, plus 7 sin/cos pairs at their measured cost).
 ``batch``     ``pipeline.solvers.solve_batch`` at the cerbaro2019 DLS settings
               (data/studies/cerbaro2019.yaml) on ``--batch`` of its random problems, on 1 and 2
               threads: solves per second (wall time of the whole call).
@@ -139,19 +140,24 @@ def hotloop(n: int) -> dict:
 
     lwr = load_robot(ROOT / "data" / "robots" / "kuka_lwr.yaml")
     mapping = {"tol_pos": 0.0, "tol_rot": 0.0, "disable_stall": True, "disable_grow": True, "max_iterations": 2000}
-    prep, s = _prepared("dls", lwr, mapping)
     ps = random_joint_pairs(lwr, n, np.random.default_rng(2))
     T = ps.goal_transforms()
-    per = [r.solve_time_s * 1e9 / r.iterations for r in (solve("dls", prep, T[i], ps.q_start[i], s) for i in range(len(ps)))]
     fma_ns, trig_ns = _calibrate()
-    flops = flops_per_iteration(7)
-    floor = flops / 2 * fma_ns + 7 * trig_ns  # flops counts a multiply-add as 2
-    st = _stats(per)
-    print(f"DLS hot loop, LWR, {n} problems x 2000 iterations [ns per iteration]")
-    print(f"  achieved p50 {st['p50']:.0f}  p95 {st['p95']:.0f};  floor {floor:.0f} ns = {flops} flops at "
-          f"{fma_ns:.2f} ns per multiply-add + 7 sin/cos pairs at {trig_ns:.1f} ns;  achieved / floor = {st['p50'] / floor:.1f}")
-    return {"ns_per_iteration": st, "flops_per_iteration": flops, "floor_ns": floor, "fma_ns": fma_ns,
-            "sincos_ns": trig_ns, "achieved_over_floor": st["p50"] / floor}
+    out = {"fma_ns": fma_ns, "sincos_ns": trig_ns}
+    print(f"hot loop, LWR, {n} problems x 2000 iterations [ns per iteration]; floor = flops / 2 x {fma_ns:.2f} ns "
+          f"per multiply-add (measured) + 7 sin/cos pairs x {trig_ns:.1f} ns (measured)")
+    for method in ("jacobian_transpose", "pseudoinverse", "dls"):
+        prep, s = _prepared(method, lwr, mapping)
+        per = [r.solve_time_s * 1e9 / r.iterations
+               for r in (solve(method, prep, T[i], ps.q_start[i], s) for i in range(len(ps)))]
+        flops = flops_per_iteration(7, method)
+        floor = flops / 2 * fma_ns + 7 * trig_ns  # flops counts a multiply-add as 2
+        st = _stats(per)
+        out[method] = {"ns_per_iteration": st, "flops_per_iteration": flops, "floor_ns": floor,
+                       "achieved_over_floor": st["p50"] / floor}
+        print(f"  {method:20s} p50 {st['p50']:6.0f}  p95 {st['p95']:6.0f}   {flops} flops, floor {floor:4.0f} ns, "
+              f"achieved / floor {st['p50'] / floor:.1f}")
+    return out
 
 
 def batch(n: int) -> dict:

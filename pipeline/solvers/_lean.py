@@ -13,10 +13,10 @@ computes the same iterates without allocating inside the loop:
   iteration. SDLS always uses the reference step (its SVD allocates, and it is not on the hot path
   of any study).
 
-Flops of one 7-DoF DLS iteration (what :mod:`benchmarks.bench_solve` reports as the floor): FK
-7 x 36 + tool 36 = 288 plus 7 sin/cos pairs; Jacobian 7 x 9 = 63; pose error ~75; ``J J^T`` 21 x 7 x 2
-= 294; Cholesky 6x6 ~ 91; two triangular solves 72; ``J^T y`` 84; update 7: about 980 flops and 7
-sin/cos pairs (:data:`FLOPS_DLS`).
+Flops of one 7-DoF DLS iteration (:func:`flops_per_iteration`; ``benchmarks/bench_fast.py``
+reports achieved time against this floor): FK 7 x 36 + tool 36 = 288 plus 7 sin/cos pairs; Jacobian
+7 x 9 = 63; pose error ~75; ``J J^T`` 21 x 7 x 2 = 294; Cholesky 6x6 ~ 91; two triangular solves 72;
+``J^T y`` 84; update 7: 974 flops and 7 sin/cos pairs.
 
 :func:`solve_batch` runs N problems with ``numba.prange``: each problem only reads shared inputs
 and writes its own rows, so results do not depend on the number of threads.
@@ -30,19 +30,25 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _jit
-from pipeline.solvers._kin import now_ns, relative_rotation, relative_translation_norm
+from pipeline.solvers._kin import now_ns, quat_from_rot, relative_translation_norm
 
 
-def flops_per_iteration(n: int) -> int:
-    """Multiply-add count of one DLS iteration on an n-joint chain (each counted as 2 flops where fused)."""
-    fk = 36 * n + 36
-    jac = 9 * n
-    err = 75
-    jjt = 21 * n * 2
-    chol = 91
-    tri = 72
-    upd = 12 * n + n
-    return fk + jac + err + jjt + chol + tri + upd
+def flops_per_iteration(n: int, method: str = "dls") -> int:
+    """Floating-point operations of one iteration of ``method`` on an n-joint chain (a multiply-add
+    counts 2; sin, cos, sqrt and atan2 are not counted here: the benchmark adds their measured cost).
+
+    Common to every method: forward kinematics 36 n + 36 (the running 3x4 frame times each link,
+    then the tool), the Jacobian 9 n, the pose error ~75 (two quaternions and their product). Then
+    the step: transpose ``J^T e`` 12 n, ``J g`` 12 n, two dot products 24, scaling n; pseudoinverse and
+    DLS ``J J^T`` (lower half) 21 x 2 n, Cholesky ~91, two triangular solves 72, ``J^T y`` 12 n.
+    Every method adds the update n.
+    """
+    common = (36 * n + 36) + 9 * n + 75 + n
+    if method == "jacobian_transpose":
+        return common + 12 * n + 12 * n + 24 + n
+    if method in ("pseudoinverse", "dls"):
+        return common + 42 * n + 91 + 72 + 12 * n
+    raise ValueError(f"no flop count for {method!r} (its step is the reference SVD code)")
 
 
 def lean_chain(args: tuple) -> tuple:
@@ -130,6 +136,47 @@ def fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C):
         T[r, 3] += c3
 
 
+@numba.njit(cache=True, inline="always")
+def _rel(qa, qb):
+    """(w, x, y, z) of ``q_a q_b*`` with w >= 0 (as :func:`pipeline.solvers._kin.relative_rotation`)."""
+    w = qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3]
+    x = -qa[0] * qb[1] + qa[1] * qb[0] - qa[2] * qb[3] + qa[3] * qb[2]
+    y = -qa[0] * qb[2] + qa[1] * qb[3] + qa[2] * qb[0] - qa[3] * qb[1]
+    z = -qa[0] * qb[3] - qa[1] * qb[2] + qa[2] * qb[1] + qa[3] * qb[0]
+    if w < 0:
+        return -w, -x, -y, -z
+    return w, x, y, z
+
+
+@numba.njit(cache=True)
+def _pose_error(Tg, T, qg, qt, ip, fp, e):
+    """:func:`pipeline.solvers._jit.pose_error` with the goal's quaternion ``qg`` given and the
+    pose's written into ``qt`` (so the stall test can reuse it): same formulas, same numbers."""
+    for r in range(3):
+        e[r] = Tg[r, 3] - T[r, 3]
+    quat_from_rot(T, qt)
+    w, x, y, z = _rel(qg, qt)
+    s = math.sqrt(x * x + y * y + z * z)
+    angle = 2.0 * math.atan2(s, w)
+    if ip[_jit.I_ORIENT] == 1 and s > 1e-300:
+        g = angle / s
+    elif ip[_jit.I_ORIENT] == 1:
+        g = 2.0
+    else:
+        g = fp[_jit.F_ORIENT_GAIN]
+    e[3], e[4], e[5] = g * x, g * y, g * z
+    dp = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+    crit = ip[_jit.I_CRITERION]
+    if crit == 0:
+        t = relative_translation_norm(Tg, T)
+        err = math.sqrt(1.0 + 0.25 * t * t)
+    elif crit == 2:
+        err = math.sqrt(1.0 + 0.25 * dp * dp)
+    else:
+        err = math.sqrt(dp * dp + e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+    return err, dp, angle
+
+
 @numba.njit(cache=True)
 def _jacobian(prism, axes, origins, T, J):
     n = axes.shape[0]
@@ -213,8 +260,8 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     """One problem, the same contract as :func:`pipeline.solvers._jit.solve_one`.
 
     Writes the solution into ``q`` (n,), trace rows ``0..iterations`` of ``trace`` (k, 8) (rows
-    beyond its length are not written: pass ``k = 0`` rows... at least 1), and ``times`` (3,) =
-    (total, IK block, 0) [ns]. Returns ``(stop code, iterations)``.
+    beyond its length are not written; it needs at least one row), and ``times`` (3,) = (total,
+    IK block, 0) [ns]. Returns ``(stop code, iterations)``.
     """
     clk = np.zeros(2, np.int64)
     t_start = now_ns(clk)
@@ -233,8 +280,10 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     A = np.empty((6, 6))
     y = np.empty(6)
     dq = np.empty(n)
-    qa = np.empty(4)
-    qb = np.empty(4)
+    qg = np.empty(4)  # goal orientation, once per solve
+    qt = np.empty(4)  # this iterate's orientation
+    qp = np.empty(4)  # the previous iterate's (stall test)
+    quat_from_rot(Tg, qg)
     method = ip[_jit.I_METHOD]
     max_iter = ip[_jit.I_MAX_ITER]
     crit = ip[_jit.I_CRITERION]
@@ -242,7 +291,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     lam2 = lam * lam
     rows = trace.shape[0]
     fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
-    err, dp, ang = _jit.pose_error(Tg, T, ip, fp, qa, qb, e)
+    err, dp, ang = _pose_error(Tg, T, qg, qt, ip, fp, e)
     trace[0, 0] = err
     for r in range(6):
         trace[0, 1 + r] = e[r]
@@ -269,9 +318,11 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
         for r in range(3):
             for c in range(4):
                 Tprev[r, c] = T[r, c]
+        for k in range(4):
+            qp[k] = qt[k]
         fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
         prev_err = err
-        err, dp, ang = _jit.pose_error(Tg, T, ip, fp, qa, qb, e)
+        err, dp, ang = _pose_error(Tg, T, qg, qt, ip, fp, e)
         if it < rows:
             trace[it, 0] = err
             for r in range(6):
@@ -285,7 +336,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
             stalled = math.sqrt(1.0 + 0.25 * t * t) < fp[_jit.F_STALL_DQ]
             ok = err <= fp[_jit.F_TOL_DQ]
         else:
-            w, x, yy, z = relative_rotation(T, Tprev, qa, qb)
+            w, x, yy, z = _rel(qt, qp)
             dmove = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
             rmove = 2.0 * math.atan2(math.sqrt(x * x + yy * yy + z * z), w)
             stalled = dmove < fp[_jit.F_STALL_POS] and rmove < fp[_jit.F_STALL_ROT]
