@@ -66,5 +66,6 @@ def blas() -> str:
 @lru_cache(maxsize=1)
 def environment() -> dict:
     """Python, platform, CPU, BLAS and library versions (cached: the same for a whole process)."""
-    return {"python": platform.python_version(), "platform": platform.platform(), "cpu": cpu_model(),
+    return {"python": platform.python_version(), "platform": platform.platform(), "host": platform.node(),
+            "cpu": cpu_model(),
             "blas": blas(), "libraries": library_versions()}

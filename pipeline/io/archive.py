@@ -212,7 +212,7 @@ class ArchiveWriter:
         self.partial = self.path.with_name(self.path.name + ".partial")
         self._fh = open(self.partial, "wb")
         _use_fast_zstd()
-        self._w = Writer(self._fh, compression=CompressionType.ZSTD)
+        self._w = Writer(self._fh, compression=CompressionType.ZSTD, enable_data_crcs=True)
         self._w.start(profile="", library=f"ik-pipeline {metadata['package_version']}")
         self._w.add_metadata("run", {k: str(v) for k, v in metadata.items()})
         sid = self._w.register_schema(SOLVE_SCHEMA["title"], "jsonschema", json.dumps(SOLVE_SCHEMA).encode())
@@ -541,10 +541,53 @@ def _expand(batch, path: Path, seq: int) -> list[dict]:
     return out
 
 
+_MAGIC = b"\x89MCAP0\r\n"
+
+
+def check_file_crcs(path: Path) -> bool:
+    """Check the whole file against the CRCs the writer stored: the data section's (DataEnd record:
+    every byte from the start to the summary, metadata included) and the summary's (Footer).
+
+    The mcap reader checks each chunk's CRC; these two cover the rest, so a changed byte anywhere
+    (an edited metadata value, a flipped bit in a record header) is caught.
+
+    Returns
+    -------
+    bool
+        The file carries a data-section CRC (format 3 always does; format 2 did not).
+
+    Raises
+    ------
+    ArchiveError
+    """
+    import struct
+    import zlib
+
+    data = path.read_bytes()
+    if len(data) < 2 * len(_MAGIC) + 29 or data[:8] != _MAGIC or data[-8:] != _MAGIC:
+        raise ArchiveError(f"{path}: not a complete MCAP file (magic bytes missing at the start or end)")
+    foot = len(data) - 8 - 29
+    op, length, summary_start, offset_start, summary_crc = struct.unpack_from("<BQQQI", data, foot)
+    if op != 0x02 or length != 20 or not (0 < summary_start <= foot) or offset_start > foot:
+        raise ArchiveError(f"{path}: damaged footer (no summary section where the footer points)")
+    if summary_crc:
+        crc = zlib.crc32(data[foot:foot + 25], zlib.crc32(data[summary_start:foot]))
+        if crc != summary_crc:
+            raise ArchiveError(f"{path}: summary section CRC mismatch (the file was changed after it was written)")
+    end = summary_start - 13
+    if end < 8 or data[end] != 0x0F:
+        raise ArchiveError(f"{path}: damaged file (no DataEnd record before the summary)")
+    (data_crc,) = struct.unpack_from("<I", data, end + 9)
+    if data_crc and zlib.crc32(data[:end]) != data_crc:
+        raise ArchiveError(f"{path}: data section CRC mismatch (the file was changed after it was written)")
+    return data_crc != 0
+
+
 def read_archive(path: str | Path) -> Archive:
     """Read and check one archive (format 3, or 2 written before).
 
-    Checks: the MCAP magic, chunk CRCs, a summary section (the writer finished), the ``run``
+    Checks: the MCAP magic, the data-section and summary CRCs (:func:`check_file_crcs`), chunk
+    CRCs, a summary section (the writer finished), the ``run``
     metadata and its required fields, every ``/ik/solve`` message against its schema (columns of
     ``count`` values), and the number of solve records against the metadata's problem count
     (``problems`` x ``repetitions``), so that a damaged file never reads as fewer solves.
@@ -561,8 +604,10 @@ def read_archive(path: str | Path) -> Archive:
         raise ArchiveError(f"{path}: no such archive")
     try:
         with open(path, "rb") as fh:
-            if fh.read(8) != b"\x89MCAP0\r\n":
+            if fh.read(8) != _MAGIC:
                 raise ArchiveError(f"{path}: not an MCAP file (bad magic)")
+        has_data_crc = check_file_crcs(path)
+        with open(path, "rb") as fh:
             fh.seek(0)
             reader = make_reader(fh, validate_crcs=True)  # chunk CRCs checked on every read
             summary = reader.get_summary()
@@ -584,6 +629,8 @@ def read_archive(path: str | Path) -> Archive:
     if meta["format_version"] not in READABLE_VERSIONS:
         raise ArchiveError(f"{path}: metadata field 'format_version' is {meta['format_version']!r}, this version "
                            f"reads {' and '.join(READABLE_VERSIONS)}")
+    if meta["format_version"] == "3" and not has_data_crc:
+        raise ArchiveError(f"{path}: no data-section CRC (every format-3 archive has one): not written by this package")
     solves: list[dict] = []
     for _, _, msg in _iter_messages(path, [SOLVE_TOPIC]):
         data = _loads(msg.data, path, SOLVE_TOPIC, msg.sequence)
