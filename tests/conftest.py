@@ -68,3 +68,14 @@ def homogeneous(R=None, t=None) -> np.ndarray:
     if t is not None:
         T[:3, 3] = t
     return T
+
+
+@pytest.fixture(scope="session")
+def quick_build(tmp_path_factory):
+    """One quick-scale Snakemake build of the whole workflow, shared by the workflow and browser tests
+    (tests/test_workflow.py's ``built``, tests/test_browser.py)."""
+    from tests.test_workflow import _snakemake
+
+    results = tmp_path_factory.mktemp("results")
+    _snakemake(results)
+    return results

@@ -1,9 +1,20 @@
-"""The self-contained HTML report (images embedded as data URIs; opens offline)."""
+"""The self-contained HTML report (images embedded as data URIs; opens offline).
+
+Navigation: a table of contents beside the text down to every table and figure, and a stable anchor
+on each (``tab-<study>-<table name>``, ``fig-<study>-<figure file stem>``). Figures are embedded as
+SVG, or as the 2x PNG where the SVG is larger than :data:`SVG_MAX_BYTES`; tables wider than the text
+column (:data:`TABLE_BUDGET_PX`) are transposed or split into column groups, so that nothing needs a
+horizontal scroll at a 1 400 px wide window.
+"""
 
 from __future__ import annotations
 
 import base64
 from html import escape as html_escape
+import math
+import re
+import struct
+from urllib.parse import quote
 import datetime as _dt
 import json
 import platform
@@ -21,8 +32,39 @@ from pipeline.verify import INPUTS_DIGEST, REPORT_DIGEST, inputs_digest, seal_re
 TEMPLATES = Path(__file__).parent / "templates"
 
 
+SVG_MAX_BYTES = 1_000_000  # larger SVGs (dense scatter plots) are embedded as their 2x PNG instead
+TABLE_BUDGET_PX = 980  # width a table may take in the text column at a 1 400 px window (checked in a browser)
+_SVG_SAFE = " !$'()*+,-./:;=?@_~[]{}|^`"  # left as is in an SVG data URI; the rest is %-encoded
+
+
 def _img(path: Path) -> str:
     return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode()
+
+
+def _png_css_width(path: Path) -> int | None:
+    """Display width [CSS px] of a PNG: its pixel width scaled from its dpi (pHYs) to the figures' 110 dpi."""
+    data = path.read_bytes()
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        return None
+    width = struct.unpack(">I", data[16:20])[0]
+    k = data.find(b"pHYs", 8, 4096)
+    if k < 0:
+        return width
+    ppm = struct.unpack(">I", data[k + 4:k + 8])[0]
+    dpi = ppm * 0.0254 if data[k + 12] == 1 else 110.0
+    return round(width * 110.0 / dpi) if dpi > 0 else width
+
+
+def figure_image(folder: Path, files: list[str]) -> dict:
+    """``src`` (data URI), ``kind`` (svg/png) and display ``width`` of a figure: SVG when small enough."""
+    svg = next((folder / f for f in files if f.endswith(".svg")), None)
+    if svg is not None and svg.is_file() and svg.stat().st_size <= SVG_MAX_BYTES:
+        text = svg.read_text(encoding="utf-8")
+        m = re.search(r'<svg[^>]*\swidth="([0-9.]+)pt"', text)
+        return {"src": "data:image/svg+xml;charset=utf-8," + quote(text, safe=_SVG_SAFE), "kind": "svg",
+                "width": round(float(m.group(1)) * 110.0 / 72.0) if m else None}
+    png = folder / next(f for f in files if f.endswith(".png"))
+    return {"src": _img(png), "kind": "png", "width": _png_css_width(png)}
 
 
 def _fmt(x) -> str:
@@ -30,9 +72,65 @@ def _fmt(x) -> str:
     return repr(x) if isinstance(x, float) else str(x)
 
 
+def _cell(x) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "—"
+    return f"{x:.4g}" if isinstance(x, float) else str(x)
+
+
+def _text_px(text: str, bold: bool = False) -> float:
+    """Rough rendered width [px] of ``text`` in the tables' font (0.85 em of 16 px)."""
+    return len(text) * (8.0 if bold else 7.4)
+
+
+def _column_px(header: str, cells: list[str]) -> float:
+    """Width a column needs: its longest unbreakable word (header or cell), or a short cell in full."""
+    words = [w for c in [header, *cells] for w in c.split()] or [""]
+    longest_word = max(_text_px(w, bold=w in header.split()) for w in words)
+    short_cells = max((_text_px(c) for c in cells if len(c) <= 14), default=0.0)
+    return max(longest_word, short_cells) + 14.0  # padding and borders
+
+
+def _table_layout(df: pd.DataFrame, budget: float = TABLE_BUDGET_PX) -> list[pd.DataFrame]:
+    """The table as one frame if it fits ``budget`` px; else transposed (few rows) or split into column
+    groups, each repeating the leading label columns."""
+    cells = df.map(_cell) if hasattr(df, "map") else df.applymap(_cell)
+    cells.columns = [str(c) for c in df.columns]
+    widths = [_column_px(c, list(cells[c])) for c in cells.columns]
+    if sum(widths) <= budget or len(cells.columns) <= 2:
+        return [cells]
+    if len(cells) <= 12 and not cells.iloc[:, 0].duplicated().any():
+        t = cells.set_index(cells.columns[0]).T.reset_index()
+        t.columns = [str(cells.columns[0]) + " →"] + list(t.columns[1:])
+        t_widths = [_column_px(c, list(t[c])) for c in t.columns]
+        if sum(t_widths) <= budget:
+            return [t]
+    # leading label columns (text, not numbers) repeated in every group
+    keys = []
+    for c, w in zip(cells.columns, widths):
+        numeric = pd.to_numeric(df[c], errors="coerce").notna().any() if df[c].dtype == object else df[c].dtype.kind in "biuf"
+        if numeric or len(keys) >= 2 or sum(widths[:len(keys) + 1]) > 0.4 * budget:
+            break
+        keys.append(c)
+    keys = keys or [cells.columns[0]]
+    key_px = sum(widths[: len(keys)])
+    groups, cur, cur_px = [], [], key_px
+    for c, w in zip(cells.columns[len(keys):], widths[len(keys):]):
+        if cur and cur_px + w > budget:
+            groups.append(cur)
+            cur, cur_px = [], key_px
+        cur.append(c)
+        cur_px += w
+    groups.append(cur)
+    return [cells[keys + g] for g in groups]
+
+
 def _table_html(path: Path) -> str:
-    df = pd.read_csv(path)
-    return df.to_html(index=False, na_rep="—", float_format=lambda x: f"{x:.4g}", classes="data", border=0)
+    parts = _table_layout(pd.read_csv(path))
+    html = [p.to_html(index=False, classes="data", border=0, escape=True) for p in parts]
+    if len(parts) == 1:
+        return html[0]
+    return "".join(f'<p class="part">columns, part {k + 1} of {len(parts)}</p>{h}' for k, h in enumerate(html))
 
 
 def _benchmarks(folder: Path) -> list[dict]:
@@ -42,6 +140,12 @@ def _benchmarks(folder: Path) -> list[dict]:
         rows.append({"job": f.stem, "wall_s": float(df["s"].iloc[0]), "max_rss_mb": float(df["max_rss"].iloc[0])
                      if "max_rss" in df and pd.notna(df["max_rss"].iloc[0]) else float("nan")})
     return rows
+
+
+def archive_host(record: dict) -> str:
+    """The machine an archive's solves ran on (``environment.host`` of its metadata; "" if not recorded)."""
+    env = record.get("environment")
+    return str(env.get("host") or env.get("hostname") or "") if isinstance(env, dict) else ""
 
 
 def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | None:
@@ -72,19 +176,21 @@ def study_context(study: Study, results: Path) -> dict:
     tables = []
     tindex = folder / "tables" / "index.json"
     for t in json.loads(tindex.read_text()) if tindex.is_file() else []:
-        tables.append({**t, "html": _table_html(folder / "tables" / t["file"])})
+        tables.append({**t, "html": _table_html(folder / "tables" / t["file"]), "anchor": f"tab-{study.id}-{t['name']}"})
     figures = []
     findex = folder / "figures" / "index.json"
     for f in json.loads(findex.read_text()) if findex.is_file() else []:
-        figures.append({**f, "src": _img(folder / "figures" / f["files"][0])})
+        figures.append({**f, **figure_image(folder / "figures", f["files"]),
+                        "anchor": f"fig-{study.id}-{Path(f['files'][0]).stem}"})
     prov_file = folder / "tables" / "provenance.json"
-    provenance = json.loads(prov_file.read_text()) if prov_file.is_file() else []
+    provenance = [{**p, "host": archive_host(p)} for p in json.loads(prov_file.read_text())] if prov_file.is_file() else []
     if study.solvers:
         solvers = pd.DataFrame({k: {f: _fmt(x) for f, x in study.solvers[k].as_dict().items()}
                                 for k in study.default_solvers()}).fillna("—")
+        solvers = solvers.rename_axis("setting").reset_index()
         solvers_html = ("<p>Solver labels (columns): the registered method and its settings "
                         "(lengths in m, angles in rad; — = not a setting of that method).</p>"
-                        + solvers.to_html(border=0, classes="data"))
+                        + "".join(x.to_html(index=False, border=0, classes="data") for x in _table_layout(solvers)))
         variants = study.doc.get("readings", {}).get("variants", {})
         if variants:
             rows = [{"reading": study.doc["readings"]["default"], "overrides": "(the solvers above)"}]
@@ -92,12 +198,14 @@ def study_context(study: Study, results: Path) -> dict:
                      for k, v in variants.items()]
             solvers_html += ("<p>Readings of the open questions (each runs every solver above, as "
                              "<code>&lt;solver&gt;_&lt;reading&gt;</code>):</p>"
-                             + pd.DataFrame(rows).to_html(index=False, border=0, classes="data"))
+                             + "".join(x.to_html(index=False, border=0, classes="data")
+                                       for x in _table_layout(pd.DataFrame(rows))))
     else:
         solvers_html = ""
     if study.settings:
         solvers_html += ("<p>Study settings:</p><pre>" + html_escape(yaml.safe_dump(study.settings, sort_keys=False,
                                                                               allow_unicode=True)) + "</pre>")
+    benchmarks = _benchmarks(folder / "benchmarks")
     answer = _answer(folder, tables, figures)
     if answer:
         answer["id"] = study.id  # shown at the top of the report; the study's section keeps the rest
@@ -111,8 +219,54 @@ def study_context(study: Study, results: Path) -> dict:
         "problems_yaml": yaml.safe_dump(study.problem_sets, sort_keys=False) if study.generic else "",
         "solvers_html": solvers_html,
         "interpretations": study.doc["interpretations"], "tables": tables, "figures": figures,
-        "provenance": provenance, "benchmarks": _benchmarks(folder / "benchmarks"),
+        "provenance": provenance, "benchmarks": benchmarks,
+        # machines the solves ran on (a cluster run): timings of different machines are not comparable
+        "hosts": sorted({p["host"] for p in provenance} - {""}),
     }
+
+
+def performance_rows(path: Path) -> dict | None:
+    """The speed table of the report from ``benchmarks/bench_fast.py --json`` output (None if absent).
+
+    Returns ``{"source", "machine", "loads", "rows": [{"what", "unit", "values" (one per run), "target"}]}``.
+    """
+    if not path.is_file():
+        return None
+    doc = json.loads(path.read_text())
+    runs = doc.get("runs", [])
+
+    def get(run, *keys):
+        for k in keys:
+            if not isinstance(run, dict) or k not in run:
+                return None
+            run = run[k]
+        return run
+
+    spec = [
+        ("LWR DLS, public call, median", "us", ("public", "dls", "call_us", "p50"), ""),
+        ("LWR DLS, kernel alone, median", "us", ("public", "dls", "solve_us", "p50"), ""),
+        ("Robotics Toolbox ik_LM (C++), one search, median", "us", ("public", "rtb_ik_lm", "solve_us", "p50"), ""),
+        ("our DLS public call / rtb ik_LM", "ratio", ("public", "ratio_dls_call_to_rtb_lm"), "<= 0.5"),
+        ("TRAC-IK, median", "us", ("public", "trac_ik", "solve_us", "p50"), ""),
+        ("DLS iteration in the hot loop, median", "ns", ("hotloop", "dls", "ns_per_iteration", "p50"), "<= 600"),
+        ("DLS iteration, flop floor", "ns", ("hotloop", "dls", "floor_ns"), ""),
+        ("pseudoinverse iteration, median", "ns", ("hotloop", "pseudoinverse", "ns_per_iteration", "p50"), ""),
+        ("Jacobian-transpose iteration, median", "ns", ("hotloop", "jacobian_transpose", "ns_per_iteration", "p50"), ""),
+        ("batch DLS (cerbaro2019 settings), 1 thread", "solves/s", ("batch", "threads_1"), ""),
+        ("batch DLS (cerbaro2019 settings), 2 threads", "solves/s", ("batch", "threads_2"), ">= 50 000"),
+        ("UR5 analytic, all solutions, public call, median", "us", ("analytic", "ur5/analytic_ur", "call_us", "p50"), "<= 10"),
+        ("ur_analytic_ik (C++), median", "us", ("analytic", "ur5/ur_analytic_ik", "solve_us", "p50"), ""),
+        ("UR5 analytic batch, 2 threads", "poses/s", ("analytic", "ur5/batch_threads_2"), ">= 400 000"),
+        ("PUMA 560 analytic, all solutions, public call, median", "us", ("analytic", "puma560/analytic_puma", "call_us", "p50"), "<= 20"),
+    ]
+    rows = []
+    for what, unit, keys, target in spec:
+        vals = [get(r, *keys) for r in runs]
+        if any(v is not None for v in vals):
+            fmt = (lambda v: "—" if v is None else (f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.3g}"))
+            rows.append({"what": what, "unit": unit, "values": [fmt(v) for v in vals], "target": target or "—"})
+    return {"source": str(path), "machine": doc.get("machine", {}), "loads": [r.get("load", "?") for r in runs],
+            "rows": rows}
 
 
 def render_report(studies: list[Study], config: dict, results: Path, out: Path) -> None:
@@ -128,6 +282,7 @@ def render_report(studies: list[Study], config: dict, results: Path, out: Path) 
         machine=f"{platform.machine()} {platform.processor() or ''}".strip(), versions=env_info["libraries"],
         cpu=env_info["cpu"], blas=env_info["blas"], digest_names={"report": REPORT_DIGEST, "inputs": INPUTS_DIGEST},
         inputs_digest=inputs_digest(results, [s.id for s in studies]),
+        performance=performance_rows(Path(config.get("data_dir", "data")) / "performance" / "bench_fast.json"),
         built=_dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
     )
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -1,6 +1,7 @@
 # Config validation (schema + every study settings file + every robot file) before any job runs,
 # and the helpers the other rule files use.
 import json
+import os
 import sys
 
 from pipeline.settings import ConfigError, check_inputs
@@ -17,6 +18,24 @@ DATA = config["data_dir"]
 SCALE = config["scale"]
 # one thread per job: the solvers are sequential, and 2 jobs fill the 2 cores
 ENV = "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1"
+
+# Memory [MB] and wall time [min] each kind of job asks a cluster for (`resources:` of every rule),
+# from the Snakemake benchmark files of a full build (results/<study>/benchmarks/*.tsv, 2 shared
+# cores): largest max RSS 366 MB (an arm_benchmark job of one robot, every solver), solve jobs
+# <= 224 MB and <= 60 s, the per-robot benchmark jobs <= 70 s; with about 2x headroom on memory and
+# 10x on time (a cluster node may be slower, and runtime is a hard limit there).
+RES = {
+    "light": {"mem_mb": 512, "runtime": 10},  # problem sets, tables, RES rows, the report
+    "solve": {"mem_mb": 768, "runtime": 30},  # one solver on one problem set; reruns; measurements
+    "solve_robot": {"mem_mb": 1024, "runtime": 60},  # every solver of one robot (job_per_robot studies)
+    "figures": {"mem_mb": 1024, "runtime": 20},  # matplotlib over a study's archives
+}
+
+
+# cheap rules run in the Snakemake process's own machine, never submitted to a cluster
+localrules:
+    aggregate_tables,
+    render_report,
 
 
 # ids never hold a double underscore, so "<robot>__<solver>" splits one way only

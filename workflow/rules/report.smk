@@ -18,6 +18,10 @@ rule aggregate_tables:
         published=f"{DATA}/published",
     log:
         f"{RESULTS}/{{study}}/logs/aggregate_tables.log",
+    threads: 1
+    resources:
+        mem_mb=RES["light"]["mem_mb"],
+        runtime=RES["light"]["runtime"],
     shell:
         "python -m pipeline aggregate_tables --study {params.settings} --archives {input}"
         " --published {params.published} --out-dir {output} > {log} 2>&1"
@@ -39,6 +43,10 @@ rule plot_figures:
         study=lambda w: STUDIES[w.study].doc,
     log:
         f"{RESULTS}/{{study}}/logs/plot_figures.log",
+    threads: 1
+    resources:
+        mem_mb=RES["figures"]["mem_mb"],
+        runtime=RES["figures"]["runtime"],
     shell:
         "python -m pipeline plot_figures --study {params.settings} --archives {input}"
         " --out-dir {output} > {log} 2>&1"
@@ -48,11 +56,17 @@ rule render_report:
     input:
         targets=[t for sid in STUDIES for t in study_targets(sid)],
         settings=[f"{DATA}/studies/{sid}.yaml" for sid in STUDIES],
+        # the speed measurements of benchmarks/bench_fast.py (not rebuilt here: measured, committed)
+        performance=[p for p in [f"{DATA}/performance/bench_fast.json"] if os.path.exists(p)],
     output:
         report(f"{RESULTS}/report.html", caption="../report/report.rst", category="report"),
     params:
         sets=" ".join(f"--set {k}={json.dumps(v, separators=(',', ':'))}" for k, v in config.items()),
     log:
         f"{RESULTS}/logs/render_report.log",
+    threads: 1
+    resources:
+        mem_mb=RES["light"]["mem_mb"],
+        runtime=RES["light"]["runtime"],
     shell:
         "python -m pipeline render_report {params.sets} --out {output} > {log} 2>&1"

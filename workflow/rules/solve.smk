@@ -17,6 +17,10 @@ rule make_problems:
         scale=SCALE,
     log:
         f"{RESULTS}/{{study}}/logs/make_problems__{{pset}}__{{robot}}.log",
+    threads: 1
+    resources:
+        mem_mb=RES["light"]["mem_mb"],
+        runtime=RES["light"]["runtime"],
     shell:
         "python -m pipeline make_problems --study {params.settings} --problem-set {wildcards.pset}"
         " --robot {input.robot} --scale {params.scale} --data {DATA} --out {output} > {log} 2>&1"
@@ -39,6 +43,10 @@ rule solve_problems:
         f"{RESULTS}/{{study}}/logs/solve_problems__{{pset}}__{{robot}}__{{solver}}.log",
     benchmark:
         f"{RESULTS}/{{study}}/benchmarks/{{pset}}__{{robot}}__{{solver}}.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES["solve"]["mem_mb"],
+        runtime=RES["solve"]["runtime"],
     shell:
         "{ENV} python -m pipeline solve_problems --study {params.settings} --problem-set {wildcards.pset}"
         " --robot {input.robot} --solver {wildcards.solver} --problems {input.problems}"
@@ -79,6 +87,10 @@ for _sid in PER_ROBOT_STUDIES:
                 f"{RESULTS}/{_sid}/logs/solve_problems__{_robot}.log",
             benchmark:
                 f"{RESULTS}/{_sid}/benchmarks/{_robot}.tsv"
+            threads: 1
+            resources:
+                mem_mb=RES["solve_robot"]["mem_mb"],
+                runtime=RES["solve_robot"]["runtime"],
             shell:
                 "{ENV} python -m pipeline solve_problems --study {params.settings} --problem-set {params.psets}"
                 " --robot {input.robot} --solver {params.labels} --problems {input.problems}"

@@ -457,7 +457,8 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
                                 color=_color(m, study), label=label_of(study, m))
             ax.set_ylabel(f"{curve}\nerror [mm]")
             ax.grid(alpha=0.3, which="both")
-        axes[0, 0].legend(ncol=3, fontsize=8)
+        # the legend above the panels, never over the data
+        axes[0, 0].legend(ncol=3, fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.02), frameon=False)
         axes[-1, 0].set_xlabel("curve parameter t [rad]")
         figs.append(FigureSpec(save(fig, out_dir, "path_error"), "Position error along each path per method (not in the document)",
                                "Error |p_goal − FK(q)| at every path point, log scale (floored at 1e-12 mm)."))

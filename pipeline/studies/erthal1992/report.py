@@ -468,16 +468,20 @@ def _drawings(A, out_dir, plt, save) -> list[FigureSpec]:
     def panel(poses, robot, title_fmt, stem, title, caption, C):
         model = load_robot(data / f"{robot}.yaml")
         k = len(poses)
-        fig = plt.figure(figsize=(3.4 * k, 3.6))
+        # at most 3 panels a row: the figure stays about as wide as the report's text, so the tick
+        # labels keep their size instead of shrinking with the number of panels
+        ncol = 2 if k == 4 else min(k, 3)
+        nrow = -(-k // ncol)
+        fig = plt.figure(figsize=(3.4 * ncol, 3.4 * nrow))
         for j, (lab, q) in enumerate(poses):
-            ax = fig.add_subplot(1, k, j + 1, projection="3d")
+            ax = fig.add_subplot(nrow, ncol, j + 1, projection="3d")
             draw_robot(ax, model.chain, np.asarray(q, float), C)
             from pipeline.kinematics import fk_frames
 
             pts = fk_frames(model.chain, np.asarray(q, float))[:, :3, 3]
             set_equal(ax, np.vstack([pts, [[0, 0, 0]]]))
-            ax.set_title(title_fmt.format(lab), fontsize=8)
-            ax.tick_params(labelsize=5)
+            ax.set_title(title_fmt.format(lab), fontsize=9)
+            ax.tick_params(labelsize=7, pad=0)
             ax.view_init(elev=25, azim=-60)
         figs.append(FigureSpec(save(fig, out_dir, stem), title, caption))
 
@@ -489,19 +493,21 @@ def _drawings(A, out_dir, plt, save) -> list[FigureSpec]:
                   "Appendix 2 wireframe (two boxes per link from DH, gripper box, effector frame x/y/z = red/green/blue).", 25)
         ws = [x for x in recs if x["kind"] == "workspace"]
         if ws:
-            fig = plt.figure(figsize=(14, 6))
+            ncol = 3  # about the report's text width: labels stay legible
+            nrow = -(-len(ws) // ncol)
+            fig = plt.figure(figsize=(3.6 * ncol, 3.3 * nrow))
             for j, x in enumerate(ws):
                 P = np.array(x["points"])
                 if x["planar"]:
-                    ax = fig.add_subplot(2, 4, j + 1)
+                    ax = fig.add_subplot(nrow, ncol, j + 1)
                     ax.scatter(P[:, 0], P[:, 1], s=1)
                     ax.set_aspect("equal")
                     ax.set_title(f"{x['robot']}: hull area {x['hull'] / 1e6:.3g} m²", fontsize=8)
                 else:
-                    ax = fig.add_subplot(2, 4, j + 1, projection="3d")
+                    ax = fig.add_subplot(nrow, ncol, j + 1, projection="3d")
                     ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=0.5)
-                    ax.set_title(f"{x['robot']}: hull volume {x['hull'] / 1e9:.3g} m³", fontsize=8)
-                ax.tick_params(labelsize=5)
+                    ax.set_title(f"{x['robot']}: hull volume {x['hull'] / 1e9:.3g} m³", fontsize=9)
+                ax.tick_params(labelsize=7)
             figs.append(FigureSpec(save(fig, out_dir, "workspace_catalogue", svg=False), "Workspace of each catalogue robot (§2.4.1)",
                                    "Sampled effector positions (mm) of uniform random joint values; convex-hull volume / area in the titles."))
             p3 = next((x for x in ws if "primary_area" in x), None)
@@ -530,7 +536,8 @@ def _drawings(A, out_dir, plt, save) -> list[FigureSpec]:
         df = _test_frame(A["test1"])
         g = df[df["variant"] == "zp"].sort_values("point")
         poses = [("start", g.iloc[0]["q_start"])] + [(f"point {r['point']}", r["q_solution"]) for _, r in g.iterrows()]
-        panel(poses[::2] + [poses[-1]], "elbow", "{}", "fig06_18_elbow_test1", "Fig. 6.18 — ELBOW at Test 1 positions (ZP solutions)",
+        shown = poses[::2] + ([poses[-1]] if (len(poses) - 1) % 2 else [])  # the last pose once
+        panel(shown, "elbow", "{}", "fig06_18_elbow_test1", "Fig. 6.18 — ELBOW at Test 1 positions (ZP solutions)",
               "Start (Table 6.5) and ZP solutions for points 2, 4 and 6 (point 6: stretched at the 2520 mm reach).", 60)
     if "test2" in A:
         df = _test_frame(A["test2"])

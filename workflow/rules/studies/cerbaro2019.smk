@@ -26,6 +26,10 @@ if "cerbaro2019" in STUDIES:
             f"{RESULTS}/cerbaro2019/logs/rerun_failures__{{pset}}__{{robot}}__{{solver}}.log",
         benchmark:
             f"{RESULTS}/cerbaro2019/benchmarks/rerun__{{pset}}__{{robot}}__{{solver}}.tsv"
+        threads: 1
+        resources:
+            mem_mb=RES["solve"]["mem_mb"],
+            runtime=RES["solve"]["runtime"],
         shell:
             "{ENV} python -m pipeline rerun_failures --study {params.settings} --problem-set {wildcards.pset}"
             " --robot {input.robot} --solver {wildcards.solver} --problems {input.problems}"

@@ -34,6 +34,10 @@ if "erthal1992" in STUDIES:
             block={k: _ER_SET.get(k) for k in ("zero_positions", "joint_point_inputs", "jog", "roundtrip_seed", "roundtrip_samples", "workspace")},
         log:
             f"{RESULTS}/erthal1992/logs/erthal_catalogue.log",
+        threads: 1
+        resources:
+            mem_mb=RES["solve"]["mem_mb"],
+            runtime=RES["solve"]["runtime"],
         shell:
             "python -m pipeline erthal_catalogue --study {params.settings} --data {DATA}"
             " --out {output.archive} --report-dir {output.reports} > {log} 2>&1"
@@ -51,6 +55,10 @@ if "erthal1992" in STUDIES:
             spec=lambda w: [_ER.problem_sets[w.er_path], _ER_SET["paths"][w.er_path]],
         log:
             f"{RESULTS}/erthal1992/logs/erthal_path_rows__{{er_path}}__{{robot}}.log",
+        threads: 1
+        resources:
+            mem_mb=RES["light"]["mem_mb"],
+            runtime=RES["light"]["runtime"],
         shell:
             "python -m pipeline erthal_path_rows --study {params.settings} --data {DATA} --problem-set {wildcards.er_path}"
             " --robot {wildcards.robot} --archive {input.archive} --out {output.rows} --res {output.res} > {log} 2>&1"

@@ -33,6 +33,10 @@ if "mariano2019" in STUDIES:
             f"{RESULTS}/mariano2019/logs/mariano_count_ops.log",
         benchmark:
             f"{RESULTS}/mariano2019/benchmarks/mariano_count_ops.tsv"
+        threads: 1
+        resources:
+            mem_mb=RES["solve"]["mem_mb"],
+            runtime=RES["solve"]["runtime"],
         shell:
             "{ENV} python -m pipeline mariano_count_ops --study {params.settings} --robot {input.robot}"
             " --scale {params.scale} --out {output} > {log} 2>&1"
@@ -50,6 +54,10 @@ if "mariano2019" in STUDIES:
             f"{RESULTS}/mariano2019/logs/mariano_time_host__{{robot}}.log",
         benchmark:
             f"{RESULTS}/mariano2019/benchmarks/mariano_time_host__{{robot}}.tsv"
+        threads: 1
+        resources:
+            mem_mb=RES["solve"]["mem_mb"],
+            runtime=RES["solve"]["runtime"],
         shell:
             "{ENV} python -m pipeline mariano_time_host --study {params.settings} --robot {input.robot}"
             " --scale {params.scale} --out {output} > {log} 2>&1"
@@ -68,6 +76,10 @@ if "mariano2019" in STUDIES:
             f"{RESULTS}/mariano2019/logs/mariano_measure_mcu.log",
         benchmark:
             f"{RESULTS}/mariano2019/benchmarks/mariano_measure_mcu.tsv"
+        threads: 1
+        resources:
+            mem_mb=RES["solve"]["mem_mb"],
+            runtime=RES["solve"]["runtime"],
         shell:
             "python -m pipeline mariano_measure_mcu --study {params.settings} --robot {input.robot}"
             " --scale {params.scale} --build-dir {params.build_dir} --out {output} > {log} 2>&1"

@@ -1,0 +1,98 @@
+"""Compare two builds of the same config (e.g. a local and a SLURM quick build): identical apart from timings.
+
+    python workflow/scripts/compare_builds.py RESULTS_A RESULTS_B
+
+Checks, exit 1 on any difference:
+
+1. the two reports have the same sections, tables and figures (their anchors, in order) and the same
+   text once numbers are masked (timings, and everything computed from them, are numbers);
+2. every archive (``*/runs/**/*.mcap``, ``*/reruns/**``) holds the same solve records apart from the
+   timing fields (``*time*``) and the run metadata apart from ``timing``/``environment``;
+3. every table CSV has the same columns and rows, and equal values in every column whose header does
+   not name a time or a speed.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+_TIMING = re.compile(r"time|\[(?:s|ms|µs|us|ns)(?:/[^\]]*)?\]|speed|per call|wall|fastest|faster|ratio|cycles/s|Hz", re.I)
+_ANCHOR = re.compile(r'id="((?:tab|fig)-[^"]+|[a-z0-9_]+)"')
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?", re.I)
+
+
+def _report_skeleton(results: Path) -> tuple[list[str], str]:
+    html = (results / "report.html").read_text()
+    body = re.sub(r"<img [^>]*>", "<img>", html.split("</style>", 1)[1])
+    body = "\n".join(ln for ln in body.splitlines() if "data-build-time" not in ln)
+    body = re.sub(r"<table class=\"data prov\">.*?</table>", "", body, flags=re.S)  # paths, hashes, hosts
+    return _ANCHOR.findall(html), _NUMBER.sub("#", body.replace(str(results), "RESULTS"))
+
+
+def _archives(results: Path) -> dict[str, Path]:
+    return {p.relative_to(results).as_posix(): p for p in sorted(results.glob("*/*runs/**/*.mcap"))}
+
+
+def compare(a: Path, b: Path) -> list[str]:
+    import pandas as pd
+
+    from pipeline.io.archive import read_archive
+
+    problems = []
+    ids_a, text_a = _report_skeleton(a)
+    ids_b, text_b = _report_skeleton(b)
+    if ids_a != ids_b:
+        problems.append(f"report: other sections, tables or figures ({len(ids_a)} vs {len(ids_b)} anchors)")
+    elif text_a != text_b:
+        la, lb = text_a.splitlines(), text_b.splitlines()
+        k = next((i for i, (x, y) in enumerate(zip(la, lb)) if x != y), min(len(la), len(lb)))
+        problems.append(f"report: text differs beyond numbers, first at line {k + 1}")
+    arch_a, arch_b = _archives(a), _archives(b)
+    if set(arch_a) != set(arch_b):
+        problems.append(f"archives: {sorted(set(arch_a) ^ set(arch_b))[:5]} in one build only")
+    for name in sorted(set(arch_a) & set(arch_b)):
+        xa, xb = read_archive(arch_a[name]), read_archive(arch_b[name])
+        keep = [c for c in xa.frame().columns if "time" not in c] if xa.solves else []
+        fa = xa.frame()[keep] if keep else None
+        fb = xb.frame()[keep] if keep and set(keep) <= set(xb.frame().columns) else None
+        if (fa is None) != (fb is None) or (fa is not None and not fa.astype(str).equals(fb.astype(str))):
+            problems.append(f"{name}: solve records differ (timing fields aside)")
+        ma = {k: v for k, v in xa.metadata.items() if k not in ("timing", "environment")}
+        mb = {k: v for k, v in xb.metadata.items() if k not in ("timing", "environment")}
+        if ma != mb:
+            diff = sorted(k for k in set(ma) | set(mb) if ma.get(k) != mb.get(k))
+            problems.append(f"{name}: metadata differs in {diff}")
+    tables_a = sorted(p.relative_to(a) for p in a.glob("*/tables/*.csv"))
+    tables_b = sorted(p.relative_to(b) for p in b.glob("*/tables/*.csv"))
+    if tables_a != tables_b:
+        problems.append(f"tables: {sorted(set(map(str, tables_a)) ^ set(map(str, tables_b)))[:5]} in one build only")
+    timing_only = 0
+    for rel in sorted(set(tables_a) & set(tables_b)):
+        ta, tb = pd.read_csv(a / rel), pd.read_csv(b / rel)
+        if list(ta.columns) != list(tb.columns) or len(ta) != len(tb):
+            problems.append(f"{rel}: other columns or row count")
+            continue
+        cols = [c for c in ta.columns if not _TIMING.search(str(c))]
+        if not ta[cols].astype(str).equals(tb[cols].astype(str)):
+            bad = [c for c in cols if not ta[c].astype(str).equals(tb[c].astype(str))]
+            problems.append(f"{rel}: differs in {bad[:6]}")
+        elif not ta.astype(str).equals(tb.astype(str)):
+            timing_only += 1
+    print(f"compared {len(arch_a)} archives, {len(tables_a)} tables ({timing_only} differ in timing columns only) "
+          f"and the reports ({len(ids_a)} anchors)")
+    return problems
+
+
+def main(argv: list[str]) -> int:
+    a, b = (Path(x) for x in argv[1:3])
+    problems = compare(a, b)
+    for p in problems:
+        print("differs:", p)
+    print("same apart from timings" if not problems else f"{len(problems)} differences")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
