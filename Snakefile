@@ -10,6 +10,19 @@ min_version("8.20")
 configfile: "workflow/config/config.yaml"
 
 
+# Config validation, first part: every config file (this one and each --configfile) through the one YAML
+# loader and the schema, so that an error names the file that holds it; what is left comes from --config.
+# (workflow/rules/common.smk then validates the studies and robots.)
+import sys
+
+from pipeline.settings import ConfigError, check_config_files
+
+try:
+    check_config_files(["workflow/config/config.yaml", *workflow.overwrite_configfiles], config)
+except ConfigError as exc:
+    sys.exit(f"error: {exc}")
+
+
 include: "workflow/rules/common.smk"
 include: "workflow/rules/solve.smk"
 include: "workflow/rules/report.smk"

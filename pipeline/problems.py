@@ -13,21 +13,36 @@ A study's ``problem_sets`` (data/studies/<id>.yaml) name a *kind*:
 
 Problems that share a ``chain`` id >= 0 are solved in file order, each starting from the previous
 problem's returned angles (path following); ``chain = -1`` marks an independent problem.
+
+Goal poses are the same bits on every machine: :func:`fk_poses` multiplies the 4x4 link transforms
+with explicit element-wise products and sums (each entry ``((a0 b0 + a1 b1) + a2 b2) + a3 b3``, no
+fused multiply-add), never through BLAS, whose kernels (chosen per CPU, e.g. ``OPENBLAS_CORETYPE``)
+round differently in the last digits. ``tests/test_problem_determinism.py`` checks the problem-set
+hashes under two OpenBLAS core types.
 """
 
 from __future__ import annotations
 
 import importlib
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from pipeline.kinematics import fk_htm, matrix_from_quat, quat_from_matrix
-from pipeline.robots import RobotModel
+from pipeline.kinematics import matrix_from_quat, quat_from_matrix
+from pipeline.kinematics.htm import dh_transform
+from pipeline.robots import MAX_ANGLE, RobotModel
 
 KINDS = ("random_joint_pairs", "warm_start", "within_limits", "generator")
+# parameters of the built-in kinds (a generator's are its own): name -> kind of value
+PARAMS = {
+    "random_joint_pairs": {"low": "number", "high": "number"},
+    "warm_start": {"spread": "number", "low": "number", "high": "number", "clip": "bool"},
+    "within_limits": {"low": "number", "high": "number"},
+}
+MAX_RANGE = MAX_ANGLE  # |low|, |high|, spread [rad | length]: the robot files' own bound on angles
 
 
 class ProblemSpecError(ValueError):
@@ -81,9 +96,102 @@ class ProblemSet:
                        goal_position=self.goal_position[idx], goal_quat=self.goal_quat[idx], chain=self.chain[idx])
 
 
+def check_spec(spec: dict) -> None:
+    """Refuse, in one line naming the field, parameters of a built-in kind that cannot be drawn from.
+
+    Checks ``params`` of ``random_joint_pairs``, ``warm_start`` and ``within_limits``: known names
+    only, finite numbers within :data:`MAX_RANGE`, ``low <= high``, ``spread >= 0``, boolean ``clip``.
+    A generator checks its own parameters.
+
+    Raises
+    ------
+    ProblemSpecError
+    """
+    kind = spec.get("kind")
+    if kind not in PARAMS:
+        return
+    params = spec.get("params") or {}
+    if not isinstance(params, dict):
+        raise ProblemSpecError(f"field 'params': expected a mapping, got {type(params).__name__}")
+    for name, value in params.items():
+        want = PARAMS[kind].get(name)
+        where = f"field 'params/{name}'"
+        if want is None:
+            raise ProblemSpecError(f"{where}: unknown parameter of kind {kind} (allowed: {', '.join(PARAMS[kind])})")
+        if want == "bool":
+            if not isinstance(value, bool):
+                raise ProblemSpecError(f"{where}: expected true or false, got {value!r}")
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ProblemSpecError(f"{where}: expected a number, got {str(value)[:40]!r}")
+        if not math.isfinite(value):
+            raise ProblemSpecError(f"{where}: must be finite, got {value!r}")
+        if abs(value) > MAX_RANGE:
+            raise ProblemSpecError(f"{where}: {value:g} is beyond the sane maximum {MAX_RANGE:g} in absolute value")
+    if params.get("spread", 0.0) < 0:
+        raise ProblemSpecError(f"field 'params/spread': must be >= 0, got {params['spread']!r}")
+    low, high = params.get("low"), params.get("high")
+    lo_d, hi_d = (0.0, 2 * np.pi) if kind == "random_joint_pairs" else (-np.pi, np.pi)
+    lo, hi = (lo_d if low is None else low), (hi_d if high is None else high)
+    if lo > hi:
+        raise ProblemSpecError(f"field 'params/low': {lo:g} is above 'high' {hi:g}")
+
+
+def _mul4(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``A @ B`` of stacks of 4x4 matrices by element-wise arithmetic (no BLAS: the same bits on every
+    machine). Each entry is ``((a0 b0 + a1 b1) + a2 b2) + a3 b3``, products and sums rounded one by one."""
+    shape = np.broadcast_shapes(A.shape, B.shape)
+    out = np.empty(shape)
+    for i in range(4):
+        a = [A[..., i, k] for k in range(4)]
+        for j in range(4):
+            out[..., i, j] = ((a[0] * B[..., 0, j] + a[1] * B[..., 1, j]) + a[2] * B[..., 2, j]) + a[3] * B[..., 3, j]
+    return out
+
+
+def fk_poses(chain, q: np.ndarray) -> np.ndarray:
+    """End-effector poses ``T_base_ee`` of joint vectors ``q`` (m, n), bit-identical on every machine.
+
+    The link transforms of :mod:`pipeline.kinematics.htm` (element-wise ``cos``/``sin``), chained by
+    :func:`_mul4` instead of ``@`` (BLAS), one joint at a time (memory O(m), whatever n).
+
+    Returns
+    -------
+    T : ndarray, shape (m, 4, 4) [length for the translation]
+    """
+    q = np.asarray(q, dtype=float)
+    if q.ndim != 2 or q.shape[1] != chain.n:
+        raise ValueError(f"expected joint vectors of shape (m, {chain.n}), got {q.shape}")
+    T = np.broadcast_to(chain.base, (q.shape[0], 4, 4))
+    if chain.general:
+        I3 = np.eye(3)
+        for i in range(chain.n):
+            k = chain.axes[i]
+            K = np.zeros((4, 4))
+            K[0, 1], K[0, 2], K[1, 2] = -k[2], k[1], -k[0]
+            K[1, 0], K[2, 0], K[2, 1] = k[2], -k[1], k[0]
+            KK = _mul4(K, K)[:3, :3]
+            M = np.zeros((q.shape[0], 4, 4))
+            if chain.prismatic[i]:
+                M[:, :3, :3] = I3
+                M[:, :3, 3] = k * q[:, i, None]
+            else:
+                th = q[:, i, None, None]
+                M[:, :3, :3] = I3 + np.sin(th) * K[:3, :3] + (1.0 - np.cos(th)) * KK
+            M[:, 3, 3] = 1.0
+            T = _mul4(T, _mul4(chain.origins[i], M))
+    else:
+        theta, d = chain.joint_dh(q)
+        for i in range(chain.n):
+            L = dh_transform(chain.a[i], chain.alpha[i], np.ascontiguousarray(d[:, i]),
+                             np.ascontiguousarray(theta[:, i]), chain.convention)
+            T = _mul4(T, L)
+    return _mul4(T, chain.tool)
+
+
 def from_goal_angles(model: RobotModel, q_start: np.ndarray, q_goal: np.ndarray, chain=None) -> ProblemSet:
-    """A problem set whose goal poses are FK of ``q_goal`` (m, n)."""
-    T = fk_htm(model.chain, q_goal)
+    """A problem set whose goal poses are FK of ``q_goal`` (m, n), by :func:`fk_poses`."""
+    T = fk_poses(model.chain, q_goal)
     return ProblemSet(np.arange(q_goal.shape[0]), q_start, q_goal, T[:, :3, 3].copy(), quat_from_matrix(T),
                       model.name, model.length_unit, None if chain is None else np.asarray(chain, dtype=int))
 

@@ -29,6 +29,13 @@ URDF ``continuous`` joint is a revolute joint without ``limits``. DH fields (``a
 
 Angles may be written as numbers or as ``pi`` expressions (``-pi/2``, ``3*pi/4``).
 Every problem is reported as one line naming the file, the joint and the field.
+
+Sane maxima (a file beyond them is refused before anything is computed; the reasons are beside
+each constant): :data:`MAX_JOINTS` joints, lengths up to :data:`MAX_LENGTH_M` metres, angles up to
+:data:`MAX_ANGLE` rad. A ``base``/``tool`` rotation block orthonormal to :data:`RIGID_TOL` is used
+as written; one orthonormal only to :data:`REPAIR_TOL` (e.g. 0.7071 typed to four decimals) is
+replaced by the nearest rotation, and the model's ``repairs`` say so (the archives' ``run``
+metadata records them); anything further from a rotation is refused.
 """
 
 from __future__ import annotations
@@ -39,9 +46,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from pipeline.kinematics.chain import CONVENTIONS, GENERAL, Chain
+from pipeline.yamlio import YAMLInputError, load_yaml
 
 LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 JOINT_TYPES = ("revolute", "prismatic")
@@ -52,7 +59,15 @@ JOINT_OPTIONAL = ("limits", "name")
 GENERAL_REQUIRED = ("type", "xyz", "rpy", "axis")
 DH_FIELDS = ("a", "alpha", "d", "theta_offset")
 GENERAL_FIELDS = ("xyz", "rpy", "axis")
-RIGID_TOL = 1e-6  # a base/tool rotation block must be orthonormal to this (typed-in decimals)
+RIGID_TOL = 1e-6  # a base/tool rotation block orthonormal to this is used as written
+REPAIR_TOL = 1e-4  # ... orthonormal only to this (four typed decimals: 0.7071) is re-orthonormalised, with a note
+MAX_JOINTS = 64  # real arms have 2-7 joints (the catalogue's largest: 7); 64 leaves room for hyper-redundant
+#                  chains while every per-joint array of a job stays tiny (a 20 000-joint file is refused at once)
+MAX_LENGTH_M = 1000.0  # |a|, |d|, xyz, base/tool translations and prismatic limits, in metres: the largest arm
+#                        here reaches 1.6 m; a kilometre bounds any manipulator and keeps squares of lengths far
+#                        from overflow (1e300 would make every solve non-finite)
+MAX_ANGLE = 1000.0  # |angle| [rad] of alpha, theta_offset, rpy and revolute limits: ~159 turns, far beyond any
+#                     multi-turn joint, and small enough that sin/cos keep their precision
 
 _PI_EXPR = re.compile(r"^\s*([-+]?)\s*(?:(\d+(?:\.\d+)?)\s*\*\s*)?pi\s*(?:/\s*(\d+(?:\.\d+)?))?\s*$")
 
@@ -85,6 +100,7 @@ class RobotModel:
     path: str = ""
     notes: str = ""
     joint_names: tuple = ()
+    repairs: tuple = ()  # one line per value changed on load (a near-orthonormal rotation re-orthonormalised)
 
     @property
     def n(self) -> int:
@@ -99,49 +115,112 @@ class RobotModel:
         lim[self.chain.prismatic] *= f
         lim.setflags(write=False)
         return RobotModel(self.name, self.source, unit, self.chain.scaled(f), lim, self.path, self.notes,
-                          self.joint_names)
+                          self.joint_names, self.repairs)
 
 
 def _fail(path: str, where: str, msg: str) -> RobotFileError:
     return RobotFileError(f"{path}: {where}: {msg}")
 
 
-def _number(value, path: str, where: str, angle: bool = False) -> float:
+def _short(value) -> str:
+    """``repr`` of a value for a message, cut to 60 characters (a message stays one short line)."""
+    r = repr(value)
+    return r if len(r) <= 60 else r[:57] + "..."
+
+
+def _number(value, path: str, where: str, angle: bool = False, bound: float | None = None) -> float:
+    """A finite number (or, with ``angle``, a ``pi`` expression) with ``|x| <= bound``; else one line."""
     if isinstance(value, bool):
         raise _fail(path, where, f"expected a number, got {value!r}")
     if isinstance(value, (int, float)):
-        x = float(value)
+        try:
+            x = float(value)
+        except OverflowError:  # an integer beyond the float range
+            raise _fail(path, where, f"must be finite, got {_short(value)}") from None
     elif angle and isinstance(value, str) and _PI_EXPR.match(value):
         sign, mul, div = _PI_EXPR.match(value).groups()
+        if div is not None and float(div) == 0.0:
+            raise _fail(path, where, f"division by zero in {value!r}")
         x = (-1.0 if sign == "-" else 1.0) * float(mul or 1) * math.pi / float(div or 1)
     else:
         kind = "a number or a pi expression" if angle else "a number"
-        raise _fail(path, where, f"expected {kind}, got {value!r}")
+        raise _fail(path, where, f"expected {kind}, got {_short(value)}")
     if not math.isfinite(x):
-        raise _fail(path, where, f"must be finite, got {value!r}")
+        raise _fail(path, where, f"must be finite, got {_short(value)}")
+    if bound is not None and abs(x) > bound:
+        raise _fail(path, where, f"{x:g} is beyond the sane maximum {bound:g} in absolute value")
     return x
+
+
+def _length(value, path: str, where: str, unit: str) -> float:
+    return _number(value, path, where, bound=MAX_LENGTH_M / LENGTH_UNITS[unit])
+
+
+def _angle(value, path: str, where: str) -> float:
+    return _number(value, path, where, angle=True, bound=MAX_ANGLE)
 
 
 def _check_keys(d: dict, required, optional, path: str, where: str) -> None:
     if not isinstance(d, dict):
-        raise _fail(path, where, f"expected a mapping, got {type(d).__name__}")
+        what = "an empty file" if d is None and not where else type(d).__name__
+        raise _fail(path, where.rstrip(": ") or "top level", f"expected a mapping, got {what}")
     for k in required:
         if k not in d:
             raise _fail(path, f"{where}field '{k}'" if where else f"field '{k}'", "missing")
     for k in d:
         if k not in required and k not in optional:
-            raise _fail(path, f"{where}field '{k}'" if where else f"field '{k}'",
+            raise _fail(path, f"{where}field '{_short(k)[1:-1] if isinstance(k, str) else k}'",
                         f"unknown field (allowed: {', '.join(list(required) + list(optional))})")
 
 
-def _transform(value, path: str, field: str) -> np.ndarray:
+def orthonormality_error(R) -> float:
+    """``max |R Rᵀ - I|`` of a 3x3 matrix (plain float arithmetic: the same on every machine)."""
+    R = [[float(x) for x in row[:3]] for row in list(R)[:3]]
+    return max(abs(sum(R[i][k] * R[j][k] for k in range(3)) - (1.0 if i == j else 0.0))
+               for i in range(3) for j in range(3))
+
+
+def _det3(R) -> float:
+    return (R[0][0] * (R[1][1] * R[2][2] - R[1][2] * R[2][1]) - R[0][1] * (R[1][0] * R[2][2] - R[1][2] * R[2][0])
+            + R[0][2] * (R[1][0] * R[2][1] - R[1][1] * R[2][0]))
+
+
+def nearest_rotation(R) -> list[list[float]]:
+    """The rotation nearest a near-orthonormal 3x3 matrix (its polar factor), as nested lists.
+
+    Björck-Bowie iteration ``R <- R (3 I - Rᵀ R) / 2`` in plain float arithmetic (no BLAS or LAPACK,
+    so the result is bit-identical on every machine); converges quadratically for ``|R Rᵀ - I| < 1``.
+    """
+    R = [[float(x) for x in row[:3]] for row in list(R)[:3]]
+    for _ in range(60):
+        RtR = [[sum(R[k][i] * R[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+        M = [[(3.0 if i == j else 0.0) - RtR[i][j] for j in range(3)] for i in range(3)]
+        nxt = [[0.5 * sum(R[i][k] * M[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+        if nxt == R:
+            break
+        R = nxt
+    return R
+
+
+def _transform(value, path: str, field: str, unit: str, repairs: list) -> np.ndarray:
     where = f"field '{field}'"
     if not (isinstance(value, list) and len(value) == 4 and all(isinstance(r, list) and len(r) == 4 for r in value)):
         raise _fail(path, where, "expected a 4x4 list of numbers")
     T = np.array([[_number(x, path, where) for x in row] for row in value])
-    R = T[:3, :3]
-    if not np.allclose(R @ R.T, np.eye(3), atol=RIGID_TOL) or np.linalg.det(R) < 0 or not np.allclose(T[3], [0, 0, 0, 1]):
-        raise _fail(path, where, "not a rigid transform (rotation block must be orthonormal, last row 0 0 0 1)")
+    if T[3].tolist() != [0.0, 0.0, 0.0, 1.0]:
+        raise _fail(path, where, f"not a rigid transform: the last row must be 0 0 0 1, got {T[3].tolist()}")
+    for x in T[:3, 3]:
+        _length(float(x), path, f"{where} (translation)", unit)
+    R = T[:3, :3].tolist()
+    err, det = orthonormality_error(R), _det3(R)
+    if det <= 0 or err > REPAIR_TOL:
+        what = "a reflection (determinant < 0)" if det <= 0 and err <= REPAIR_TOL else \
+            f"R Rᵀ differs from the identity by {err:.2g}, more than {REPAIR_TOL:g}"
+        raise _fail(path, where, f"not a rigid transform: the rotation block is not a rotation ({what})")
+    if err > RIGID_TOL:
+        T[:3, :3] = nearest_rotation(R)
+        repairs.append(f"{path}: field '{field}': rotation block orthonormal only to {err:.2g}; replaced by the "
+                       f"nearest rotation")
     return T
 
 
@@ -176,10 +255,10 @@ def origin_matrix(xyz, rpy) -> np.ndarray:
     return T
 
 
-def _vector3(value, path: str, where: str, angle: bool = False) -> list[float]:
+def _vector3(value, path: str, where: str, angle: bool = False, bound: float | None = None) -> list[float]:
     if not (isinstance(value, list) and len(value) == 3):
-        raise _fail(path, where, f"expected a list of 3 numbers, got {value!r}")
-    return [_number(x, path, where, angle=angle) for x in value]
+        raise _fail(path, where, f"expected a list of 3 numbers, got {_short(value)}")
+    return [_number(x, path, where, angle=angle, bound=bound) for x in value]
 
 
 def _check_joint_keys(j, convention: str, path: str, where: str) -> None:
@@ -207,7 +286,7 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
     _check_keys(doc, TOP_REQUIRED, TOP_OPTIONAL, path, "")
     for key in ("name", "source", "length_unit", "convention"):
         if not isinstance(doc[key], str) or not doc[key].strip():
-            raise _fail(path, f"field '{key}'", f"expected a non-empty string, got {doc[key]!r}")
+            raise _fail(path, f"field '{key}'", f"expected a non-empty string, got {_short(doc[key])}")
     if doc["length_unit"] not in LENGTH_UNITS:
         raise _fail(path, "field 'length_unit'", f"unknown unit {doc['length_unit']!r} (allowed: {', '.join(LENGTH_UNITS)})")
     if doc["convention"] not in CONVENTIONS:
@@ -215,6 +294,9 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
     joints = doc["joints"]
     if not isinstance(joints, list) or not joints:
         raise _fail(path, "field 'joints'", "expected a non-empty list of joints")
+    if len(joints) > MAX_JOINTS:
+        raise _fail(path, "field 'joints'", f"{len(joints)} joints, beyond the sane maximum of {MAX_JOINTS}")
+    unit = doc["length_unit"]
     general = doc["convention"] == GENERAL
     cols = {k: [] for k in ("a", "alpha", "d", "theta_offset")}
     prismatic, limits, names, origins, axes = [], [], [], [], []
@@ -222,19 +304,20 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
         where = f"joint {i}: "
         _check_joint_keys(j, doc["convention"], path, where)
         if j["type"] not in JOINT_TYPES:
-            raise _fail(path, f"joint {i}: field 'type'", f"unknown joint type {j['type']!r} (allowed: {', '.join(JOINT_TYPES)})")
+            raise _fail(path, f"joint {i}: field 'type'", f"unknown joint type {_short(j['type'])} (allowed: {', '.join(JOINT_TYPES)})")
         if general:
-            xyz = _vector3(j["xyz"], path, f"joint {i}: field 'xyz'")
-            rpy = _vector3(j["rpy"], path, f"joint {i}: field 'rpy'", angle=True)
-            axis = np.array(_vector3(j["axis"], path, f"joint {i}: field 'axis'"))
-            norm = float(np.linalg.norm(axis))
+            xyz = _vector3(j["xyz"], path, f"joint {i}: field 'xyz'", bound=MAX_LENGTH_M / LENGTH_UNITS[unit])
+            rpy = _vector3(j["rpy"], path, f"joint {i}: field 'rpy'", angle=True, bound=MAX_ANGLE)
+            axis = _vector3(j["axis"], path, f"joint {i}: field 'axis'", bound=1e6)
+            norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])  # no BLAS: same everywhere
             if not norm > 1e-12:
                 raise _fail(path, f"joint {i}: field 'axis'", f"must be a non-zero 3-vector, got {j['axis']!r}")
             origins.append(origin_matrix(xyz, rpy))
-            axes.append(axis / norm)
+            axes.append(np.array([v / norm for v in axis]))
         else:
             for k in cols:
-                cols[k].append(_number(j[k], path, f"joint {i}: field '{k}'", angle=k in ("alpha", "theta_offset")))
+                w = f"joint {i}: field '{k}'"
+                cols[k].append(_angle(j[k], path, w) if k in ("alpha", "theta_offset") else _length(j[k], path, w, unit))
         prismatic.append(j["type"] == "prismatic")
         name = j.get("name", "")
         if isinstance(name, (dict, list)):
@@ -246,14 +329,16 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
         else:
             w = f"joint {i}: field 'limits'"
             if not isinstance(lim, list) or len(lim) != 2:
-                raise _fail(path, w, f"expected [lower, upper], got {lim!r}")
-            lo = _number(lim[0], path, w, angle=True)
-            hi = _number(lim[1], path, w, angle=True)
+                raise _fail(path, w, f"expected [lower, upper], got {_short(lim)}")
+            bound = MAX_LENGTH_M / LENGTH_UNITS[unit] if j["type"] == "prismatic" else MAX_ANGLE
+            lo = _number(lim[0], path, w, angle=True, bound=bound)
+            hi = _number(lim[1], path, w, angle=True, bound=bound)
             if lo > hi:
                 raise _fail(path, w, f"lower limit {lo:g} is above upper limit {hi:g}")
             limits.append((lo, hi))
-    base = _transform(doc["base"], path, "base") if "base" in doc else np.eye(4)
-    tool = _transform(doc["tool"], path, "tool") if "tool" in doc else np.eye(4)
+    repairs: list[str] = []
+    base = _transform(doc["base"], path, "base", unit, repairs) if "base" in doc else np.eye(4)
+    tool = _transform(doc["tool"], path, "tool", unit, repairs) if "tool" in doc else np.eye(4)
     if general:
         zeros = np.zeros(len(joints))
         chain = Chain(zeros, zeros, zeros, zeros, np.array(prismatic), GENERAL, base, tool,
@@ -264,7 +349,7 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
     lim = np.array(limits, dtype=float)
     lim.setflags(write=False)
     return RobotModel(doc["name"], doc["source"], doc["length_unit"], chain, lim, path, str(doc.get("notes", "")),
-                      tuple(names))
+                      tuple(names), tuple(repairs))
 
 
 def load_robot(path: str | Path) -> RobotModel:
@@ -277,15 +362,9 @@ def load_robot(path: str | Path) -> RobotModel:
     """
     path = Path(path)
     try:
-        text = path.read_text()
-    except OSError as exc:
-        raise RobotFileError(f"{path}: cannot read robot file ({exc.strerror})") from None
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}" if mark else "YAML"
-        raise RobotFileError(f"{path}: {where}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+        doc = load_yaml(path, "robot file")
+    except YAMLInputError as exc:
+        raise RobotFileError(str(exc)) from None
     model = parse_robot(doc, str(path))
     if model.name != path.stem:
         raise _fail(str(path), "field 'name'", f"{model.name!r} must equal the file name {path.stem!r}")

@@ -1,6 +1,11 @@
 """Run configuration and study settings: loading, JSON-schema validation, hashing.
 
-Every validation error is one line naming the file and the field path.
+Every validation error is one line naming the file and the field path. Every YAML file goes
+through :func:`pipeline.yamlio.load_yaml` (bounded size, nesting and alias expansion; no tags,
+duplicate keys or YAML 1.1 surprises). Beyond the schemas, a study may hold no infinite or NaN
+number and no integer above :data:`MAX_INT` (seeds aside), at most :data:`MAX_SOLVES` solves per
+job (problems x repetitions), and its built-in problem sets' parameters are checked by
+:func:`pipeline.problems.check_spec` (finite, ``low <= high``, within sane maxima).
 """
 
 from __future__ import annotations
@@ -11,14 +16,22 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
+import math
+
 import jsonschema
-import yaml
 
 from pipeline.robots import load_robot
 from pipeline.solvers import Settings
+from pipeline.yamlio import YAMLInputError, load_yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 SCHEMAS = ROOT / "workflow" / "schemas"
+DEFAULT_CONFIG = "workflow/config/config.yaml"
+MAX_EXACT_INT = 2**53  # any integer of a study or config (seeds aside): beyond it a float no longer holds it
+MAX_INT = 10_000_000  # an integer solver setting without a maximum of its own in the registry (grow limits,
+#                       stored corrections, searches...): the registry's cap on iteration counts; above it a
+#                       job runs for days or asks for more than 1 GiB (1e12 made numpy ask for tens of TiB)
+MAX_SOLVES = 1_000_000  # problems x repetitions of one solve job: 100x the largest document's 10 000 problems
 
 
 class ConfigError(ValueError):
@@ -26,7 +39,7 @@ class ConfigError(ValueError):
 
 
 def _schema(name: str) -> dict:
-    return yaml.safe_load((SCHEMAS / name).read_text())
+    return load_yaml(SCHEMAS / name, "schema")
 
 
 def read_yaml(path, error: type[Exception] = ConfigError, what: str = ""):
@@ -42,12 +55,32 @@ def read_yaml(path, error: type[Exception] = ConfigError, what: str = ""):
         Noun for the message, e.g. ``"task file"``: "cannot read task file (...)".
     """
     try:
-        return yaml.safe_load(Path(path).read_text())
-    except OSError as exc:
-        noun = f" {what}" if what else ""
-        raise error(f"{path}: cannot read{noun} ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
-        raise error(f"{path}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+        return load_yaml(path, what or "file")
+    except YAMLInputError as exc:
+        raise error(str(exc)) from None
+
+
+def check_numbers(doc, path: str, exempt: tuple = ("seed",)) -> None:
+    """Refuse (one line naming the field) a non-finite number or an integer beyond :data:`MAX_EXACT_INT`
+    anywhere in a parsed document; keys in ``exempt`` may hold any integer (the schema bounds them)."""
+    todo = [((), doc)]
+    seen = set()
+    while todo:
+        where, x = todo.pop()
+        if isinstance(x, (dict, list)):
+            if id(x) in seen and where:  # an alias: already checked where it was defined
+                continue
+            seen.add(id(x))
+            items = x.items() if isinstance(x, dict) else enumerate(x)
+            todo.extend(((*where, k), v) for k, v in items)
+            continue
+        field = "/".join(str(p) for p in where) or "(top level)"
+        if isinstance(x, float) and not math.isfinite(x):
+            raise ConfigError(f"{path}: field '{field}': must be finite, got {x!r}")
+        if isinstance(x, int) and not isinstance(x, bool) and abs(x) > MAX_EXACT_INT \
+                and not (where and where[-1] in exempt):
+            raise ConfigError(f"{path}: field '{field}': {str(x)[:30]} is beyond the sane maximum 2**53 (the "
+                              f"largest integer a float holds exactly)")
 
 
 def validate_against(doc, schema: dict, path: str) -> None:
@@ -71,10 +104,48 @@ def _fill_defaults(doc, schema: dict) -> None:
             _fill_defaults(doc[key], sub)
 
 
-def validate_config(config: dict, path: str = "workflow/config/config.yaml") -> dict:
+def validate_config(config: dict, path: str = DEFAULT_CONFIG) -> dict:
     """Validate the Snakemake config in place (defaults filled)."""
+    check_numbers(config, path)
     validate_against(config, _schema("config.schema.yaml"), path)
     return config
+
+
+def validate_config_part(doc, path: str) -> dict:
+    """Validate one source of the run config (a config file, or one ``--set``/``--config`` value):
+    every key it holds must be valid; keys it leaves out come from the others."""
+    if doc is None:
+        doc = {}
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{path}: field '(top level)': expected a mapping of config keys, got {type(doc).__name__}")
+    check_numbers(doc, path)
+    schema = dict(_schema("config.schema.yaml"))
+    schema.pop("required", None)
+    validator = jsonschema.Draft202012Validator(schema)
+    errors = sorted(validator.iter_errors(doc), key=lambda e: list(e.absolute_path))
+    if errors:
+        err = errors[0]
+        where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
+        raise ConfigError(f"{path}: field '{where}': {err.message}")
+    return doc
+
+
+def load_config_file(path: str | Path) -> dict:
+    """Read and validate one run-config file (errors name it); returns its mapping."""
+    return validate_config_part(read_yaml(path, ConfigError, "config file"), str(path))
+
+
+def check_config_files(paths, config: dict, overrides: str = "--config") -> dict:
+    """Validate every config file the run reads (each error names its file), then the merged config.
+
+    For the Snakefile: ``paths`` are the workflow's config file and every ``--configfile``; the
+    merged ``config`` differs from them only by ``--config KEY=VALUE`` values, so an error left
+    after the files passed is reported against ``overrides``.
+    """
+    for p in paths:
+        load_config_file(p)
+    label = f"{overrides} (on top of {', '.join(str(p) for p in paths) or 'no config file'})"
+    return validate_config(config, label)
 
 
 @dataclass(frozen=True)
@@ -180,19 +251,31 @@ def _solver_entry(label: str, mapping, where: str, reading: str) -> SolverEntry:
         raise ConfigError(f"{where}: field 'method': missing (a registered solver: {', '.join(names())})")
     if method not in names():
         raise ConfigError(f"{where}: field 'method': {method!r} is not a registered solver ({', '.join(names())})")
-    return SolverEntry(label, method, make_settings(method, d, where), reading)
+    settings = make_settings(method, d, where)
+    from dataclasses import fields
+
+    for f in fields(settings):
+        v = getattr(settings, f.name)
+        if isinstance(v, int) and not isinstance(v, bool) and f.metadata.get("maximum") is None \
+                and f.name != "seed" and abs(v) > MAX_INT:
+            raise ConfigError(f"{where}: field '{f.name}': {v} is beyond the sane maximum {MAX_INT} (see MAX_INT in "
+                              f"pipeline/settings.py)")
+    return SolverEntry(label, method, settings, reading)
 
 
 def load_study(path: str | Path) -> Study:
     """Read and validate ``data/studies/<id>.yaml`` (schema, then every solver's settings)."""
     path = Path(path)
-    doc = read_yaml(path)
+    doc = read_yaml(path, ConfigError, "study settings")
+    if doc is None:
+        raise ConfigError(f"{path}: field '(top level)': expected a mapping of study settings, got an empty file")
+    check_numbers(doc, str(path))
     validate_against(doc, _schema("study.schema.yaml"), str(path))
     if doc["study"] != path.stem:
         raise ConfigError(f"{path}: field 'study': {doc['study']!r} must equal the file name {path.stem!r}")
     own = SCHEMAS / "studies" / f"{doc['study']}.schema.yaml"
     if own.is_file():
-        validate_against(doc.get("study_settings", {}), yaml.safe_load(own.read_text()), f"{path}: study_settings")
+        validate_against(doc.get("study_settings", {}), load_yaml(own, "schema"), f"{path}: study_settings")
     if bool(doc.get("problem_sets")) != bool(doc.get("solvers")):
         raise ConfigError(f"{path}: field 'problem_sets'/'solvers': a study with solve jobs needs both (or neither)")
     default = doc.get("readings", {}).get("default", "default")
@@ -204,10 +287,21 @@ def load_study(path: str | Path) -> Study:
             if label in solvers:
                 raise ConfigError(f"{path}: field 'readings/variants/{variant}': label {label!r} clashes with a solver")
             solvers[label] = _solver_entry(label, {**base, **overrides}, f"{path}: readings/variants/{variant}", variant)
+    from pipeline.problems import ProblemSpecError, check_spec
+
     for pset, spec in (doc.get("problem_sets") or {}).items():
         where = f"{path}: problem_sets/{pset}"
         if (spec["kind"] == "generator") != ("generator" in spec):
             raise ConfigError(f"{where}: field 'generator': required exactly when kind is 'generator'")
+        try:
+            check_spec(spec)
+        except ProblemSpecError as exc:
+            raise ConfigError(f"{where}: {exc}") from None
+        for scale in ("full", "quick"):
+            reps = (spec.get("repetitions") or {}).get(scale, 1)
+            if spec["count"][scale] * reps > MAX_SOLVES:
+                raise ConfigError(f"{where}: field 'count/{scale}': {spec['count'][scale]} problems x {reps} "
+                                  f"repetitions is beyond the sane maximum of {MAX_SOLVES} solves per job")
         for label in spec.get("solvers") or []:
             if label not in solvers:
                 raise ConfigError(f"{where}: field 'solvers': {label!r} is not a solver label ({', '.join(solvers)})")
@@ -246,17 +340,23 @@ def _check_applicable(study: Study, models: dict) -> Study:
     return replace(study, refused=refused)
 
 
-def check_inputs(config: dict, root: Path = Path(".")) -> list[Study]:
-    """Validate config, every study's settings and every robot file they name, before any job runs."""
-    validate_config(config)
+def check_inputs(config: dict, root: Path = Path("."), config_path: str = DEFAULT_CONFIG) -> list[Study]:
+    """Validate config, every study's settings and every robot file they name, before any job runs.
+
+    ``config_path`` names the config in messages (the file the user gave)."""
+    validate_config(config, str(config_path))
     data = root / config["data_dir"]
     studies = []
     for sid in config["studies"]:
         spath = data / "studies" / f"{sid}.yaml"
         if not spath.is_file():
-            raise ConfigError(f"{spath}: no settings file for study '{sid}' (config field 'studies')")
+            raise ConfigError(f"{config_path}: field 'studies': no settings file {spath} for study '{sid}'")
         st = load_study(spath)
         robots = set(st.doc["robots"]) | {r for ps in st.problem_sets for r in st.set_robots(ps)}
+        for robot in sorted(robots):
+            if not (data / "robots" / f"{robot}.yaml").is_file():
+                raise ConfigError(f"{spath}: field 'robots': no robot file {data / 'robots' / f'{robot}.yaml'} for "
+                                  f"robot '{robot}'")
         models = {robot: load_robot(data / "robots" / f"{robot}.yaml") for robot in sorted(robots)}
         studies.append(_check_applicable(st, models))
     return studies
