@@ -11,7 +11,8 @@ rerun_failures    rerun one archive's failed problems with changed stop rules (T
 aggregate_tables  compute a study's tables from its archives, beside the published values
 plot_figures      render a study's figures from its archives
 render_report     assemble results/report.html
-inspect           summarise an archive (counts, success, time percentiles, metadata)
+inspect           summarise an archive per solver (counts, success, times with units), one problem, CSV
+replay            re-run archived problems into a Foxglove-viewable MCAP (arm, goal, joints per iteration)
 verify            recompute every table from the archives, check archives and report (exit 1 on a difference)
 import_urdf       write a robot file (general joint form) from a URDF chain (also: import-urdf)
 export_urdf       write a robot file as a URDF, base_link ... tool0, metres (also: export-urdf)
@@ -25,8 +26,9 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import yaml
+
+# numpy and the pipeline's modules are imported inside the commands: `--help` stays fast
 
 
 class CLIError(Exception):
@@ -38,18 +40,22 @@ def _progress(done: int, total: int, t0: float, extra: str = "") -> None:
 
 
 def _load_config(args) -> dict:
-    """The run config file with ``--set KEY=VALUE`` overrides (values parsed as YAML)."""
-    from pipeline.settings import ConfigError
+    """The run config file with ``--set KEY=VALUE`` overrides (values parsed as YAML); each source is
+    validated on its own, so an error names the file or the ``--set`` that holds the bad value."""
+    from pipeline.settings import ConfigError, load_config_file, validate_config_part
+    from pipeline.yamlio import YAMLInputError, parse_yaml
 
-    try:
-        config = yaml.safe_load(Path(args.config).read_text()) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise ConfigError(f"{args.config}: cannot read the config ({exc})") from None
+    config = dict(load_config_file(args.config))
     for kv in args.set or []:
         k, sep, v = kv.partition("=")
         if not sep:
             raise CLIError(f"--set {kv!r}: expected KEY=VALUE")
-        config[k] = yaml.safe_load(v)
+        try:
+            value = parse_yaml(v, f"--set {k}")
+        except YAMLInputError as exc:
+            raise ConfigError(str(exc)) from None
+        validate_config_part({k: value}, f"--set {k}")
+        config[k] = value
     return config
 
 
@@ -57,7 +63,7 @@ def cmd_check_inputs(args) -> None:
     from pipeline.settings import check_inputs
 
     config = _load_config(args)
-    studies = check_inputs(config)
+    studies = check_inputs(config, config_path=args.config)
     print(f"ok: {len(studies)} studies, scale={config['scale']}: " + ", ".join(s.id for s in studies))
 
 
@@ -81,6 +87,8 @@ def cmd_make_problems(args) -> None:
         raise CLIError(f"{args.study}: field 'problem_sets/{args.problem_set}/robots': {model.name!r} is not one "
                        f"of {study.set_robots(args.problem_set)}")
     count = study.count(args.problem_set, args.scale)
+    import numpy as np
+
     # one independent stream per robot, derived from the set's seed
     rng = np.random.default_rng([spec["seed"], sum(model.name.encode())])
     try:
@@ -99,10 +107,10 @@ def cmd_make_problems(args) -> None:
 def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -> None:
     """Solve the problems of ``args.problems`` (the first ``limit`` or all, or the ids in ``select``) into ``out``."""
     import pipeline
-    from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter, solve_record
+    from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter, batch_columns
     from pipeline.io.problems import read_problems
     from pipeline.robots import LENGTH_UNITS, load_robot
-    from pipeline.runner import solve_set
+    from pipeline.runner import solve_set_batches
     from pipeline.provenance import environment
     from pipeline.settings import file_sha256, git_commit, load_study
 
@@ -118,6 +126,8 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
     settings = entry.settings
     unit = settings.length_unit
     to_unit = LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[unit]
+    import numpy as np
+
     n_sel = len(ps) if select is None else int(np.isin(ps.problem_id, list(select)).sum())
     meta = {
         "format_version": FORMAT_VERSION, "study": study.id, "problem_set": args.problem_set, "robot": model.name,
@@ -126,6 +136,7 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
         "settings_hash": study.solver_hash(args.problem_set, entry.label, args.scale),
         "seed": str(spec["seed"]), "scale": args.scale, "problems": str(n_sel), "repetitions": str(reps),
         "problem_file": Path(args.problems).name, "problem_sha256": file_sha256(args.problems)[:16],
+        **({"robot_repairs": "; ".join(model.repairs)} if model.repairs else {}),
         "length_unit": unit, "package_version": pipeline.__version__, "git_commit": git_commit(),
         "timing": "solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "
                   "solve() call (pipeline/solvers/timing.py)",
@@ -137,19 +148,41 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
     t0 = time.monotonic()
     n_ok = done = 0
     total = n_sel * reps
-    every = max(1, total // 10)
+    shown = 0
+    threads = max(1, int(getattr(args, "threads", 1) or 1))
+    t_solve = t_write = 0.0
     with ArchiveWriter(out, meta) as w:
-        for i, r, q0, res in solve_set(entry.method, settings, model, ps, repetitions=reps, set_seed=spec["seed"],
-                                       select=select):
-            n_ok += res.success
-            done += 1
-            rec, trace = solve_record(ps.problem_id[i], model.name, entry.label, unit, q0, ps.goal_position[i] * to_unit,
-                                      ps.goal_quat[i], res, method=entry.method, repetition=r, chain=int(ps.chain[i]))
+        for rows, rep, q0, res in solve_set_batches(entry.method, settings, model, ps, repetitions=reps,
+                                                    set_seed=spec["seed"], select=select, threads=threads):
+            t_solve += res.call_time_s
+            tw = time.perf_counter()
+            cols, traces = batch_columns(ps.problem_id[rows], rep, ps.chain[rows], model.name, entry.label, unit, q0,
+                                         ps.goal_position[rows] * to_unit, ps.goal_quat[rows], res, method=entry.method)
             # repetitions repeat the same iterates: one trace per problem (none when the study says so)
-            w.write(rec, trace if r == 0 and keep_traces else None)
-            if done % every == 0 or done == total:
+            if traces is not None and (not keep_traces or reps > 1):
+                traces = None if not keep_traces else _first_repetition(traces)
+            w.write_columns(cols, traces)
+            t_write += time.perf_counter() - tw
+            n_ok += int(res.success.sum())
+            done += len(rows)
+            if done * 10 // max(1, total) > shown or done == total:
+                shown = done * 10 // max(1, total)
                 _progress(done, total, t0, f"solved, {n_ok} FK-verified successes")
-    print(f"wrote {out}: {total} solves, {n_ok} FK-verified successes")
+        tw = time.perf_counter()
+    t_write += time.perf_counter() - tw  # the last chunks and the summary, written on closing
+    print(f"wrote {out}: {total} solves, {n_ok} FK-verified successes; solving {t_solve:.3f} s, "
+          f"archiving {t_write:.3f} s ({t_write / max(t_solve, 1e-9):.2f} of the solving time)")
+
+
+def _first_repetition(traces: dict) -> dict:
+    """The traces of repetition 0 only."""
+    import numpy as np
+
+    keep = traces["repetition"] == 0
+    rows = np.repeat(keep, traces["rows"])
+    return {"problem_id": traces["problem_id"][keep], "repetition": traces["repetition"][keep],
+            "rows": traces["rows"][keep], "error": traces["error"][rows],
+            "position_error": traces["position_error"][rows], "error_vector": traces["error_vector"][rows]}
 
 
 def _study_solver(args):
@@ -291,6 +324,12 @@ def cmd_solvers(args) -> None:
         print()
 
 
+def _results_relative(path, sid: str) -> str:
+    """An archive's path from the results folder on (``<study>/runs/...``), so a copied build stays valid."""
+    parts = Path(path).parts
+    return "/".join(parts[len(parts) - 1 - parts[::-1].index(sid):]) if sid in parts else Path(path).as_posix()
+
+
 def cmd_aggregate_tables(args) -> None:
     from pipeline.io.archive import read_archive
     from pipeline.settings import load_study
@@ -300,7 +339,8 @@ def cmd_aggregate_tables(args) -> None:
     archives = [read_archive(p) for p in args.archives]
     tables = get_study_module(study.id).build_tables(study, archives, Path(args.published))
     write_tables(tables, Path(args.out_dir))
-    prov = [{"archive": str(a.path), "problems": len(a.solves), **a.metadata} for a in archives]
+    prov = [{"archive": _results_relative(a.path, study.id), "problems": len(a.solves), **a.metadata}
+            for a in archives]
     (Path(args.out_dir) / "provenance.json").write_text(json.dumps(prov, indent=1))
     print(f"wrote {len(tables)} tables to {args.out_dir}")
 
@@ -324,7 +364,7 @@ def cmd_render_report(args) -> None:
     from pipeline.settings import check_inputs
 
     config = _load_config(args)
-    studies = check_inputs(config)
+    studies = check_inputs(config, config_path=args.config)
     render_report(studies, config, Path(config["results_dir"]), Path(args.out))
     print(f"wrote {args.out}")
 
@@ -341,10 +381,30 @@ def cmd_verify(args) -> None:
 
 def cmd_inspect(args) -> None:
     from pipeline.io.archive import read_archive
-    from pipeline.report.inspect import describe
+    from pipeline.report.inspect import InspectError, describe
 
     arch = read_archive(args.archive)
-    print(describe(arch, failed=args.failed, problem=args.problem, csv_out=args.csv))
+    try:
+        print(describe(arch, failed=args.failed, problem=args.problem, csv_out=args.csv, raw=args.json))
+    except InspectError as exc:
+        raise CLIError(str(exc)) from None
+
+
+def cmd_replay(args) -> None:
+    """Re-run archived problems and write them as a Foxglove-viewable MCAP (pipeline/replay.py)."""
+    from pipeline.replay import ReplayError, replay
+
+    try:
+        s = replay(args.archive, args.out, problem=args.problem, failed=args.failed, data=args.data,
+                   robot=args.robot, frames=args.frames, max_frames=args.max_frames, dt=args.dt)
+    except ReplayError as exc:
+        raise CLIError(str(exc)) from None
+    for line in s.mismatches:
+        print(f"warning: {line}", file=sys.stderr)
+    per = ", ".join(f"{p}: {n}" for p, n in list(s.frames_per_problem.items())[:5])
+    more = " ..." if len(s.frames_per_problem) > 5 else ""
+    print(f"wrote {s.out}: {len(s.problems)} problem(s), {s.frames} frames ({s.mode}; frames per problem {per}{more}); "
+          f"topics {', '.join(s.topics)}")
 
 
 def _write_checked(out: Path, text: str, check) -> None:
@@ -386,6 +446,8 @@ def cmd_import_urdf(args) -> None:
 
 def cmd_export_urdf(args) -> None:
     """Write ``--out`` (URDF, metres, links base_link ... tool0) from a robot file; re-imported and checked first."""
+    import numpy as np
+
     from pipeline.kinematics import fk_htm
     from pipeline.robots import load_robot, parse_robot
     from pipeline.urdf import URDFImportError, import_urdf, to_urdf
@@ -413,10 +475,22 @@ def cmd_export_urdf(args) -> None:
     print(f"wrote {args.out}: {model.n} joints, links base_link -> tool0, lengths in m")
 
 
+class _VerbHelp(argparse.HelpFormatter):
+    """Help that lists each verb on one line (without argparse's extra ``VERB`` header line)."""
+
+    def _format_action(self, action):
+        if isinstance(action, argparse._SubParsersAction):
+            return "".join(self._format_action(a) for a in action._get_subactions())
+        return super()._format_action(action)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="python -m pipeline", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="verb", required=True, metavar="verb")
+    # the verbs are listed once, by the subparsers (one line each); the description is the first line
+    ap = argparse.ArgumentParser(
+        prog="python -m pipeline", description=__doc__.splitlines()[0].replace("``", "")
+        + " Each verb is also a Snakemake rule of the same name; `python -m pipeline VERB --help` for its options.",
+        formatter_class=lambda prog: _VerbHelp(prog, max_help_position=34, width=140))
+    sub = ap.add_subparsers(dest="verb", required=True, metavar="VERB", title="verbs")
 
     p = sub.add_parser("check_inputs", help="validate config, study settings and robot files")
     p.add_argument("--config", default="workflow/config/config.yaml")
@@ -441,6 +515,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--problems", required=True, nargs="+", help="problem-set CSV(s) from make_problems, one per set")
     p.add_argument("--scale", choices=["full", "quick"], default="full")
     p.add_argument("--limit", type=int, default=0, help="solve only the first N problems (debugging)")
+    p.add_argument("--threads", type=int, default=1,
+                   help="compiled threads of batch-solved methods (default 1; results do not depend on it, "
+                        "per-solve times do when the cores are shared)")
     p.add_argument("--out", required=True, nargs="+",
                    help="output .mcap, one per (set, label), set-major")
     p.set_defaults(func=cmd_solve_problems)
@@ -496,9 +573,26 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("inspect", help="summarise an archive")
     p.add_argument("archive")
     p.add_argument("--failed", action="store_true", help="list the failed solves")
-    p.add_argument("--problem", type=int, help="show one problem's record and error trace")
-    p.add_argument("--csv", metavar="OUT", help="export the solve records as CSV")
+    p.add_argument("--problem", type=int, help="a short summary of one problem (times, errors, joints, trace)")
+    p.add_argument("--json", action="store_true", help="with --problem: print the raw record as JSON")
+    p.add_argument("--csv", metavar="OUT", help="export the solve records as CSV (one column per joint and goal value)")
     p.set_defaults(func=cmd_inspect)
+
+    p = sub.add_parser("replay", help="re-run archived problems into a Foxglove-viewable MCAP (arm per iteration)")
+    p.add_argument("archive")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--problem", type=int, help="replay one problem id")
+    which.add_argument("--failed", action="store_true", help="replay every failed solve")
+    which.add_argument("--all", action="store_true", help="replay every solve (a path study: the arm follows its path)")
+    p.add_argument("-o", "--out", required=True, help="replay MCAP to write")
+    p.add_argument("--data", default="data", help="data folder (robot file <data>/robots/<robot>.yaml)")
+    p.add_argument("--robot", help="the robot file, if not <data>/robots/<robot>.yaml")
+    p.add_argument("--frames", choices=["auto", "iterations", "solutions"], default="auto",
+                   help="per-iteration frames, or one frame per problem (default: solutions for a chained path "
+                        "under --all, else iterations)")
+    p.add_argument("--max-frames", type=int, default=200, help="at most this many iteration frames per problem")
+    p.add_argument("--dt", type=float, default=0.05, help="seconds between frames (log times)")
+    p.set_defaults(func=cmd_replay)
 
     p = sub.add_parser("import_urdf", aliases=["import-urdf"],
                        help="write a robot file (general joint form) from a URDF chain")
@@ -518,25 +612,60 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_export_urdf)
 
     # study packages may add their own verbs (a module-level ``register_cli(subparsers)``)
-    from pipeline.studies import study_cli_modules
-
-    for mod in study_cli_modules():
+    for mod in _study_cli_modules():
         mod.register_cli(sub)
     return ap
 
 
+def _study_cli_modules() -> list:
+    """``pipeline/studies/<id>/cli.py`` modules, loaded without importing ``pipeline.studies`` (pandas).
+
+    Like :func:`pipeline.studies.study_cli_modules`, but found on disk, so that ``--help`` and parsing
+    stay fast; each module keeps its heavy imports inside its command functions.
+    """
+    import importlib.util
+
+    mods = []
+    for path in sorted((Path(__file__).parent / "studies").glob("*/cli.py")):
+        name = f"pipeline.studies.{path.parent.name}.cli"
+        mod = sys.modules.get(name)
+        if mod is None:
+            spec = importlib.util.spec_from_file_location(name, path)
+            mod = importlib.util.module_from_spec(spec)
+            sys.modules[name] = mod
+            spec.loader.exec_module(mod)
+        if hasattr(mod, "register_cli"):
+            mods.append(mod)
+    return mods
+
+
+def _check_yaml_arguments(args) -> None:
+    """Every YAML file named by a ``--robot``/``--study``/``robot`` argument goes through the one loader
+    (:func:`pipeline.yamlio.load_yaml`) before the verb runs, so that no verb, a study's own included,
+    parses a hostile file (alias bomb, deep nesting, binary junk) with a plain ``yaml.safe_load``."""
+    from pipeline.yamlio import load_yaml
+
+    for key in ("robot", "study"):
+        value = getattr(args, key, None)
+        if isinstance(value, str) and Path(value).is_file():
+            load_yaml(value, f"{key} file")
+
+
 def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)  # first: `--help` and usage errors need no heavy import
+
     from pipeline.io.archive import ArchiveError
     from pipeline.io.problems import ProblemFileError
     from pipeline.robots import RobotFileError
     from pipeline.settings import ConfigError
     from pipeline.solvers import NotApplicableError, SettingsError
+    from pipeline.yamlio import YAMLInputError
 
-    args = build_parser().parse_args(argv)
     try:
+        _check_yaml_arguments(args)
         args.func(args)
     except (CLIError, ArchiveError, ProblemFileError, RobotFileError, ConfigError, SettingsError,
-            NotApplicableError) as exc:
+            NotApplicableError, YAMLInputError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

@@ -77,10 +77,13 @@ def test_not_mcap_and_missing(tmp_path):
 def test_inspect_cli(tmp_path, capsys):
     p = tmp_path / "a.mcap"
     _write(p)
-    assert main(["inspect", str(p), "--failed", "--problem", "1", "--csv", str(tmp_path / "o.csv")]) == 0
+    assert main(["inspect", str(p), "--failed", "--csv", str(tmp_path / "o.csv")]) == 0
     out = capsys.readouterr().out
-    assert "successes: 2 (50.00 %)" in out and "p95" in out and "failed solves (2)" in out
+    assert "successes: 2 (50.00 %)" in out and "p95 [ms]" in out and "failed solves (2)" in out
     assert (tmp_path / "o.csv").read_text().count("\n") == 5
+    assert main(["inspect", str(p), "--problem", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "problem 1 (repetition 0)" in out and "trace (3 rows" in out
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(p.read_bytes()[:200])
     assert main(["inspect", str(bad)]) == 2

@@ -1,0 +1,370 @@
+"""Replay archived solves as a Foxglove-viewable MCAP (``python -m pipeline replay``).
+
+The archive holds every solve's start, goal and returned joint values, not the iterates in
+between; a replay re-runs the chosen problems from the archive's metadata (registered method,
+settings, robot, seed) and writes, per frame, the arm in Foxglove's well-known schemas
+(foxglove-sdk, protobuf):
+
+=====================  =========================  ==============================================
+topic                  schema                     content (lengths in metres, angles in rad)
+=====================  =========================  ==============================================
+``/tf``                ``foxglove.FrameTransform``  ``world -> base``, ``world -> link_1`` ...
+                                                  ``world -> link_n``, ``world -> tool`` (FK)
+``/arm``               ``foxglove.SceneUpdate``   entity ``arm``: a line strip through the joint
+                                                  origins, a sphere per joint, a text label
+``/goal``              ``foxglove.PoseInFrame``   the problem's goal pose (frame ``world``)
+``/reached``           ``foxglove.PoseInFrame``   the tool pose of the frame's joint values
+``/joint_states``      ``foxglove.JointStates``   joint values (revolute rad, prismatic m)
+``/replay/frame``      ``ik_pipeline.ReplayFrame``  JSON: problem id, iteration, errors of the frame
+=====================  =========================  ==============================================
+
+Frames
+------
+``iterations`` (default for single problems): frame k shows the joint values the method returns
+when re-run with ``max_iterations = k``, for k = 0 (the start) ... the archived iteration count,
+at most ``max_frames`` evenly spaced values of k per problem. For the deterministic iterative
+methods of this package that is their k-th iterate (a capped search returns its last iterate);
+the solvers are not changed to record iterates. Methods without ``max_iterations`` (analytic
+ones), stochastic ones (PSO), and runs that used random restarts show two frames: start and
+solution. ``solutions`` (default for ``--all`` on a path study, where each problem starts from the
+previous solution): the start of the path, then one frame per problem, its solution, so the arm
+follows the path. The last frame of every problem shows the *archived* ``q_solution``; the re-run
+is checked against it (to 1e-9) and a difference is reported, not hidden.
+
+Log times: frame f (counted over the whole replay, problems one after the other) at f x ``dt``
+(0.05 s), so a viewer's timeline animates the solve. The file is deterministic: the same archive
+and options give the same bytes.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+TOL = 1e-9  # re-run vs archived q_solution [rad | robot length unit]
+FRAME_SCHEMA = {
+    "title": "ik_pipeline.ReplayFrame",
+    "description": "one replay frame: which problem and iterate the arm shows, and its errors",
+    "type": "object",
+    "properties": {
+        "problem_id": {"type": "integer"}, "solver": {"type": "string"}, "method": {"type": "string"},
+        "iteration": {"type": "integer", "description": "iterate shown (0 = start)"},
+        "iterations": {"type": "integer", "description": "the archived solve's iteration count"},
+        "frame": {"type": "integer"},
+        "position_error_m": {"type": ["number", "null"], "description": "|p_goal - p(q)| [m]"},
+        "orientation_error_rad": {"type": ["number", "null"], "description": "rotation angle goal vs q [rad]"},
+        "success": {"type": "boolean", "description": "the archived solve's FK-verified success"},
+        "stop_reason": {"type": "integer"},
+        "q": {"type": "array", "items": {"type": "number"}, "description": "joint values [rad | m]"},
+    },
+}
+
+
+class ReplayError(ValueError):
+    """A replay cannot be made (one line: the archive or robot and why)."""
+
+
+@dataclass
+class ReplaySummary:
+    out: Path
+    problems: list[int]
+    frames: int
+    frames_per_problem: dict[int, int]
+    mode: str
+    mismatches: list[str] = field(default_factory=list)
+    topics: dict[str, str] = field(default_factory=dict)
+
+
+def settings_from_archive(meta: dict, where: str):
+    """(method, Settings) from an archive's ``method`` and ``settings`` (JSON of ``{"method", **settings}``)."""
+    from pipeline.solvers import SettingsError, make_settings
+
+    try:
+        mapping = json.loads(meta["settings"])
+    except (KeyError, ValueError) as exc:
+        raise ReplayError(f"{where}: metadata field 'settings' is not JSON ({exc})") from None
+    if not isinstance(mapping, dict):
+        raise ReplayError(f"{where}: metadata field 'settings' is not a mapping")
+    method = meta.get("method") or mapping.get("method")
+    if not method:
+        raise ReplayError(f"{where}: metadata names no registered method ('method'); cannot re-run")
+    mapping = {k: v for k, v in mapping.items() if k != "method"}
+    try:
+        return method, make_settings(method, mapping, f"{where}: metadata field 'settings'")
+    except SettingsError as exc:
+        raise ReplayError(str(exc)) from None
+
+
+def _select(arch, problem: int | None, failed: bool) -> list[dict]:
+    recs = [r for r in arch.solves if int(r.get("repetition", 0)) == 0]
+    if problem is not None:
+        recs = [r for r in recs if int(r["problem_id"]) == int(problem)]
+        if not recs:
+            raise ReplayError(f"{arch.path}: problem {problem} is not in the archive")
+    elif failed:
+        recs = [r for r in recs if not r["success"]]
+        if not recs:
+            raise ReplayError(f"{arch.path}: no failed solves to replay")
+    if not recs:
+        raise ReplayError(f"{arch.path}: no solve records to replay")
+    return recs
+
+
+def _quat_xyzw(T: np.ndarray) -> tuple[float, float, float, float]:
+    from pipeline.kinematics import quat_from_matrix
+
+    w, x, y, z = (float(v) for v in quat_from_matrix(T))
+    return x, y, z, w
+
+
+def _rot_angle(Ra: np.ndarray, Rb: np.ndarray) -> float:
+    c = (np.trace(Ra.T @ Rb) - 1.0) / 2.0
+    return float(math.acos(min(1.0, max(-1.0, c))))
+
+
+class _Writer:
+    """The replay file: mcap writer, foxglove-sdk schemas, one channel per topic."""
+
+    def __init__(self, path: Path, metadata: dict[str, str]):
+        import foxglove.messages as fm
+        from mcap.writer import CompressionType, Writer
+
+        self.fm = fm
+        self.path = path
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.partial = path.with_name(path.name + ".partial")
+        self._fh = open(self.partial, "wb")
+        self._w = Writer(self._fh, compression=CompressionType.ZSTD, enable_data_crcs=True)
+        self._w.start(profile="", library=f"ik-pipeline replay {metadata.get('package_version', '')}")
+        self._w.add_metadata("replay", metadata)
+        self.channels: dict[str, int] = {}
+        self.topics: dict[str, str] = {}
+        for topic, cls in (("/tf", fm.FrameTransform), ("/arm", fm.SceneUpdate), ("/goal", fm.PoseInFrame),
+                           ("/reached", fm.PoseInFrame), ("/joint_states", fm.JointStates)):
+            s = cls.get_schema()
+            sid = self._w.register_schema(s.name, s.encoding, bytes(s.data))
+            self.channels[topic] = self._w.register_channel(topic, "protobuf", sid)
+            self.topics[topic] = s.name
+        sid = self._w.register_schema(FRAME_SCHEMA["title"], "jsonschema", json.dumps(FRAME_SCHEMA).encode())
+        self.channels["/replay/frame"] = self._w.register_channel("/replay/frame", "json", sid)
+        self.topics["/replay/frame"] = FRAME_SCHEMA["title"]
+        self._seq = 0
+
+    def add(self, topic: str, t_ns: int, data: bytes) -> None:
+        self._w.add_message(self.channels[topic], log_time=t_ns, publish_time=t_ns, sequence=self._seq, data=data)
+        self._seq += 1
+
+    def close(self) -> None:
+        self._w.finish()
+        self._fh.close()
+        os.replace(self.partial, self.path)
+
+    def abort(self) -> None:
+        self._fh.close()
+        self.partial.unlink(missing_ok=True)
+
+
+def _write_frame(w: _Writer, t_ns: int, model_m, q_m: np.ndarray, goal_m: np.ndarray, info: dict,
+                 names: list[str]) -> tuple[float, float]:
+    """One frame: transforms, wireframe, goal and reached poses, joint states, frame record."""
+    from pipeline.kinematics import fk_frames
+
+    fm = w.fm
+    ts = fm.Timestamp(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
+    frames = fk_frames(model_m.chain, q_m)
+    tool = frames[-1] @ model_m.chain.tool
+    all_frames = list(frames) + [tool]
+    child = ["base"] + [f"link_{i}" for i in range(1, model_m.n + 1)] + ["tool"]
+
+    def pose(T):
+        x, y, z, qw = _quat_xyzw(T)
+        return fm.Pose(position=fm.Vector3(x=float(T[0, 3]), y=float(T[1, 3]), z=float(T[2, 3])),
+                       orientation=fm.Quaternion(x=x, y=y, z=z, w=qw))
+
+    for name, T in zip(child, all_frames):
+        x, y, z, qw = _quat_xyzw(T)
+        w.add("/tf", t_ns, fm.FrameTransform(
+            timestamp=ts, parent_frame_id="world", child_frame_id=name,
+            translation=fm.Vector3(x=float(T[0, 3]), y=float(T[1, 3]), z=float(T[2, 3])),
+            rotation=fm.Quaternion(x=x, y=y, z=z, w=qw)).encode())
+    pts = [fm.Point3(x=float(T[0, 3]), y=float(T[1, 3]), z=float(T[2, 3])) for T in all_frames]
+    reach = float(max(np.linalg.norm(np.diff(np.array([T[:3, 3] for T in all_frames]), axis=0), axis=1).sum(), 0.1))
+    r = 0.02 * reach
+    ok = info["success"]
+    color = fm.Color(r=0.2, g=0.6, b=1.0, a=1.0) if ok else fm.Color(r=1.0, g=0.4, b=0.2, a=1.0)
+    ident = fm.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
+    spheres = [fm.SpherePrimitive(pose=fm.Pose(position=fm.Vector3(x=float(T[0, 3]), y=float(T[1, 3]),
+                                                                   z=float(T[2, 3])), orientation=ident),
+                                  size=fm.Vector3(x=2 * r, y=2 * r, z=2 * r), color=color) for T in all_frames[:-1]]
+    label = (f"problem {info['problem_id']}  iteration {info['iteration']}/{info['iterations']}  "
+             f"|dp| {info['position_error_m']:.3g} m")
+    T_tool = all_frames[-1]
+    text = fm.TextPrimitive(pose=fm.Pose(position=fm.Vector3(x=float(T_tool[0, 3]), y=float(T_tool[1, 3]),
+                                                             z=float(T_tool[2, 3]) + 3 * r), orientation=ident),
+                            billboard=True, font_size=14.0, scale_invariant=True,
+                            color=fm.Color(r=1.0, g=1.0, b=1.0, a=1.0), text=label)
+    entity = fm.SceneEntity(timestamp=ts, frame_id="world", id="arm", lines=[fm.LinePrimitive(
+        type=fm.LinePrimitiveLineType.LineStrip, thickness=0.5 * r, points=pts, color=color)],
+        spheres=spheres, texts=[text])
+    w.add("/arm", t_ns, fm.SceneUpdate(entities=[entity]).encode())
+    w.add("/goal", t_ns, fm.PoseInFrame(timestamp=ts, frame_id="world", pose=pose(goal_m)).encode())
+    w.add("/reached", t_ns, fm.PoseInFrame(timestamp=ts, frame_id="world", pose=pose(T_tool)).encode())
+    w.add("/joint_states", t_ns, fm.JointStates(timestamp=ts, joints=[
+        fm.JointState(name=nm, position=float(v)) for nm, v in zip(names, q_m)]).encode())
+    import orjson
+
+    w.add("/replay/frame", t_ns, orjson.dumps({**info, "q": [float(v) for v in q_m]}))
+    return info["position_error_m"], info["orientation_error_rad"]
+
+
+def replay(archive: str | Path, out: str | Path, *, problem: int | None = None, failed: bool = False,
+           data: str | Path = "data", robot: str | Path | None = None, frames: str = "auto",
+           max_frames: int = 200, dt: float = 0.05) -> ReplaySummary:
+    """Re-run archived solves and write them as a Foxglove-viewable MCAP (see the module docstring).
+
+    Parameters
+    ----------
+    archive : path of a result archive
+    out : the replay file to write (``<out>.partial`` until finished)
+    problem : replay this problem id; else ``failed`` (every failed solve) or, neither, every solve
+    data : data folder (the robot file is ``<data>/robots/<robot>.yaml``) unless ``robot`` names it
+    frames : ``auto``, ``iterations`` or ``solutions`` (one frame per problem)
+    max_frames : at most this many iterate frames per problem (evenly spaced iterations)
+    dt : seconds between frames (log times)
+
+    Raises
+    ------
+    ReplayError, ArchiveError, RobotFileError
+    """
+    import pipeline
+    from pipeline.io.archive import goal_from_record, read_archive
+    from pipeline.kinematics import fk_htm, matrix_from_quat
+    from pipeline.robots import LENGTH_UNITS, load_robot
+    from pipeline.runner import problem_seed
+    from pipeline.solvers import SettingsError, get, make_settings, prepare, solve
+
+    if frames not in ("auto", "iterations", "solutions"):
+        raise ReplayError(f"frames: {frames!r} is not one of auto, iterations, solutions")
+    if max_frames < 2:
+        raise ReplayError(f"max_frames: must be >= 2, got {max_frames}")
+    if not (dt > 0 and math.isfinite(dt)):
+        raise ReplayError(f"dt: must be a positive number of seconds, got {dt}")
+    arch = read_archive(archive)
+    meta = arch.metadata
+    method, settings = settings_from_archive(meta, str(arch.path))
+    robot_path = Path(robot) if robot else Path(data) / "robots" / f"{meta['robot']}.yaml"
+    if not robot_path.is_file():
+        raise ReplayError(f"{arch.path}: robot {meta['robot']!r}: no robot file {robot_path} (use --data or --robot)")
+    model = load_robot(robot_path)
+    if model.name != meta["robot"]:
+        raise ReplayError(f"{robot_path}: robot {model.name!r}, the archive's is {meta['robot']!r}")
+    recs = _select(arch, problem, failed)
+    chained = len(recs) > 1 and all(int(r.get("chain", -1)) >= 0 for r in recs)
+    mode = frames if frames != "auto" else ("solutions" if chained else "iterations")
+    spec = get(method)
+    mapping = {k: v for k, v in json.loads(meta["settings"]).items() if k != "method"}
+    iterate = (mode == "iterations" and "max_iterations" in settings.as_dict() and spec.kind != "global"
+               and not settings.restarts)
+    prep = prepare(method, model, settings)
+    seed0 = int(meta["seed"]) if str(meta.get("seed", "")).lstrip("-").isdigit() else 0
+    f_model = LENGTH_UNITS[model.length_unit]
+    model_m = model.in_unit("m")
+    prism = np.asarray(model.chain.prismatic, dtype=bool)
+    names = [nm or f"joint_{i + 1}" for i, nm in enumerate(model.joint_names or [""] * model.n)]
+    unit = meta.get("length_unit") or settings.length_unit
+    to_model = LENGTH_UNITS[unit] / f_model
+    capped: dict[int, object] = {}
+
+    def capped_settings(k: int):
+        if k not in capped:
+            try:
+                capped[k] = make_settings(method, {**mapping, "max_iterations": k})
+            except SettingsError:
+                capped[k] = None  # below the method's minimum cap
+        return capped[k]
+
+    def to_m(q):
+        q = np.array(q, dtype=float)
+        q[prism] *= f_model
+        return q
+
+    rmeta = {"source_archive": str(arch.path), "study": meta.get("study", ""), "robot": model.name,
+             "robot_file": str(robot_path), "solver": meta.get("solver", ""), "method": method,
+             "settings": meta["settings"], "seed": str(meta.get("seed", "")), "frames": mode,
+             "max_frames": str(max_frames), "dt_s": repr(dt), "length_unit": "m",
+             "package_version": pipeline.__version__,
+             "source_format_version": meta.get("format_version", ""),
+             "note": "frame k of a problem = the joint values the method returns with max_iterations = k "
+                     "(iterations mode); the last frame of a problem = the archived q_solution"}
+    w = None
+    summary = ReplaySummary(Path(out), [int(r["problem_id"]) for r in recs], 0, {}, mode)
+    try:
+        w = _Writer(Path(out), rmeta)
+        f = 0
+        last_q = None
+        for rec in recs:
+            pid = int(rec["problem_id"])
+            p, quat = goal_from_record(rec["goal"])
+            T_goal = np.eye(4)
+            T_goal[:3, :3] = matrix_from_quat(quat)
+            T_goal[:3, 3] = p * to_model
+            goal_m = T_goal.copy()
+            goal_m[:3, 3] = p * LENGTH_UNITS[unit]
+            q0 = np.asarray(rec["q_start"], dtype=float)
+            q_arch = np.asarray(rec["q_solution"], dtype=float)
+            seed = problem_seed(seed0, pid, 0)
+            res = solve(method, prep, T_goal, q0, settings, seed=seed)
+            diff = np.abs(res.q - q_arch)
+            same_nan = np.isnan(res.q) == np.isnan(q_arch)
+            if not same_nan.all() or np.nanmax(np.where(same_nan, diff, np.inf), initial=0.0) > TOL:
+                d = float(np.nanmax(diff)) if np.isfinite(diff).any() else float("nan")
+                summary.mismatches.append(f"problem {pid}: the re-run's q_solution differs from the archived one "
+                                          f"by {d:.3g} (more than {TOL:g}); frames are the re-run's, the last one "
+                                          f"the archive's")
+            its = int(rec["iterations"])
+            if mode == "solutions":
+                qs = ([] if last_q is not None and np.array_equal(last_q, q0) else [(0, q0)]) + [(its, q_arch)]
+            elif iterate and its > 0:
+                ks = np.unique(np.round(np.linspace(0, its, min(its + 1, max_frames))).astype(int))
+                qs = []
+                for k in ks.tolist():
+                    if k == 0:
+                        qs.append((0, q0))
+                    elif k == its:
+                        qs.append((its, q_arch))
+                    else:
+                        sk = capped_settings(k)
+                        if sk is not None:
+                            qs.append((k, solve(method, prep, T_goal, q0, sk, seed=seed).q))
+            else:
+                qs = [(0, q0), (its, q_arch)]
+            for k, q in qs:
+                q_m = to_m(q)
+                T = fk_htm(model_m.chain, q_m) if np.all(np.isfinite(q_m)) else None
+                dp = float(np.linalg.norm(T[:3, 3] - goal_m[:3, 3])) if T is not None else float("nan")
+                ang = _rot_angle(T[:3, :3], goal_m[:3, :3]) if T is not None else float("nan")
+                info = {"problem_id": pid, "solver": meta.get("solver", ""), "method": method, "iteration": int(k),
+                        "iterations": its, "frame": f, "position_error_m": dp, "orientation_error_rad": ang,
+                        "success": bool(rec["success"]), "stop_reason": int(rec["stop_reason"])}
+                if T is None:
+                    continue  # a non-finite iterate has no pose to show
+                _write_frame(w, int(round(f * dt * 1e9)), model_m, q_m, goal_m, info, names)
+                f += 1
+                summary.frames_per_problem[pid] = summary.frames_per_problem.get(pid, 0) + 1
+            last_q = q_arch
+        summary.frames = f
+        summary.topics = dict(w.topics)
+        w._w.add_metadata("replay_check", {
+            "problems": str(len(recs)), "frames": str(f), "tolerance": repr(TOL),
+            "mismatches": "; ".join(summary.mismatches) or "none: every re-run matches the archived q_solution"})
+        w.close()
+    except BaseException:
+        if w is not None:
+            w.abort()
+        raise
+    return summary
