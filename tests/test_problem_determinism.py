@@ -23,14 +23,10 @@ from pipeline.robots import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 
-# Sets drawn by a study's own generator that multiplies poses with `@` (BLAS) in its own module
-# (pipeline/studies/<id>/, not pipeline.problems): their last digits still follow the BLAS kernel.
-# Calling pipeline.problems.fk_poses there instead of fk_htm / `@` would make them identical too.
-KNOWN_BLAS_DEPENDENT = {
-    "borges_kr6/alpha_sweep/kuka_kr6_r700_sixx",  # fk_htm of sampled pairs (pipeline/studies/borges_kr6/problems.py)
-    "nepomuceno2024/home/ur5_nepomuceno",  # fk_htm and pose products (pipeline/studies/nepomuceno2024/)
-    "nepomuceno2024/pick_and_place/ur5_nepomuceno",
-}
+# Sets whose last digits may follow the BLAS kernel: none. The studies' own generators
+# (borges_kr6's sampled pairs, nepomuceno2024's motions) compute their poses with
+# pipeline.problems.fk_poses and element-wise products, as pipeline.problems does.
+KNOWN_BLAS_DEPENDENT: set[str] = set()
 
 HASH_ALL = r"""
 import hashlib, json, sys, tempfile

@@ -14,8 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.kinematics import fk_htm
-from pipeline.problems import ProblemSet, from_poses
+from pipeline.problems import ProblemSet, fk_poses, from_poses
 from pipeline.robots import LENGTH_UNITS, RobotModel
 
 CURVES = ("lemniscate", "rhodonea", "circle")
@@ -90,8 +89,8 @@ def distance_pairs(model: RobotModel, distances, count: int, tolerance: float, r
     for _ in range(max_batches):
         qs = rng.uniform(lim[:, 0], lim[:, 1], size=(batch, model.n))
         qg = rng.uniform(lim[:, 0], lim[:, 1], size=(batch, model.n))
-        ps = fk_htm(model.chain, qs)[:, :3, 3]
-        pg = fk_htm(model.chain, qg)[:, :3, 3]
+        ps = fk_poses(model.chain, qs)[:, :3, 3]  # BLAS-free: the same digits on every machine
+        pg = fk_poses(model.chain, qg)[:, :3, 3]
         dist = np.linalg.norm(pg - ps, axis=1)
         for dclass, got in want.items():
             for i in np.flatnonzero(np.abs(dist - dclass) <= tolerance):

@@ -18,8 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.kinematics import fk_htm
-from pipeline.problems import ProblemSet, ProblemSpecError, from_poses
+from pipeline.problems import ProblemSet, ProblemSpecError, fk_poses, from_poses
 from pipeline.robots import RobotModel
 from pipeline.studies.nepomuceno2024.trajectory import MotionPoints, build_motion, load_motions
 
@@ -44,7 +43,7 @@ def motion(model: RobotModel, count: int, params: dict, data_dir: Path) -> Motio
                                f"{params['motions_file']} (have: {', '.join(doc['motions'])})")
     if model.n != 6 or model.length_unit != "m":
         raise ProblemSpecError(f"field 'robots': the designed motions are for a 6-joint arm in m, not {model.name}")
-    return build_motion(doc, params["motion"], lambda q: fk_htm(model.chain, q), **interpolation(count, params))
+    return build_motion(doc, params["motion"], lambda q: fk_poses(model.chain, np.atleast_2d(q))[0], **interpolation(count, params))
 
 
 def motion_points(model: RobotModel, count: int, rng: np.random.Generator, params: dict,

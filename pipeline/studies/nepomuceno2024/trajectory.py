@@ -75,7 +75,9 @@ def rot_z(angle: float) -> np.ndarray:
 def pose_from_spec(spec: dict) -> np.ndarray:
     """``{position: [x, y, z] m, yaw_deg}`` -> T (4, 4) with R = Rz(yaw) Ry(π) (tool pointing down)."""
     T = np.eye(4)
-    T[:3, :3] = rot_z(math.radians(float(spec.get("yaw_deg", 0.0)))) @ rot_y(math.pi)
+    # element-wise product and sum, not ``@``: BLAS kernels differ in their last digits between CPUs
+    A, B = rot_z(math.radians(float(spec.get("yaw_deg", 0.0)))), rot_y(math.pi)
+    T[:3, :3] = (A[:, :, None] * B[None, :, :]).sum(axis=1)
     T[:3, 3] = np.asarray(spec["position"], dtype=float)
     return T
 
@@ -84,7 +86,7 @@ def slerp(q0: np.ndarray, q1: np.ndarray, s: np.ndarray) -> np.ndarray:
     """Shortest-arc spherical interpolation of w-first unit quaternions; ``s`` (N,) -> (N, 4)."""
     q0 = np.asarray(q0, float)
     q1 = np.asarray(q1, float)
-    dot = float(np.dot(q0, q1))
+    dot = float((q0 * q1).sum())  # not np.dot (BLAS): the same digits on every machine
     if dot < 0.0:
         q1, dot = -q1, -dot
     s = np.asarray(s, float)[:, None]
