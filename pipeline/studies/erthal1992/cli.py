@@ -31,14 +31,14 @@ def _known_errors():
 
 def cmd_robot(args) -> None:
     import numpy as np
-    import yaml
 
     from pipeline.robots import load_robot
     from pipeline.studies.erthal1992 import model as M
+    from pipeline.yamlio import load_yaml
 
     try:
         path = Path(args.robot)
-        doc = yaml.safe_load(path.read_text()) if path.is_file() else None
+        doc = load_yaml(path, "robot file") if path.is_file() else None
         if isinstance(doc, dict) and "effector" in doc and "joints" in doc and "position" in (doc["joints"] or [{}])[0]:
             j, e = doc["joints"], doc["effector"]
             pts, axes = [x["position"] for x in j], [x["axis"] for x in j]

@@ -29,6 +29,7 @@ from pipeline.robots import RobotModel, load_robot
 from pipeline.settings import git_commit
 
 from pipeline.studies.erthal1992.tasks import frame
+from pipeline.yamlio import load_yaml
 
 PATH_TOPIC = "/erthal1992/path"
 CATALOGUE_TOPIC = "/erthal1992/catalogue"
@@ -44,12 +45,10 @@ ROBOT_BASES_FILE = "robot_bases.yaml"  # data/erthal1992/: DH frame 0 in the doc
 
 def robot_base(data_dir: Path, name: str) -> list | None:
     """Position [mm] of ``name``'s DH frame 0 in the document's base frame (A4.2), or None if not listed."""
-    import yaml
-
     path = Path(data_dir) / "erthal1992" / ROBOT_BASES_FILE
     if not path.exists():
         return None
-    doc = yaml.safe_load(path.read_text()) or {}
+    doc = load_yaml(path, "robot base file") or {}
     entry = doc.get(name)
     if entry is None:
         return None
@@ -143,7 +142,6 @@ def write_path_rows(study, pset: str, robot: str, archive: Path, data_dir: Path,
 def run_catalogue(study, data_dir: Path, out: Path, report_dir: Path | None) -> int:
     """Conversions and FK checks of the catalogue (no IK): Stanford Figs 6.5-6.7, DH <-> PZ round
     trips of every robot, artropoidal Tables 6.1-6.2. Writes the TXT reports to ``report_dir``."""
-    import yaml
 
     from pipeline.studies.erthal1992.model import (dh_from_joint_points, dh_from_pz, dh_model_from_chain, pz_fk,
                                                    pz_from_dh, report_txt)
@@ -156,7 +154,7 @@ def run_catalogue(study, data_dir: Path, out: Path, report_dir: Path | None) -> 
     with ArchiveWriter(out, meta) as w:
         w.add_channel(CATALOGUE_TOPIC, {"title": "erthal1992.Catalogue", **_OBJ})
         for inp in st.get("joint_point_inputs", []):
-            doc = yaml.safe_load((Path(data_dir) / "erthal1992" / inp).read_text())
+            doc = load_yaml(Path(data_dir) / "erthal1992" / inp, "joint-point robot file")
             j = doc["joints"]
             e = doc["effector"]
             dh = dh_from_joint_points([x["type"] for x in j], [x["position"] for x in j], [x["axis"] for x in j],
