@@ -26,7 +26,9 @@ Sections (each prints medians and 95th percentiles; every time is per problem un
               threads: solves per second (wall time of the whole call).
 ``analytic``  UR5 (data/robots/ur5.yaml) and PUMA 560: all solutions per pose through the public
               call, ur_analytic_ik (peer, C++) on the same poses, and UR5 poses per second through
-              the batch call.
+              the batch call. Public-call times are given interleaved with the peer (the peer's
+              Python wrapper then evicts ours from the caches: about 1 us slower) and alone (every
+              pose with one method, then the next).
 
 Each section runs ``--repeat`` times (default 2); the machine's load average is printed with each
 run so a busy machine shows. ``--json`` writes every number for the report's performance table.
@@ -193,16 +195,20 @@ def analytic(n: int) -> dict:
         T = ps.goal_transforms()
         methods = {k: v for k in names if (v := _prepared(k, model)) is not None}
         rows = {k: {"call": [], "solve": []} for k in methods}
-        for i in range(len(ps)):
+        for i in range(len(ps)):  # interleaved: every method on pose i before pose i + 1
             for name, (prep, s) in methods.items():
                 r = solve(name, prep, T[i], ps.q_start[i], s)
                 rows[name]["call"].append(r.call_time_s * 1e6)
                 rows[name]["solve"].append(r.solve_time_s * 1e6)
+        alone = {}
+        for name, (prep, s) in methods.items():  # each method on all poses in a row (warm caches)
+            alone[name] = _stats([solve(name, prep, T[i], ps.q_start[i], s).call_time_s * 1e6 for i in range(len(ps))])
         print(f"{robot}: all solutions per pose, {n} poses [us]")
         for name, r in rows.items():
-            c, k = _stats(r["call"]), _stats(r["solve"])
-            out[f"{robot}/{name}"] = {"call_us": c, "solve_us": k}
-            print(f"  {name:16s} public call p50 {c['p50']:7.2f} p95 {c['p95']:7.2f}   kernel/library p50 {k['p50']:7.2f} p95 {k['p95']:7.2f}")
+            c, k, a = _stats(r["call"]), _stats(r["solve"]), alone[name]
+            out[f"{robot}/{name}"] = {"call_us": c, "solve_us": k, "call_alone_us": a}
+            print(f"  {name:16s} public call p50 {c['p50']:7.2f} p95 {c['p95']:7.2f} (interleaved), "
+                  f"p50 {a['p50']:7.2f} p95 {a['p95']:7.2f} (alone)   kernel/library p50 {k['p50']:7.2f} p95 {k['p95']:7.2f}")
         if robot == "ur5" and "analytic_ur" in methods:
             prep, s = methods["analytic_ur"]
             big = random_joint_pairs(model, 100_000, np.random.default_rng(4), low=-math.pi, high=math.pi)

@@ -391,7 +391,7 @@ def batch_columns(problem_id, repetition, chain, robot: str, solver: str, length
         "q_solution": np.ascontiguousarray(res.q, dtype=float),
         "goal_position": np.ascontiguousarray(goal_position, dtype=float),
         "goal_orientation": np.ascontiguousarray(np.asarray(goal_quat_wxyz, dtype=float)[:, [1, 2, 3, 0]]),
-        "info": res.info if res.info is not None else [{}] * n,
+        "info": list(res.info) if res.info is not None else [{}] * n,
     }
     if res.solutions is not None:
         cols["solutions"] = [res.solutions[i, : int(res.n_solutions[i])].tolist() for i in range(n)]

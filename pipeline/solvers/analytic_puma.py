@@ -23,10 +23,24 @@ the wrist degeneracy): ``arm`` = + for the first theta1 branch
 (OMBRO_ESQUERDO/DIREITO, COTOVELO_BAIXO/ALTO, PULSO_BAIXO/ALTO) are not defined numerically in
 the surviving text (Fig. A5.9 is missing).
 
-Every solution is checked by the independent numpy FK (:func:`pipeline.solvers.base.verify`,
-the settings' tolerances); ``info`` holds the counts (``solutions_found``, ``solutions_valid``,
-``degenerate_wrist``, ``distinct_branches``), the largest FK errors over all solutions, ``valid``
-(one 0/1 per row of ``solutions``) and ``chosen`` (row returned as ``q``, -1 if none passed).
+Every solution is checked by compiled forward kinematics of the whole chain (homogeneous
+matrices, base and tool included; the errors and the settings' criterion and tolerances as
+:func:`pipeline.solvers.base.verify` computes them, which the numpy version called);
+``info`` holds the counts (``solutions_found``, ``solutions_valid``, ``degenerate_wrist``,
+``distinct_branches``), the largest FK errors over all solutions, ``valid`` (one 0/1 per row of
+``solutions``) and ``chosen`` (row returned as ``q``, -1 if none passed). ``solutions`` holds
+every solution found (valid or not, as ``valid`` says).
+
+Speed. :func:`puma_core` does the closed form, the checks and the choice in one allocation-free
+compiled call (the bare goal ``base^-1 T tool^-1`` with precomputed inverses; the FK keeps
+``base A1`` and ``base A1 A2 A3`` between solutions that share those joints); the ``branches`` /
+``valid`` strings come from small caches keyed by the kernel's packed codes. ``bind`` gives the
+lean single call, ``batch`` N poses on every core (per-pose ``info`` as
+:class:`~pipeline.solvers.analytic_ur.InfoRows`, built on access). Results equal the reference
+(numpy-checked) version to ~1e-13; within ~1e-9 of the wrist degeneracy the θ4/θ6 split is
+ill-conditioned and the solutions may differ by up to ~1e-4 rad (at sin θ5 = 0 exactly, θ6 = ±π
+may flip sign with the sign of a rounding-level zero, and which of the two wrist branches is
+nearest the start may swap).
 """
 
 from __future__ import annotations
@@ -37,8 +51,10 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
-from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, verify
+from pipeline.kinematics.fkcheck import meets
+from pipeline.solvers._kin import now_ns
+from pipeline.solvers.analytic_ur import InfoRows, copy12, mul34, mul_link, pose_errors, rigid_rows
+from pipeline.solvers.base import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, StopReason
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) A5.3 cin_inv_PUMA(), after Fu, Gonzalez & Lee [02]"
@@ -89,128 +105,351 @@ def geometry(prep: Prepared) -> np.ndarray:
                      sg[0], sg[2], sg[3], sg[4], *c.theta_offset], dtype=float)
 
 
-@numba.njit(cache=True)
-def _rz_rx(t, al, out):
-    """Rotation part of Rz(t) Rx(al) into out (3, 3)."""
-    ct, st, ca, sa = np.cos(t), np.sin(t), np.cos(al), np.sin(al)
-    out[0, 0], out[0, 1], out[0, 2] = ct, -st * ca, st * sa
-    out[1, 0], out[1, 1], out[1, 2] = st, ct * ca, -ct * sa
-    out[2, 0], out[2, 1], out[2, 2] = 0.0, sa, ca
+# ---- packed parameters (once per job, :func:`packed`) -------------------------------------------
+P_G = 0  # geometry(): a1 d1 d23 a2 a3 d4 a6 d6 al6 s1 s3 s4 s5 off1..6 (19)
+P_CA, P_SA = 19, 24  # cos / sin of alpha1..5
+P_CA6, P_SA6, P_L, P_BETA = 29, 30, 31, 32  # cos / sin alpha6, forearm length, its angle
+P_BINV, P_TINV, P_PLAIN = 33, 45, 57  # rows 0-2 of base^-1 and tool^-1 (12 each); 1 when both are I
+P_CRIT, P_TOLP, P_TOLR, P_TOLDQ = 58, 59, 60, 61  # the FK check's criterion code and tolerances
+P_A, P_LCA, P_LSA, P_D, P_OFF = 62, 68, 74, 80, 86  # the FK check's chain: a, cos / sin alpha, d, offsets (6 each)
+P_BASE, P_TOOL = 92, 104  # rows 0-2 of base and tool (working unit)
+N_P = 116
+# per-pose integer outputs (``iv``)
+I_FOUND, I_VALID, I_CHOSEN, I_DEG, I_DISTINCT, I_BKEY, I_VKEY = range(7)
+N_I = 7
+CHUNK = 64  # poses per work item of the batch kernel
+
+SUCCESS = int(StopReason.SUCCESS)
+NO_SOLUTION = int(StopReason.NO_SOLUTION)
+
+
+def packed(prep: Prepared, s: AnalyticPumaSettings) -> np.ndarray:
+    """The closed form's parameters, the bare-goal transforms and the FK check's settings in one array."""
+    c = prep.model.chain
+    g = prep.memo("analytic_puma_geometry", lambda: geometry(prep))
+    al = np.asarray(c.alpha, dtype=float)
+    P = np.zeros(N_P)
+    P[P_G:P_G + 19] = g
+    P[P_CA:P_CA + 5] = [math.cos(x) for x in al[:5]]  # libm, as the compiled kernels' cos
+    P[P_SA:P_SA + 5] = [math.sin(x) for x in al[:5]]
+    P[P_CA6], P[P_SA6] = math.cos(g[8]), math.sin(g[8])
+    P[P_L] = math.hypot(g[4], g[5])
+    P[P_BETA] = math.atan2(g[10] * g[5], g[4])
+    P[P_BINV:P_BINV + 12] = rigid_rows(c.base, inverse=True)
+    P[P_TINV:P_TINV + 12] = rigid_rows(c.tool, inverse=True)
+    P[P_PLAIN] = float(np.array_equal(c.base, np.eye(4)) and np.array_equal(c.tool, np.eye(4)))
+    P[P_CRIT] = CRITERION_CODE[s.criterion]
+    P[P_TOLP], P[P_TOLR], P[P_TOLDQ] = s.tol_pos, s.tol_rot, s.tol_dq
+    a, alpha, d, offs, prism, form, base, tool = prep.args
+    P[P_A:P_A + 6] = a
+    P[P_LCA:P_LCA + 6] = [math.cos(x) for x in alpha]
+    P[P_LSA:P_LSA + 6] = [math.sin(x) for x in alpha]
+    P[P_D:P_D + 6] = d
+    P[P_OFF:P_OFF + 6] = offs
+    P[P_BASE:P_BASE + 12] = rigid_rows(base)
+    P[P_TOOL:P_TOOL + 12] = rigid_rows(tool)
+    return P
+
+
+@numba.njit(cache=True, inline="always")
+def _rz_rx(P, t, i):
+    """Rotation part of Rz(t) Rx(alpha_i) (i < 5), row-major 9-tuple."""
+    ct, st, ca, sa = math.cos(t), math.sin(t), P[P_CA + i], P[P_SA + i]
+    return ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca
+
+
+W_C1, W_C3, W_C, W_T, W_CODES = 36, 48, 60, 72, 84  # FK check blocks (3 x 4), branch codes (8)
+N_W = 92
 
 
 @numba.njit(cache=True)
-def puma_kernel(T06, g, a, alpha, d, offs, sols, flags):
-    """All closed-form solutions of the bare-chain goal ``T06``; returns their count (rows of ``sols``, ``flags``)."""
-    a1, d1, d23, a2, a3, d4, a6, d6, al6 = g[0], g[1], g[2], g[3], g[4], g[5], g[6], g[7], g[8]
-    s1, s3, s4, s5 = g[9], g[10], g[11], g[12]
-    # wrist centre: the origin of frame 5 = T06 (Tz(d6) Tx(a6) Rx(al6))^-1 0
-    pw = np.empty(3)
-    sa6, ca6 = np.sin(al6), np.cos(al6)
+def _check(P, sols, k, Tg, W, crit):
+    """FK check of solution ``k`` (whole chain, base and tool included) against ``Tg``: (meets the
+    settings' criterion, |dp|, rotation angle), as :func:`pipeline.solvers.base.verify` computes them.
+
+    The products base A1 and base A1 A2 A3 are kept in ``W`` from the previous solution when its
+    first joint values are bitwise the same (solutions come in arm / elbow / wrist order)."""
+    same1 = k > 0 and sols[k, 0] == sols[k - 1, 0]
+    same3 = same1 and sols[k, 1] == sols[k - 1, 1] and sols[k, 2] == sols[k - 1, 2]
+    if not same1:
+        copy12(P, P_BASE, W, W_C1)
+        t = P[P_OFF] + sols[k, 0]
+        mul_link(W, W_C1, math.cos(t), math.sin(t), P[P_A], P[P_LCA], P[P_LSA], P[P_D])
+    if not same3:
+        copy12(W, W_C1, W, W_C3)
+        for j in range(1, 3):
+            t = P[P_OFF + j] + sols[k, j]
+            mul_link(W, W_C3, math.cos(t), math.sin(t), P[P_A + j], P[P_LCA + j], P[P_LSA + j], P[P_D + j])
+    copy12(W, W_C3, W, W_C)
+    for j in range(3, 6):
+        t = P[P_OFF + j] + sols[k, j]
+        mul_link(W, W_C, math.cos(t), math.sin(t), P[P_A + j], P[P_LCA + j], P[P_LSA + j], P[P_D + j])
+    mul34(W, W_C, P, P_TOOL, W, W_T)
+    o = W_T
+    dp, ang = pose_errors(Tg, W, o)
+    # |t| of T_goal T^-1: p_goal - R_goal R^T p
+    px, py, pz = W[o + 3], W[o + 7], W[o + 11]
+    u0 = W[o] * px + W[o + 4] * py + W[o + 8] * pz
+    u1 = W[o + 1] * px + W[o + 5] * py + W[o + 9] * pz
+    u2 = W[o + 2] * px + W[o + 6] * py + W[o + 10] * pz
+    tx = Tg[0, 3] - (Tg[0, 0] * u0 + Tg[0, 1] * u1 + Tg[0, 2] * u2)
+    ty = Tg[1, 3] - (Tg[1, 0] * u0 + Tg[1, 1] * u1 + Tg[1, 2] * u2)
+    tz = Tg[2, 3] - (Tg[2, 0] * u0 + Tg[2, 1] * u1 + Tg[2, 2] * u2)
+    ok = meets(crit, P[P_TOLP], P[P_TOLR], P[P_TOLDQ], dp, ang, math.sqrt(tx * tx + ty * ty + tz * tz))
+    return ok, dp, ang
+
+
+@numba.njit(cache=True)
+def puma_core(P, Tg, q_start, W, clk, sols, q, iv, fv):
+    """One pose: every closed-form solution, each checked by the compiled FK, the choice.
+
+    ``P`` from :func:`packed`; ``Tg`` (4, 4) the whole chain's goal; ``W`` (N_W,) and ``clk`` (2,)
+    int64 scratch. Writes the solutions
+    found into the first rows of ``sols`` (8, 6) (NaN below), the returned angles into ``q`` (6,),
+    the counts into ``iv`` (see ``I_*``) and the largest FK errors into ``fv`` (2,). Returns the
+    closed form's time [ns] (the checks excluded, as before).
+    """
+    t0 = now_ns(clk)
     for r in range(3):
-        pw[r] = T06[r, 3] - a6 * T06[r, 0] - d6 * (sa6 * T06[r, 1] + ca6 * T06[r, 2])
-    r_xy = np.hypot(pw[0], pw[1])
+        for c in range(4):
+            W[4 * r + c] = Tg[r, c]
+    # W[0:12] goal rows, W[12:24] bare goal, W[24:36] scratch
+    if P[P_PLAIN] != 0.0:
+        copy12(W, 0, W, 12)
+    else:  # base^-1 T tool^-1, as Prepared.bare_goal
+        mul34(P, P_BINV, W, 0, W, 24)
+        mul34(W, 24, P, P_TINV, W, 12)
+    a1, d1, d23, a2, a3, d4, a6, d6 = P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7]
+    s1, s4, s5 = P[9], P[11], P[12]
+    ca6, sa6, L, beta = P[P_CA6], P[P_SA6], P[P_L], P[P_BETA]
+    o = 12
+    # wrist centre: the origin of frame 5 = T06 (Tz(d6) Tx(a6) Rx(al6))^-1 0
+    pw0 = W[o + 3] - a6 * W[o] - d6 * (sa6 * W[o + 1] + ca6 * W[o + 2])
+    pw1 = W[o + 7] - a6 * W[o + 4] - d6 * (sa6 * W[o + 5] + ca6 * W[o + 6])
+    pw2 = W[o + 11] - a6 * W[o + 8] - d6 * (sa6 * W[o + 9] + ca6 * W[o + 10])
+    r_xy = math.hypot(pw0, pw1)
     m = 0
-    if r_xy < abs(d23):
-        return m
-    phi = np.arctan2(pw[1], pw[0])
-    asn = np.arcsin(s1 * d23 / r_xy)
-    L = np.hypot(a3, d4)
-    beta = np.arctan2(s3 * d4, a3)
-    R06r = np.empty((3, 3))  # R06 Rx(al6)^T
-    for i in range(3):
-        R06r[i, 0] = T06[i, 0]
-        R06r[i, 1] = T06[i, 1] * ca6 - T06[i, 2] * sa6
-        R06r[i, 2] = T06[i, 1] * sa6 + T06[i, 2] * ca6
-    A = np.empty((3, 3))
-    B = np.empty((3, 3))
-    R03 = np.empty((3, 3))
-    R = np.empty((3, 3))
-    R45 = np.empty((3, 3))
-    for arm in range(2):
-        th1 = phi + asn if arm == 0 else phi - np.pi - asn
-        c1, sn1 = np.cos(th1), np.sin(th1)
-        X = c1 * pw[0] + sn1 * pw[1] - a1
-        Y = s1 * (pw[2] - d1)
-        cg = (X * X + Y * Y - a2 * a2 - L * L) / (2 * a2 * L)
-        if abs(cg) > 1 + REACH_SLACK:
-            continue
-        cg = max(-1.0, min(1.0, cg))
-        for el in range(2):
-            elbow = 1.0 if el == 0 else -1.0
-            gam = elbow * np.arccos(cg)
-            th2 = np.arctan2(Y, X) - np.arctan2(L * np.sin(gam), a2 + L * np.cos(gam))
-            th3 = gam + beta
-            # R03 = Rz(th1) Rx(al1) Rz(th2) Rx(al2) Rz(th3) Rx(al3)
-            _rz_rx(th1, alpha[0], A)
-            _rz_rx(th2, alpha[1], B)
-            R03[:, :] = A @ B
-            _rz_rx(th3, alpha[2], A)
-            R03[:, :] = R03 @ A
-            R[:, :] = R03.T @ R06r
-            hyp = np.hypot(R[0, 2], R[1, 2])
-            for wr in range(2):
-                w = 1.0 if wr == 0 else -1.0
-                th5 = np.arctan2(w * hyp, -s4 * s5 * R[2, 2])
-                deg = hyp < DEGENERATE_S5
-                th4 = 0.0 if deg else np.arctan2(s5 * w * R[1, 2], s5 * w * R[0, 2])
-                _rz_rx(th4, alpha[3], A)
-                _rz_rx(th5, alpha[4], B)
-                R45[:, :] = A @ B
-                Rr = R45.T @ R
-                th6 = np.arctan2(Rr[1, 0], Rr[0, 0])
-                sols[m, 0] = th1 - offs[0]
-                sols[m, 1] = th2 - offs[1]
-                sols[m, 2] = th3 - offs[2]
-                sols[m, 3] = th4 - offs[3]
-                sols[m, 4] = th5 - offs[4]
-                sols[m, 5] = th6 - offs[5]
-                flags[m, 0] = 1 - 2 * arm
-                flags[m, 1] = int(elbow)
-                flags[m, 2] = int(w)
-                flags[m, 3] = 1 if deg else 0
-                m += 1
-    return m
+    if r_xy >= abs(d23):
+        phi = math.atan2(pw1, pw0)
+        asn = math.asin(s1 * d23 / r_xy)
+        # R06 Rx(al6)^T
+        n00 = W[o]
+        n01 = W[o + 1] * ca6 - W[o + 2] * sa6
+        n02 = W[o + 1] * sa6 + W[o + 2] * ca6
+        n10 = W[o + 4]
+        n11 = W[o + 5] * ca6 - W[o + 6] * sa6
+        n12 = W[o + 5] * sa6 + W[o + 6] * ca6
+        n20 = W[o + 8]
+        n21 = W[o + 9] * ca6 - W[o + 10] * sa6
+        n22 = W[o + 9] * sa6 + W[o + 10] * ca6
+        for arm in range(2):
+            th1 = phi + asn if arm == 0 else phi - math.pi - asn
+            c1, sn1 = math.cos(th1), math.sin(th1)
+            X = c1 * pw0 + sn1 * pw1 - a1
+            Y = s1 * (pw2 - d1)
+            cg = (X * X + Y * Y - a2 * a2 - L * L) / (2 * a2 * L)
+            if abs(cg) > 1 + REACH_SLACK:
+                continue
+            cg = max(-1.0, min(1.0, cg))
+            acg = math.acos(cg)
+            sg, cgg = math.sin(acg), math.cos(acg)
+            aty = math.atan2(Y, X)
+            a00, a01, a02, a10, a11, a12, a20, a21, a22 = _rz_rx(P, th1, 0)
+            for el in range(2):
+                elbow = 1.0 if el == 0 else -1.0
+                gam = elbow * acg
+                th2 = aty - math.atan2(L * (elbow * sg), a2 + L * cgg)  # sin is odd, cos even
+                th3 = gam + beta
+                # R03 = Rz(th1) Rx(al1) Rz(th2) Rx(al2) Rz(th3) Rx(al3)
+                b00, b01, b02, b10, b11, b12, b20, b21, b22 = _rz_rx(P, th2, 1)
+                e00 = a00 * b00 + a01 * b10 + a02 * b20
+                e01 = a00 * b01 + a01 * b11 + a02 * b21
+                e02 = a00 * b02 + a01 * b12 + a02 * b22
+                e10 = a10 * b00 + a11 * b10 + a12 * b20
+                e11 = a10 * b01 + a11 * b11 + a12 * b21
+                e12 = a10 * b02 + a11 * b12 + a12 * b22
+                e20 = a20 * b00 + a21 * b10 + a22 * b20
+                e21 = a20 * b01 + a21 * b11 + a22 * b21
+                e22 = a20 * b02 + a21 * b12 + a22 * b22
+                b00, b01, b02, b10, b11, b12, b20, b21, b22 = _rz_rx(P, th3, 2)
+                f00 = e00 * b00 + e01 * b10 + e02 * b20
+                f01 = e00 * b01 + e01 * b11 + e02 * b21
+                f02 = e00 * b02 + e01 * b12 + e02 * b22
+                f10 = e10 * b00 + e11 * b10 + e12 * b20
+                f11 = e10 * b01 + e11 * b11 + e12 * b21
+                f12 = e10 * b02 + e11 * b12 + e12 * b22
+                f20 = e20 * b00 + e21 * b10 + e22 * b20
+                f21 = e20 * b01 + e21 * b11 + e22 * b21
+                f22 = e20 * b02 + e21 * b12 + e22 * b22
+                # R = R03^T R06r
+                r00 = f00 * n00 + f10 * n10 + f20 * n20
+                r10 = f01 * n00 + f11 * n10 + f21 * n20
+                r20 = f02 * n00 + f12 * n10 + f22 * n20
+                r02 = f00 * n02 + f10 * n12 + f20 * n22
+                r12 = f01 * n02 + f11 * n12 + f21 * n22
+                r22 = f02 * n02 + f12 * n12 + f22 * n22
+                hyp = math.hypot(r02, r12)
+                for wr in range(2):
+                    w = 1.0 if wr == 0 else -1.0
+                    th5 = math.atan2(w * hyp, -s4 * s5 * r22)
+                    deg = hyp < DEGENERATE_S5
+                    th4 = 0.0 if deg else math.atan2(s5 * w * r12, s5 * w * r02)
+                    # th6 from (R4 R5)^T R = Rz(th6): column 0 of R45^T R
+                    b00, b01, b02, b10, b11, b12, b20, b21, b22 = _rz_rx(P, th4, 3)
+                    c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rz_rx(P, th5, 4)
+                    h00 = b00 * c00 + b01 * c10 + b02 * c20
+                    h01 = b00 * c01 + b01 * c11 + b02 * c21
+                    h10 = b10 * c00 + b11 * c10 + b12 * c20
+                    h11 = b10 * c01 + b11 * c11 + b12 * c21
+                    h20 = b20 * c00 + b21 * c10 + b22 * c20
+                    h21 = b20 * c01 + b21 * c11 + b22 * c21
+                    rr00 = h00 * r00 + h10 * r10 + h20 * r20
+                    rr10 = h01 * r00 + h11 * r10 + h21 * r20
+                    th6 = math.atan2(rr10, rr00)
+                    sols[m, 0] = th1 - P[13]
+                    sols[m, 1] = th2 - P[14]
+                    sols[m, 2] = th3 - P[15]
+                    sols[m, 3] = th4 - P[16]
+                    sols[m, 4] = th5 - P[17]
+                    sols[m, 5] = th6 - P[18]
+                    W[W_CODES + m] = 4 * arm + 2 * el + wr + (8 if deg else 0)  # branch word code
+                    m += 1
+    ns = now_ns(clk) - t0
+    crit = int(P[P_CRIT])
+    nvalid = 0
+    ndeg = 0
+    bkey = m
+    vkey = m
+    maxdp = math.nan
+    maxang = math.nan
+    best = -1
+    bestd = 1e300
+    seen = 0
+    for k in range(m):
+        ok, dp, ang = _check(P, sols, k, Tg, W, crit)
+        if k == 0 or dp > maxdp:  # Python's max(): the first value, then any larger one
+            maxdp = dp
+        if k == 0 or ang > maxang:
+            maxang = ang
+        code = int(W[W_CODES + k])
+        bkey |= code << (4 + 4 * k)
+        ndeg += code >> 3
+        seen |= 1 << (code & 7)
+        if ok:
+            nvalid += 1
+            vkey |= 1 << (4 + k)
+            dist = 0.0
+            for j in range(6):
+                dj = (sols[k, j] - q_start[j] + math.pi) % (2 * math.pi) - math.pi
+                dist += dj * dj
+            if dist < bestd:
+                bestd = dist
+                best = k
+    ndist = 0
+    for b in range(8):
+        ndist += (seen >> b) & 1
+    for r in range(m, 8):
+        for j in range(6):
+            sols[r, j] = math.nan
+    for j in range(6):
+        q[j] = q_start[j] if best < 0 else sols[best, j]
+    iv[I_FOUND], iv[I_VALID], iv[I_CHOSEN], iv[I_DEG], iv[I_DISTINCT] = m, nvalid, best, ndeg, ndist
+    iv[I_BKEY], iv[I_VKEY] = bkey, vkey
+    fv[0], fv[1] = maxdp, maxang
+    return ns
 
 
 @numba.njit(cache=True)
-def timed_kernel(T06, g, a, alpha, d, offs, sols, flags, times):
+def puma_one(P, Tg, q_start, sols, q, iv, fv):
+    """:func:`puma_core` with its own scratch (the single-pose call)."""
+    W = np.empty(N_W)
     clk = np.zeros(2, np.int64)
-    t0 = _kin.now_ns(clk)
-    m = puma_kernel(T06, g, a, alpha, d, offs, sols, flags)
-    times[0] = _kin.now_ns(clk) - t0
-    return m
+    return puma_core(P, Tg, q_start, W, clk, sols, q, iv, fv)
+
+
+@numba.njit(cache=True, parallel=True)
+def puma_batch(P, goals, starts, S, Q, IV, FV, ns):
+    """:func:`puma_core` for every row (work items of ``CHUNK`` poses, one workspace each; every pose
+    writes only its own rows, so results do not depend on the thread count)."""
+    N = goals.shape[0]
+    for k in numba.prange((N + CHUNK - 1) // CHUNK):
+        W = np.empty(N_W)
+        clk = np.zeros(2, np.int64)
+        for i in range(k * CHUNK, min(N, (k + 1) * CHUNK)):
+            ns[i] = puma_core(P, goals[i], starts[i], W, clk, S[i], Q[i], IV[i], FV[i])
+
+
+# ---- info (the single call's keys; strings from small caches keyed by the kernel's packed codes) --
+_WORDS = ["".join("+" if not c & b else "-" for b in (4, 2, 1)) + ("d" if c & 8 else "") for c in range(16)]
+_BRANCHES: dict = {}
+_VALID: dict = {}
+
+
+def _branches(key: int) -> str:
+    s = _BRANCHES.get(key)
+    if s is None:
+        s = _BRANCHES[key] = " ".join(_WORDS[(key >> (4 + 4 * k)) & 15] for k in range(key & 15))
+    return s
+
+
+def _valid(key: int) -> str:
+    s = _VALID.get(key)
+    if s is None:
+        s = _VALID[key] = "".join("1" if key >> (4 + k) & 1 else "0" for k in range(key & 15))
+    return s
+
+
+def _info(iv: list, maxdp: float, maxang: float) -> dict:
+    return {"solutions_found": iv[I_FOUND], "solutions_valid": iv[I_VALID], "max_position_error": maxdp,
+            "max_orientation_error": maxang, "degenerate_wrist": iv[I_DEG], "distinct_branches": iv[I_DISTINCT],
+            "branches": _branches(iv[I_BKEY]), "valid": _valid(iv[I_VKEY]), "chosen": iv[I_CHOSEN]}
+
+
+def bind(prep: Prepared, s: AnalyticPumaSettings):
+    """``run1(T_goal, q_start, seed) -> Raw`` with the geometry, bare-goal transforms and FK check packed once."""
+    P = packed(prep, s)
+
+    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        sols = np.empty((8, 6))
+        q = np.empty(6)
+        iv = np.empty(N_I, np.int64)
+        fv = np.empty(2)
+        ns = puma_one(P, T_goal, q_start, sols, q, iv, fv)
+        v = iv.tolist()
+        return Raw(q=q, code=SUCCESS if v[I_CHOSEN] >= 0 else NO_SOLUTION, iterations=0, solve_ns=ns, ik_ns=ns,
+                   solutions=sols[:v[I_FOUND]], info=_info(v, float(fv[0]), float(fv[1])))
+
+    return run1
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: AnalyticPumaSettings, seed: int) -> Raw:
-    g = prep.memo("analytic_puma_geometry", lambda: geometry(prep))
-    a, alpha, d, offs = prep.args[:4]
-    T06 = np.ascontiguousarray(prep.bare_goal(T_goal))
-    sols = np.empty((8, 6))
-    flags = np.zeros((8, 4), np.int64)
-    times = np.zeros(1, np.int64)
-    m = int(timed_kernel(T06, g, a, alpha, d, offs, sols, flags, times))
-    sols = sols[:m].copy()
-    checks = [verify(prep.model, T_goal, q, s) for q in sols]
-    valid = np.array([ok for ok, _, _ in checks], dtype=bool)
-    f = flags[:m]
-    info = {"solutions_found": m, "solutions_valid": int(valid.sum()),
-            "max_position_error": max((dp for _, dp, _ in checks), default=float("nan")),
-            "max_orientation_error": max((ang for _, _, ang in checks), default=float("nan")),
-            "degenerate_wrist": int(f[:, 3].sum()),
-            "distinct_branches": len({tuple(r[:3]) for r in f.tolist()}),
-            "branches": " ".join("".join("+" if v > 0 else "-" for v in r[:3]) + ("d" if r[3] else "") for r in f.tolist()),
-            "valid": "".join("1" if v else "0" for v in valid)}
-    if valid.any():
-        cand = np.flatnonzero(valid)
-        diff = sols[cand] - q_start[None, :]
-        diff = (diff + np.pi) % (2 * np.pi) - np.pi  # revolute joints: nearest modulo 2 pi
-        best = int(cand[np.argmin(np.einsum("ij,ij->i", diff, diff))])
-        return Raw(q=sols[best].copy(), code=int(StopReason.SUCCESS), iterations=0, solve_ns=int(times[0]),
-                   ik_ns=int(times[0]), solutions=sols, info={**info, "chosen": best})
-    return Raw(q=np.array(q_start, dtype=float), code=int(StopReason.NO_SOLUTION), iterations=0,
-               solve_ns=int(times[0]), ik_ns=int(times[0]), solutions=sols, info={**info, "chosen": -1})
+    """One pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``."""
+    return bind(prep, s)(np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q_start, dtype=float), seed)
+
+
+def batch(prep: Prepared, s: AnalyticPumaSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
+    """N poses in one compiled call (both cores).
+
+    Returns a :class:`BatchRaw`: ``q`` (N, 6), ``code`` SUCCESS / NO_SOLUTION, ``iterations`` 0,
+    ``solve_ns`` = ``ik_ns`` per pose, ``solutions`` (N, 8, 6) with the solutions found in the first
+    ``n_solutions[i]`` rows (as the single call: every closed-form solution, its FK verdict in
+    ``info[i]["valid"]``; NaN below), no traces (the closed form has none), and ``info`` an
+    :class:`~pipeline.solvers.analytic_ur.InfoRows` (the single call's dict per pose, built on access).
+    """
+    P = packed(prep, s)
+    N = goals.shape[0]
+    S = np.empty((N, 8, 6))
+    Q = np.empty((N, 6))
+    IV = np.zeros((N, N_I), np.int64)
+    FV = np.empty((N, 2))
+    ns = np.zeros(N, np.int64)
+    puma_batch(P, goals, starts, S, Q, IV, FV, ns)
+    info = InfoRows(N, lambda i: _info(IV[i].tolist(), float(FV[i, 0]), float(FV[i, 1])))
+    return BatchRaw(q=Q, code=np.where(IV[:, I_CHOSEN] >= 0, SUCCESS, NO_SOLUTION).astype(np.int64),
+                    iterations=np.zeros(N, np.int64), solve_ns=ns, ik_ns=ns.copy(), solutions=S,
+                    n_solutions=IV[:, I_FOUND].copy(), info=info)
 
 
 register(Solver("analytic_puma", "closed-form IK of PUMA-type arms (spherical wrist): all 8 solutions, the one "
                 "nearest the start returned", "analytic", AnalyticPumaSettings, run, applies_to=applies_to,
-                source=SOURCE))
+                source=SOURCE, bind=bind, batch=batch))

@@ -272,6 +272,7 @@ class Prepared:
         self.prismatic = np.asarray(c.prismatic, dtype=bool)
         self._cache: dict = {}  # see memo()
         self._bound: dict = {}  # (solver name, id(settings)) -> registry.Bound (see registry.bind)
+        self._finish_args = None  # finish()'s packed check model (see _finish_args)
 
     @property
     def n(self) -> int:
@@ -291,11 +292,14 @@ class Prepared:
         return value
 
     def working_goal(self, T_goal: np.ndarray) -> np.ndarray:
-        """``T_goal`` (4, 4) in the source model's unit -> the working unit (C-contiguous copy)."""
-        T = np.array(T_goal, dtype=float, order="C")
+        """``T_goal`` (4, 4) in the source model's unit -> the working unit, C-contiguous float64
+        (the caller's array itself when it already is that and no unit change is needed: kernels
+        never write into the goal)."""
         if self.goal_scale != 1.0:
+            T = np.array(T_goal, dtype=float, order="C")
             T[:3, 3] *= self.goal_scale
-        return T
+            return T
+        return np.ascontiguousarray(T_goal, dtype=float)
 
     def bare_goal(self, T_goal: np.ndarray) -> np.ndarray:
         """Goal of the bare DH chain: ``base^-1 T_goal tool^-1`` (for analytic solvers)."""
@@ -328,7 +332,7 @@ def _inv_rigid(T: np.ndarray) -> np.ndarray:
 
 
 # ---- raw kernel output and the one result type ------------------------------------------------
-@dataclass
+@dataclass(slots=True)
 class Raw:
     """What a method's kernel call returns (before the FK check).
 
@@ -649,28 +653,59 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
     if settings.require_limits:
         q = _within_limit_choice(prep, T_goal, raw, settings, q_start)
     else:
-        q = np.asarray(raw.q, dtype=float)
-    ok, dp, ang, _ = check_one(*prep.check, q, T_goal, CRITERION_CODE[settings.criterion], settings.tol_pos,
-                               settings.tol_rot, settings.tol_dq, np.empty(8))
-    ok = bool(ok)
+        q = raw.q
+        if type(q) is not np.ndarray or q.dtype != np.float64:
+            q = np.asarray(q, dtype=float)
+    fa = prep._finish_args
+    if fa is None:
+        fa = prep._finish_args = _finish_args(prep)
+    F, prism = fa
+    ok, dp, ang, inside = _check_within(F, prism, q, T_goal, CRITERION_CODE[settings.criterion], settings.tol_pos,
+                                        settings.tol_rot, settings.tol_dq)
     code = int(raw.code)
-    claimed = code == StopReason.SUCCESS
+    claimed = code == _SUCCESS
     if claimed and not ok:
-        code = int(StopReason.FK_CHECK_FAILED)
-    if not np.all(np.isfinite(q)):
-        code = int(StopReason.NON_FINITE)
+        code = _FK_CHECK_FAILED
+    if dp != dp:  # NaN: the check found a non-finite joint value (pose_check returns NaN then)
+        code = _NON_FINITE
     trace = raw.trace
     if trace is None:
         trace = np.full((1, TRACE_COLS), np.nan)
         trace[0, 7] = dp
-    else:
+    elif len(trace) != raw.iterations + 1:
         trace = np.asarray(trace)[: raw.iterations + 1]
-    inside = bool(_within(q, prep.limits, prep.prismatic, 1e-9))
-    if code == StopReason.SUCCESS and settings.require_limits and not inside:
-        code = int(StopReason.OUT_OF_LIMITS)
-    return IKResult(q=q, success=bool(claimed and ok and code == StopReason.SUCCESS), stop_reason=code,
+    if code == _SUCCESS and settings.require_limits and not inside:
+        code = _OUT_OF_LIMITS
+    return IKResult(q=q, success=bool(claimed and ok and code == _SUCCESS), stop_reason=code,
                     iterations=int(raw.iterations), trace=trace, solve_time_s=raw.solve_ns * 1e-9,
                     ik_time_s=raw.ik_ns * 1e-9, position_error=dp,
-                    orientation_error=float("nan") if settings.criterion == "position" else ang,
+                    orientation_error=math.nan if settings.criterion == "position" else ang,
                     claimed_success=claimed, within_limits=inside,
-                    call_time_s=call_ns * 1e-9, length_unit=prep.unit, solutions=raw.solutions, info=dict(raw.info))
+                    call_time_s=call_ns * 1e-9, length_unit=prep.unit, solutions=raw.solutions, info=raw.info)
+
+
+_SUCCESS, _FK_CHECK_FAILED, _NON_FINITE, _OUT_OF_LIMITS = (int(StopReason.SUCCESS), int(StopReason.FK_CHECK_FAILED),
+                                                          int(StopReason.NON_FINITE), int(StopReason.OUT_OF_LIMITS))
+
+
+def _finish_args(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
+    """The check's model and the limits packed into one float array (fewer arguments = a cheaper
+    compiled call): K (n+1, 8), axis (n, 3), offset (n,), limits (n, 2), then 8 floats of scratch."""
+    K, axis, offset, prism = prep.check
+    F = np.concatenate([K.ravel(), axis.ravel(), offset, prep.limits.ravel(), np.zeros(8)])
+    return F, np.ascontiguousarray(prism)
+
+
+@numba.njit(cache=True)
+def _check_within(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq):
+    """The FK check and the joint-limit record of one solution in one compiled call (``F``: :func:`_finish_args`)."""
+    n = q.shape[0]
+    o1 = 8 * (n + 1)
+    o2 = o1 + 3 * n
+    o3 = o2 + n
+    o4 = o3 + 2 * n
+    K = F[:o1].reshape((n + 1, 8))
+    axis = F[o1:o2].reshape((n, 3))
+    limits = F[o3:o4].reshape((n, 2))
+    ok, dp, ang, _ = check_one(K, axis, F[o2:o3], prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, F[o4:])
+    return ok, dp, ang, _within(q, limits, prism, 1e-9)

@@ -121,7 +121,7 @@ class Bound:
     :class:`Prepared` robot and a :class:`Settings` object.
     """
 
-    __slots__ = ("spec", "prep", "settings", "sc", "run1", "scaled")
+    __slots__ = ("spec", "prep", "settings", "sc", "run1", "scaled", "shape", "may_restart")
 
     def __init__(self, spec: Solver, prep: Prepared, settings: Settings):
         self.spec, self.prep, self.settings = spec, prep, settings
@@ -133,19 +133,22 @@ class Bound:
             self.run1 = lambda Tg, q0, seed: run(prep, Tg, q0, sc, seed)
         prep.check  # noqa: B018  (build the FK check's model now, not in the first timed call)
         self.scaled = prep.goal_scale != 1.0 and bool(prep.prismatic.any())
+        self.shape = (prep.n,)
+        self.may_restart = bool(self.sc.restarts) and spec.kind != "analytic"
 
     def solve(self, T_goal: np.ndarray, q_start: np.ndarray, seed: int = 0, t0: int | None = None) -> IKResult:
         """One problem (see :func:`solve`); ``t0`` = the caller's start time on the call clock [ns]."""
         t0 = clock_ns() if t0 is None else t0
         prep, sc = self.prep, self.sc
         Tg = prep.working_goal(T_goal)
-        q0 = np.array(q_start, dtype=float, order="C")
-        if q0.shape != (prep.n,):
-            raise SettingsError(f"q_start: expected shape ({prep.n},), got {q0.shape}")
+        q0 = np.ascontiguousarray(q_start, dtype=float)  # kernels never write into the start
+        if q0.shape != self.shape:
+            raise SettingsError(f"q_start: expected shape {self.shape}, got {q0.shape}")
         if self.scaled:
+            q0 = q0.copy()
             q0[prep.prismatic] *= prep.goal_scale
-        res = finish(prep, Tg, self.run1(Tg, q0, int(seed)), sc, q_start=q0)
-        if sc.restarts and not res.success and self.spec.kind != "analytic":
+        res = finish(prep, Tg, self.run1(Tg, q0, seed), sc, q_start=q0)
+        if self.may_restart and not res.success:
             res = _restart(self.spec, prep, Tg, sc, int(seed), res, t0)
         if self.scaled:  # joint values go back in the robot file's unit
             res.q[prep.prismatic] /= prep.goal_scale
@@ -159,11 +162,11 @@ def bind(name: str, robot: RobotModel | Prepared, settings: Settings | dict | No
     With a :class:`Prepared` robot and a :class:`Settings` object the binding is cached on the
     prepared robot (keyed by the settings object's identity), so repeated calls are cheap.
     """
-    spec = get(name)
-    if isinstance(robot, Prepared) and isinstance(settings, spec.settings):
+    if type(robot) is Prepared:  # the cached binding, checked by identity (cheapest path first)
         hit = robot._bound.get((name, id(settings)))
         if hit is not None and hit.settings is settings:
             return hit
+    spec = get(name)
     s = settings if isinstance(settings, spec.settings) else make_settings(name, settings)
     prep = prepare(name, robot, s)
     b = Bound(spec, prep, s)
