@@ -336,10 +336,11 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
             stalled = math.sqrt(1.0 + 0.25 * t * t) < fp[_jit.F_STALL_DQ]
             ok = err <= fp[_jit.F_TOL_DQ]
         else:
-            w, x, yy, z = _rel(qt, qp)
             dmove = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
-            rmove = 2.0 * math.atan2(math.sqrt(x * x + yy * yy + z * z), w)
-            stalled = dmove < fp[_jit.F_STALL_POS] and rmove < fp[_jit.F_STALL_ROT]
+            stalled = False
+            if dmove < fp[_jit.F_STALL_POS]:  # the rotation only matters when the position stalled
+                w, x, yy, z = _rel(qt, qp)
+                stalled = 2.0 * math.atan2(math.sqrt(x * x + yy * yy + z * z), w) < fp[_jit.F_STALL_ROT]
             ok = dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]
         grew = grew + 1 if err > prev_err else 0
         if not math.isfinite(err):

@@ -666,7 +666,7 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
     claimed = code == _SUCCESS
     if claimed and not ok:
         code = _FK_CHECK_FAILED
-    if dp != dp:  # NaN: the check found a non-finite joint value (pose_check returns NaN then)
+    if dp != dp and not np.isfinite(q).all():  # a NaN error: a non-finite joint value (or goal)
         code = _NON_FINITE
     trace = raw.trace
     if trace is None:
