@@ -20,7 +20,9 @@ Sections (each prints medians and 95th percentiles; every time is per problem un
               iterations per problem with the stop tests disabled (tolerances 0), time / iterations
               (the kernel's own clock, so the once-per-solve set-up is spread over 2 000
               iterations); against the flop floor (:func:`pipeline.solvers._lean.flops_per_iteration`
-              at this machine's measured multiply-add rate, plus 7 sin/cos pairs at their measured cost).
+              at this machine's measured multiply-add rate, plus 7 sin/cos pairs at their measured cost);
+              DLS also without the two clock reads per iteration that record ``ik_time_s``
+              (``time_ik_block: false``).
 ``batch``     ``pipeline.solvers.solve_batch`` at the cerbaro2019 DLS settings
               (data/studies/cerbaro2019.yaml) on ``--batch`` of its random problems, on 1 and 2
               threads: solves per second (wall time of the whole call).
@@ -148,16 +150,18 @@ def hotloop(n: int) -> dict:
     out = {"fma_ns": fma_ns, "sincos_ns": trig_ns}
     print(f"hot loop, LWR, {n} problems x 2000 iterations [ns per iteration]; floor = flops / 2 x {fma_ns:.2f} ns "
           f"per multiply-add (measured) + 7 sin/cos pairs x {trig_ns:.1f} ns (measured)")
-    for method in ("jacobian_transpose", "pseudoinverse", "dls"):
-        prep, s = _prepared(method, lwr, mapping)
+    for method, extra in (("jacobian_transpose", {}), ("pseudoinverse", {}), ("dls", {}),
+                          ("dls", {"time_ik_block": False})):
+        prep, s = _prepared(method, lwr, {**mapping, **extra})
         per = [r.solve_time_s * 1e9 / r.iterations
                for r in (solve(method, prep, T[i], ps.q_start[i], s) for i in range(len(ps)))]
         flops = flops_per_iteration(7, method)
         floor = flops / 2 * fma_ns + 7 * trig_ns  # flops counts a multiply-add as 2
         st = _stats(per)
-        out[method] = {"ns_per_iteration": st, "flops_per_iteration": flops, "floor_ns": floor,
-                       "achieved_over_floor": st["p50"] / floor}
-        print(f"  {method:20s} p50 {st['p50']:6.0f}  p95 {st['p95']:6.0f}   {flops} flops, floor {floor:4.0f} ns, "
+        label = method if not extra else f"{method}_untimed"  # no clock reads around the step (ik_time_s = 0)
+        out[label] = {"ns_per_iteration": st, "flops_per_iteration": flops, "floor_ns": floor,
+                      "achieved_over_floor": st["p50"] / floor}
+        print(f"  {label:20s} p50 {st['p50']:6.0f}  p95 {st['p95']:6.0f}   {flops} flops, floor {floor:4.0f} ns, "
               f"achieved / floor {st['p50'] / floor:.1f}")
     return out
 

@@ -20,7 +20,8 @@ from pipeline.solvers._kin import (  # noqa: F401  (re-exported: one kinematics 
 
 # integer parameter slots -------------------------------------------------------------------
 I_METHOD, I_MAX_ITER, I_CRITERION, I_ORIENT, I_GROW_LIMIT, I_SDLS_NORM, I_SDLS_BLOCKS, I_NO_STALL, I_NO_GROW = range(9)
-N_IP = 9
+I_TIME_IK = 9  # read by the lean loop (pipeline.solvers._lean) only
+N_IP = 10
 # float parameter slots
 F_LAMBDA, F_GAMMA_MAX, F_TOL_DQ, F_STALL_DQ, F_TOL_POS, F_TOL_ROT, F_STALL_POS, F_STALL_ROT, F_ORIENT_GAIN = range(9)
 N_FP = 9

@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _jit
-from pipeline.solvers._kin import now_ns, quat_from_rot, relative_translation_norm
+from pipeline.solvers._kin import now_ns, relative_translation_norm
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -148,13 +148,33 @@ def _rel(qa, qb):
     return w, x, y, z
 
 
+@numba.njit(cache=True, inline="always")
+def _quat(T, q):
+    """:func:`pipeline.solvers._kin.quat_from_rot` with one division instead of four."""
+    tr = T[0, 0] + T[1, 1] + T[2, 2]
+    if tr >= T[0, 0] and tr >= T[1, 1] and tr >= T[2, 2]:
+        q[0], q[1], q[2], q[3] = 1 + tr, T[2, 1] - T[1, 2], T[0, 2] - T[2, 0], T[1, 0] - T[0, 1]
+    elif T[0, 0] >= T[1, 1] and T[0, 0] >= T[2, 2]:
+        q[0], q[1], q[2], q[3] = T[2, 1] - T[1, 2], 1 + 2 * T[0, 0] - tr, T[0, 1] + T[1, 0], T[0, 2] + T[2, 0]
+    elif T[1, 1] >= T[2, 2]:
+        q[0], q[1], q[2], q[3] = T[0, 2] - T[2, 0], T[0, 1] + T[1, 0], 1 + 2 * T[1, 1] - tr, T[1, 2] + T[2, 1]
+    else:
+        q[0], q[1], q[2], q[3] = T[1, 0] - T[0, 1], T[0, 2] + T[2, 0], T[1, 2] + T[2, 1], 1 + 2 * T[2, 2] - tr
+    inv = 1.0 / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if q[0] < 0:
+        inv = -inv
+    for k in range(4):
+        q[k] *= inv
+
+
 @numba.njit(cache=True)
 def _pose_error(Tg, T, qg, qt, ip, fp, e):
     """:func:`pipeline.solvers._jit.pose_error` with the goal's quaternion ``qg`` given and the
-    pose's written into ``qt`` (so the stall test can reuse it): same formulas, same numbers."""
+    pose's written into ``qt`` (so the stall test can reuse it): the same formulas (quaternions
+    normalised by one reciprocal, so equal to the reference to rounding)."""
     for r in range(3):
         e[r] = Tg[r, 3] - T[r, 3]
-    quat_from_rot(T, qt)
+    _quat(T, qt)
     w, x, y, z = _rel(qg, qt)
     s = math.sqrt(x * x + y * y + z * z)
     angle = 2.0 * math.atan2(s, w)
@@ -224,29 +244,29 @@ def _step(method, J, e, lam2, A, y, dq):
                 s += J[r, j] * J[c, j]
             A[r, c] = s
         A[r, r] += lam2
-    for c in range(6):  # Cholesky in place (lower)
+    for c in range(6):  # Cholesky in place (lower); the diagonal holds 1 / L[c, c] (6 divisions, not 27)
         s = A[c, c]
         for k in range(c):
             s -= A[c, k] * A[c, k]
         if not s > 0.0:
             return False
-        dcc = math.sqrt(s)
-        A[c, c] = dcc
+        inv = 1.0 / math.sqrt(s)
+        A[c, c] = inv
         for r in range(c + 1, 6):
             s = A[r, c]
             for k in range(c):
                 s -= A[r, k] * A[c, k]
-            A[r, c] = s / dcc
+            A[r, c] = s * inv
     for r in range(6):  # L z = e
         s = e[r]
         for k in range(r):
             s -= A[r, k] * y[k]
-        y[r] = s / A[r, r]
+        y[r] = s * A[r, r]
     for r in range(5, -1, -1):  # L^T y = z
         s = y[r]
         for k in range(r + 1, 6):
             s -= A[k, r] * y[k]
-        y[r] = s / A[r, r]
+        y[r] = s * A[r, r]
     for j in range(n):
         s = 0.0
         for r in range(6):
@@ -283,10 +303,12 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     qg = np.empty(4)  # goal orientation, once per solve
     qt = np.empty(4)  # this iterate's orientation
     qp = np.empty(4)  # the previous iterate's (stall test)
-    quat_from_rot(Tg, qg)
+    _quat(Tg, qg)
     method = ip[_jit.I_METHOD]
     max_iter = ip[_jit.I_MAX_ITER]
     crit = ip[_jit.I_CRITERION]
+    time_ik = ip[_jit.I_TIME_IK] != 0
+    t0 = 0
     lam = fp[_jit.F_LAMBDA] if method == 2 else 0.0
     lam2 = lam * lam
     rows = trace.shape[0]
@@ -307,12 +329,14 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     while code == 0:
         it += 1
         _jacobian(prism, axes, origins, T, J)
-        t0 = now_ns(clk)
+        if time_ik:
+            t0 = now_ns(clk)
         if method == 3 or not _step(method, J, e, lam2, A, y, dq):
             ref = _jit.step(method, J, e, ip, fp)
             for j in range(n):
                 dq[j] = ref[j]
-        t_ik += now_ns(clk) - t0
+        if time_ik:
+            t_ik += now_ns(clk) - t0
         for j in range(n):
             q[j] += dq[j]
         for r in range(3):
