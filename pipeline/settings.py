@@ -83,14 +83,19 @@ def check_numbers(doc, path: str, exempt: tuple = ("seed",)) -> None:
                               f"largest integer a float holds exactly)")
 
 
-def validate_against(doc, schema: dict, path: str) -> None:
-    """Validate with defaults filled in; raise ConfigError naming the field path."""
+def _raise_first_error(doc, schema: dict, path: str) -> None:
+    """Raise ConfigError naming the field path of the first schema violation (if any)."""
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(doc), key=lambda e: list(e.absolute_path))
     if errors:
         err = errors[0]
         where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
         raise ConfigError(f"{path}: field '{where}': {err.message}")
+
+
+def validate_against(doc, schema: dict, path: str) -> None:
+    """Validate with defaults filled in; raise ConfigError naming the field path."""
+    _raise_first_error(doc, schema, path)
     _fill_defaults(doc, schema)
 
 
@@ -121,12 +126,7 @@ def validate_config_part(doc, path: str) -> dict:
     check_numbers(doc, path)
     schema = dict(_schema("config.schema.yaml"))
     schema.pop("required", None)
-    validator = jsonschema.Draft202012Validator(schema)
-    errors = sorted(validator.iter_errors(doc), key=lambda e: list(e.absolute_path))
-    if errors:
-        err = errors[0]
-        where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
-        raise ConfigError(f"{path}: field '{where}': {err.message}")
+    _raise_first_error(doc, schema, path)
     return doc
 
 

@@ -15,7 +15,8 @@ import numba
 import numpy as np
 
 from pipeline.solvers._kin import (  # noqa: F401  (re-exported: one kinematics layer)
-    forward, jacobian, now_ns, quat_from_rot, relative_rotation, relative_translation_norm, small_svd, vec_norm,
+    forward, jacobian, now_ns, quat_from_rot, quat_relative, relative_rotation, relative_translation_norm, small_svd,
+    vec_norm,
 )
 
 # integer parameter slots -------------------------------------------------------------------
@@ -38,10 +39,20 @@ TRACE_COLS = 8  # scalar error, e (6), position error norm
 
 @numba.njit(cache=True)
 def pose_error(Tg, T, ip, fp, qa, qb, e):
-    """Fill the 6-vector ``e`` (v, omega); return (scalar error, |dp|, rotation angle)."""
+    """Fill the 6-vector ``e`` (v, omega); return (scalar error, |dp|, rotation angle).
+    ``qa``, ``qb`` (4,) receive the goal's and the pose's quaternions."""
+    quat_from_rot(Tg, qa)
+    return pose_error_q(Tg, T, qa, qb, ip, fp, e)
+
+
+@numba.njit(cache=True)
+def pose_error_q(Tg, T, qg, qt, ip, fp, e):
+    """:func:`pose_error` with the goal's quaternion ``qg`` given; the pose's is written into ``qt``
+    (so that a loop computes the goal's once and the stall test reuses the pose's)."""
     for r in range(3):
         e[r] = Tg[r, 3] - T[r, 3]
-    w, x, y, z = relative_rotation(Tg, T, qa, qb)
+    quat_from_rot(T, qt)
+    w, x, y, z = quat_relative(qg, qt)
     s = np.sqrt(x * x + y * y + z * z)
     angle = 2.0 * np.arctan2(s, w)
     if ip[I_ORIENT] == 1 and s > 1e-300:

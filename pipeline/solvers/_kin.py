@@ -156,11 +156,23 @@ def quat_from_rot(T, q):
         q[0], q[1], q[2], q[3] = T[0, 2] - T[2, 0], T[0, 1] + T[1, 0], 1 + 2 * T[1, 1] - tr, T[1, 2] + T[2, 1]
     else:
         q[0], q[1], q[2], q[3] = T[1, 0] - T[0, 1], T[0, 2] + T[2, 0], T[1, 2] + T[2, 1], 1 + 2 * T[2, 2] - tr
-    s = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    inv = 1.0 / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])  # one division, not four
     if q[0] < 0:
-        s = -s
+        inv = -inv
     for k in range(4):
-        q[k] /= s
+        q[k] *= inv
+
+
+@numba.njit(cache=True)
+def quat_relative(qa, qb):
+    """(w, x, y, z) of ``q_a q_b*`` with w >= 0 (unit quaternions, w-first)."""
+    w = qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3]
+    x = -qa[0] * qb[1] + qa[1] * qb[0] - qa[2] * qb[3] + qa[3] * qb[2]
+    y = -qa[0] * qb[2] + qa[1] * qb[3] + qa[2] * qb[0] - qa[3] * qb[1]
+    z = -qa[0] * qb[3] - qa[1] * qb[2] + qa[2] * qb[1] + qa[3] * qb[0]
+    if w < 0:
+        return -w, -x, -y, -z
+    return w, x, y, z
 
 
 @numba.njit(cache=True)
@@ -168,13 +180,7 @@ def relative_rotation(Ta, Tb, qa, qb):
     """Vector part and w of ``q_a q_b*`` with w >= 0; returns (w, x, y, z)."""
     quat_from_rot(Ta, qa)
     quat_from_rot(Tb, qb)
-    w = qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3]
-    x = -qa[0] * qb[1] + qa[1] * qb[0] - qa[2] * qb[3] + qa[3] * qb[2]
-    y = -qa[0] * qb[2] + qa[1] * qb[3] + qa[2] * qb[0] - qa[3] * qb[1]
-    z = -qa[0] * qb[3] - qa[1] * qb[2] + qa[2] * qb[1] + qa[3] * qb[0]
-    if w < 0:
-        w, x, y, z = -w, -x, -y, -z
-    return w, x, y, z
+    return quat_relative(qa, qb)
 
 
 @numba.njit(cache=True)

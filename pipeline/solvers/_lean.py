@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _jit
-from pipeline.solvers._kin import now_ns, relative_translation_norm
+from pipeline.solvers._kin import now_ns, quat_from_rot, quat_relative, relative_translation_norm
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -134,67 +134,6 @@ def fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C):
         for c in range(4):
             T[r, c] = c0 * tool[0, c] + c1 * tool[1, c] + c2 * tool[2, c]
         T[r, 3] += c3
-
-
-@numba.njit(cache=True, inline="always")
-def _rel(qa, qb):
-    """(w, x, y, z) of ``q_a q_b*`` with w >= 0 (as :func:`pipeline.solvers._kin.relative_rotation`)."""
-    w = qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3]
-    x = -qa[0] * qb[1] + qa[1] * qb[0] - qa[2] * qb[3] + qa[3] * qb[2]
-    y = -qa[0] * qb[2] + qa[1] * qb[3] + qa[2] * qb[0] - qa[3] * qb[1]
-    z = -qa[0] * qb[3] - qa[1] * qb[2] + qa[2] * qb[1] + qa[3] * qb[0]
-    if w < 0:
-        return -w, -x, -y, -z
-    return w, x, y, z
-
-
-@numba.njit(cache=True, inline="always")
-def _quat(T, q):
-    """:func:`pipeline.solvers._kin.quat_from_rot` with one division instead of four."""
-    tr = T[0, 0] + T[1, 1] + T[2, 2]
-    if tr >= T[0, 0] and tr >= T[1, 1] and tr >= T[2, 2]:
-        q[0], q[1], q[2], q[3] = 1 + tr, T[2, 1] - T[1, 2], T[0, 2] - T[2, 0], T[1, 0] - T[0, 1]
-    elif T[0, 0] >= T[1, 1] and T[0, 0] >= T[2, 2]:
-        q[0], q[1], q[2], q[3] = T[2, 1] - T[1, 2], 1 + 2 * T[0, 0] - tr, T[0, 1] + T[1, 0], T[0, 2] + T[2, 0]
-    elif T[1, 1] >= T[2, 2]:
-        q[0], q[1], q[2], q[3] = T[0, 2] - T[2, 0], T[0, 1] + T[1, 0], 1 + 2 * T[1, 1] - tr, T[1, 2] + T[2, 1]
-    else:
-        q[0], q[1], q[2], q[3] = T[1, 0] - T[0, 1], T[0, 2] + T[2, 0], T[1, 2] + T[2, 1], 1 + 2 * T[2, 2] - tr
-    inv = 1.0 / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    if q[0] < 0:
-        inv = -inv
-    for k in range(4):
-        q[k] *= inv
-
-
-@numba.njit(cache=True)
-def _pose_error(Tg, T, qg, qt, ip, fp, e):
-    """:func:`pipeline.solvers._jit.pose_error` with the goal's quaternion ``qg`` given and the
-    pose's written into ``qt`` (so the stall test can reuse it): the same formulas (quaternions
-    normalised by one reciprocal, so equal to the reference to rounding)."""
-    for r in range(3):
-        e[r] = Tg[r, 3] - T[r, 3]
-    _quat(T, qt)
-    w, x, y, z = _rel(qg, qt)
-    s = math.sqrt(x * x + y * y + z * z)
-    angle = 2.0 * math.atan2(s, w)
-    if ip[_jit.I_ORIENT] == 1 and s > 1e-300:
-        g = angle / s
-    elif ip[_jit.I_ORIENT] == 1:
-        g = 2.0
-    else:
-        g = fp[_jit.F_ORIENT_GAIN]
-    e[3], e[4], e[5] = g * x, g * y, g * z
-    dp = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-    crit = ip[_jit.I_CRITERION]
-    if crit == 0:
-        t = relative_translation_norm(Tg, T)
-        err = math.sqrt(1.0 + 0.25 * t * t)
-    elif crit == 2:
-        err = math.sqrt(1.0 + 0.25 * dp * dp)
-    else:
-        err = math.sqrt(dp * dp + e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
-    return err, dp, angle
 
 
 @numba.njit(cache=True)
@@ -303,7 +242,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     qg = np.empty(4)  # goal orientation, once per solve
     qt = np.empty(4)  # this iterate's orientation
     qp = np.empty(4)  # the previous iterate's (stall test)
-    _quat(Tg, qg)
+    quat_from_rot(Tg, qg)
     method = ip[_jit.I_METHOD]
     max_iter = ip[_jit.I_MAX_ITER]
     crit = ip[_jit.I_CRITERION]
@@ -313,7 +252,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     lam2 = lam * lam
     rows = trace.shape[0]
     fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
-    err, dp, ang = _pose_error(Tg, T, qg, qt, ip, fp, e)
+    err, dp, ang = _jit.pose_error_q(Tg, T, qg, qt, ip, fp, e)
     trace[0, 0] = err
     for r in range(6):
         trace[0, 1 + r] = e[r]
@@ -346,7 +285,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
             qp[k] = qt[k]
         fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
         prev_err = err
-        err, dp, ang = _pose_error(Tg, T, qg, qt, ip, fp, e)
+        err, dp, ang = _jit.pose_error_q(Tg, T, qg, qt, ip, fp, e)
         if it < rows:
             trace[it, 0] = err
             for r in range(6):
@@ -363,7 +302,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
             dmove = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
             stalled = False
             if dmove < fp[_jit.F_STALL_POS]:  # the rotation only matters when the position stalled
-                w, x, yy, z = _rel(qt, qp)
+                w, x, yy, z = quat_relative(qt, qp)
                 stalled = 2.0 * math.atan2(math.sqrt(x * x + yy * yy + z * z), w) < fp[_jit.F_STALL_ROT]
             ok = dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]
         grew = grew + 1 if err > prev_err else 0
