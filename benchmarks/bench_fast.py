@@ -242,8 +242,10 @@ def main() -> None:
     unknown = [s for s in wanted if s not in sections]
     if unknown:
         ap.error(f"--only: unknown section(s) {unknown} (have {list(sections)})")
-    report = {"machine": {"python": platform.python_version(), "cpu": platform.processor() or platform.machine(),
-                          "cores": os.cpu_count()}, "runs": []}
+    from pipeline.provenance import cpu_model
+
+    report = {"machine": {"python": platform.python_version(), "cpu": cpu_model(), "cores": os.cpu_count()},
+              "runs": []}
     for k in range(args.repeat):
         print(f"=== run {k + 1}/{args.repeat} (load average {_load()})")
         report["runs"].append({"load": _load(), **{s: sections[s]() for s in wanted}})
