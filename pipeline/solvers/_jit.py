@@ -139,6 +139,23 @@ def step(method, J, e, ip, fp):
 
 
 @numba.njit(cache=True)
+def stop_code(err, ok, stalled, grew, it, ip):
+    """The loop's stop rule after iteration ``it`` (000 §3.4; the order is ours: a converged step is
+    never counted as a failure): 0 = go on, else the stop code."""
+    if not np.isfinite(err):
+        return NON_FINITE
+    if ok:
+        return SUCCESS
+    if stalled and ip[I_NO_STALL] == 0:
+        return STALLED
+    if grew >= ip[I_GROW_LIMIT] and ip[I_NO_GROW] == 0:
+        return DIVERGING
+    if it >= ip[I_MAX_ITER]:
+        return ITERATION_CAP
+    return 0
+
+
+@numba.njit(cache=True)
 def solve_one(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q, trace, times):
     """Run one IK problem.
 
@@ -161,7 +178,6 @@ def solve_one(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
     qb = np.empty(4)
     p = np.empty(3)
     method = ip[I_METHOD]
-    max_iter = ip[I_MAX_ITER]
     crit = ip[I_CRITERION]
     forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
     err, dp, ang = pose_error(Tg, T, ip, fp, qa, qb, e)
@@ -208,16 +224,7 @@ def solve_one(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
             stalled = dmove < fp[F_STALL_POS] and rmove < fp[F_STALL_ROT]
             ok = dp <= fp[F_TOL_POS] and ang <= fp[F_TOL_ROT]
         grew = grew + 1 if err > prev_err else 0
-        if not np.isfinite(err):
-            code = NON_FINITE
-        elif ok:
-            code = SUCCESS
-        elif stalled and ip[I_NO_STALL] == 0:
-            code = STALLED
-        elif grew >= ip[I_GROW_LIMIT] and ip[I_NO_GROW] == 0:
-            code = DIVERGING
-        elif it >= max_iter:
-            code = ITERATION_CAP
+        code = stop_code(err, ok, stalled, grew, it, ip)
     t_end = now_ns(clk)
     times[0] = t_end - t_start
     times[1] = t_ik

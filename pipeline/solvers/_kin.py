@@ -45,6 +45,16 @@ def now_ns(buf):
     return buf[0] * 1000000000 + buf[1]
 
 
+@numba.njit(cache=True, inline="always")
+def rodrigues(k0, k1, k2, angle):
+    """Rows of the rotation about the unit axis (k0, k1, k2) by ``angle`` [rad] (Rodrigues), 9 floats."""
+    c, s = np.cos(angle), np.sin(angle)
+    v = 1.0 - c
+    return (c + v * k0 * k0, v * k0 * k1 - s * k2, v * k0 * k2 + s * k1,
+            v * k0 * k1 + s * k2, c + v * k1 * k1, v * k1 * k2 - s * k0,
+            v * k0 * k2 - s * k1, v * k1 * k2 + s * k0, c + v * k2 * k2)
+
+
 @numba.njit(cache=True)
 def link_transform(a, alpha, d, offs, prism, modified, q, i, L):
     """Rows 0-2 of joint ``i``'s link transform into ``L`` (4, 4); returns (cos alpha_i, sin alpha_i).
@@ -65,11 +75,7 @@ def link_transform(a, alpha, d, offs, prism, modified, q, i, L):
                 L[r, 0], L[r, 1], L[r, 2] = a[o + 4 * r], a[o + 4 * r + 1], a[o + 4 * r + 2]
                 L[r, 3] = a[o + 4 * r + 3] + q[i] * (L[r, 0] * k0 + L[r, 1] * k1 + L[r, 2] * k2)
         else:
-            c, s = np.cos(q[i]), np.sin(q[i])
-            v = 1.0 - c
-            m00, m01, m02 = c + v * k0 * k0, v * k0 * k1 - s * k2, v * k0 * k2 + s * k1
-            m10, m11, m12 = v * k0 * k1 + s * k2, c + v * k1 * k1, v * k1 * k2 - s * k0
-            m20, m21, m22 = v * k0 * k2 - s * k1, v * k1 * k2 + s * k0, c + v * k2 * k2
+            m00, m01, m02, m10, m11, m12, m20, m21, m22 = rodrigues(k0, k1, k2, q[i])
             for r in range(3):
                 o0, o1, o2 = a[o + 4 * r], a[o + 4 * r + 1], a[o + 4 * r + 2]
                 L[r, 0] = o0 * m00 + o1 * m10 + o2 * m20

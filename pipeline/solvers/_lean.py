@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _jit
-from pipeline.solvers._kin import now_ns, quat_from_rot, quat_relative, relative_translation_norm
+from pipeline.solvers._kin import now_ns, quat_from_rot, quat_relative, relative_translation_norm, rodrigues
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -90,11 +90,8 @@ def fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C):
                 for r in range(3):
                     C[r, 3] += x * (C[r, 0] * k0 + C[r, 1] * k1 + C[r, 2] * k2)
             else:
-                c, s = math.cos(q[i]), math.sin(q[i])
-                v = 1.0 - c
-                _mul_rows(C, c + v * k0 * k0, v * k0 * k1 - s * k2, v * k0 * k2 + s * k1, 0.0,
-                          v * k0 * k1 + s * k2, c + v * k1 * k1, v * k1 * k2 - s * k0, 0.0,
-                          v * k0 * k2 - s * k1, v * k1 * k2 + s * k0, c + v * k2 * k2, 0.0)
+                m00, m01, m02, m10, m11, m12, m20, m21, m22 = rodrigues(k0, k1, k2, q[i])
+                _mul_rows(C, m00, m01, m02, 0.0, m10, m11, m12, 0.0, m20, m21, m22, 0.0)
             for r in range(3):
                 axes[i, r] = C[r, 0] * k0 + C[r, 1] * k1 + C[r, 2] * k2
                 origins[i, r] = C[r, 3]
@@ -244,7 +241,6 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     qp = np.empty(4)  # the previous iterate's (stall test)
     quat_from_rot(Tg, qg)
     method = ip[_jit.I_METHOD]
-    max_iter = ip[_jit.I_MAX_ITER]
     crit = ip[_jit.I_CRITERION]
     time_ik = ip[_jit.I_TIME_IK] != 0
     t0 = 0
@@ -306,16 +302,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
                 stalled = 2.0 * math.atan2(math.sqrt(x * x + yy * yy + z * z), w) < fp[_jit.F_STALL_ROT]
             ok = dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]
         grew = grew + 1 if err > prev_err else 0
-        if not math.isfinite(err):
-            code = _jit.NON_FINITE
-        elif ok:
-            code = _jit.SUCCESS
-        elif stalled and ip[_jit.I_NO_STALL] == 0:
-            code = _jit.STALLED
-        elif grew >= ip[_jit.I_GROW_LIMIT] and ip[_jit.I_NO_GROW] == 0:
-            code = _jit.DIVERGING
-        elif it >= max_iter:
-            code = _jit.ITERATION_CAP
+        code = _jit.stop_code(err, ok, stalled, grew, it, ip)
     times[0] = now_ns(clk) - t_start
     times[1] = t_ik
     times[2] = 0
