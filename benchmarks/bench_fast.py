@@ -11,8 +11,12 @@ Sections (each prints medians and 95th percentiles; every time is per problem un
               goal uniform in [0, 2 pi), seed 1), single search: our DLS through the public call
               ``pipeline.solvers.solve`` (registry defaults) and, on the same goal from the same
               start, each installed peer (Robotics Toolbox ik_LM / ik_NR / ik_GN, TRAC-IK,
-              Pinocchio CLIK). Problem i runs every method before problem i + 1 (interleaved), so
-              a slow phase of the machine hits every method alike. Ours: the whole call
+              Pinocchio CLIK). Interleaved by blocks of 100 problems: every method solves block k
+              before any solves block k + 1, so a slow phase of the machine hits every method alike,
+              while a method's calls follow each other as in a real job. (Interleaving problem by
+              problem measured the neighbours instead: TRAC-IK's two solver threads are still
+              winding down when the next call starts and doubled our DLS call on this 2-core
+              machine; the other libraries evict our code and data from the caches.) Ours: the whole call
               (``call_time_s``: settings, conversion, kernel, independent FK check, result) and
               the kernel alone (``solve_time_s``); peers: the library call (``solve_time_s``,
               pipeline/solvers/peers.py). Ratio = our public call / rtb ik_LM's call.
@@ -21,8 +25,8 @@ Sections (each prints medians and 95th percentiles; every time is per problem un
               (the kernel's own clock, so the once-per-solve set-up is spread over 2 000
               iterations); against the flop floor (:func:`pipeline.solvers._lean.flops_per_iteration`
               at this machine's measured multiply-add rate, plus 7 sin/cos pairs at their measured cost);
-              DLS also without the two clock reads per iteration that record ``ik_time_s``
-              (``time_ik_block: false``).
+              DLS also with the two clock reads per iteration that record ``ik_time_s``
+              (``time_ik_block: true``, as cerbaro2019 runs it; off by default).
 ``batch``     ``pipeline.solvers.solve_batch`` at the cerbaro2019 DLS settings
               (data/studies/cerbaro2019.yaml) on ``--batch`` of its random problems, on 1 and 2
               threads: solves per second (wall time of the whole call).
@@ -53,6 +57,7 @@ from pipeline.robots import load_robot
 from pipeline.solvers import NotApplicableError, make_settings, prepare, solve, solve_batch, warm_up
 
 ROOT = Path(__file__).resolve().parent.parent
+BLOCK = 100  # problems per method in turn (public section)
 PEERS = ("rtb_ik_lm", "rtb_ik_nr", "rtb_ik_gn", "trac_ik", "pinocchio_clik")
 
 
@@ -88,12 +93,13 @@ def public(n: int) -> dict:
         methods[p] = _prepared(p, lwr)
     methods = {k: v for k, v in methods.items() if v is not None}
     rows = {k: {"call": [], "solve": [], "ok": []} for k in methods}
-    for i in range(len(ps)):
+    for lo in range(0, len(ps), BLOCK):  # interleaved by blocks: every method on block k before block k + 1
         for name, (prep, s) in methods.items():
-            r = solve(name, prep, T[i], ps.q_start[i], s, seed=i)
-            rows[name]["call"].append(r.call_time_s * 1e6)
-            rows[name]["solve"].append(r.solve_time_s * 1e6)
-            rows[name]["ok"].append(r.success)
+            for i in range(lo, min(len(ps), lo + BLOCK)):
+                r = solve(name, prep, T[i], ps.q_start[i], s, seed=i)
+                rows[name]["call"].append(r.call_time_s * 1e6)
+                rows[name]["solve"].append(r.solve_time_s * 1e6)
+                rows[name]["ok"].append(r.success)
     out = {}
     print(f"LWR, {n} random joint pairs, one search each [us per solve]")
     print(f"  {'method':16s} {'success':>8s} {'call p50':>9s} {'call p95':>9s} {'lib/kernel p50':>15s} {'p95':>9s}")
@@ -151,14 +157,14 @@ def hotloop(n: int) -> dict:
     print(f"hot loop, LWR, {n} problems x 2000 iterations [ns per iteration]; floor = flops / 2 x {fma_ns:.2f} ns "
           f"per multiply-add (measured) + 7 sin/cos pairs x {trig_ns:.1f} ns (measured)")
     for method, extra in (("jacobian_transpose", {}), ("pseudoinverse", {}), ("dls", {}),
-                          ("dls", {"time_ik_block": False})):
+                          ("dls", {"time_ik_block": True})):
         prep, s = _prepared(method, lwr, {**mapping, **extra})
         per = [r.solve_time_s * 1e9 / r.iterations
                for r in (solve(method, prep, T[i], ps.q_start[i], s) for i in range(len(ps)))]
         flops = flops_per_iteration(7, method)
         floor = flops / 2 * fma_ns + 7 * trig_ns  # flops counts a multiply-add as 2
         st = _stats(per)
-        label = method if not extra else f"{method}_untimed"  # no clock reads around the step (ik_time_s = 0)
+        label = method if not extra else f"{method}_timed"  # clock reads around the step (cerbaro2019's ik_time_s)
         out[label] = {"ns_per_iteration": st, "flops_per_iteration": flops, "floor_ns": floor,
                       "achieved_over_floor": st["p50"] / floor}
         print(f"  {label:20s} p50 {st['p50']:6.0f}  p95 {st['p95']:6.0f}   {flops} flops, floor {floor:4.0f} ns, "
