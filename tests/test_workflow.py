@@ -51,6 +51,8 @@ def test_quick_run_builds_report(built):
     report = built / "report.html"
     html = report.read_text()
     assert "data:image/png;base64," in html and "Table 7" in html and "(published)" in html
+    leaked = re.findall(r"np\.(?:float|int|bool)\w*\(|array\(\[", html)  # numpy reprs in the prose
+    assert not leaked, leaked[:5]
     # the YAML-only study gets the generic tables: one row per (problem set, robot, solver)
     import pandas as pd
 

@@ -154,7 +154,9 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             out.append(TableSpec(f"fig06_06_07_{r['robot']}_frames", f"Figs 6.6–6.7 — {r['robot']}: origins and x-axes from the joint points of Fig. 6.5",
                                  pd.DataFrame(rows),
                                  "Appendix 1 Case 1 (eqs A1.2–A1.17); x-axis sign: first non-zero component positive. Derived DH "
-                                 f"(a, α°, d, θ°): {[(round(a, 3), round(np.degrees(al), 3), round(d, 3), round(np.degrees(t), 3)) for a, al, d, t in zip(dh['a'], dh['alpha'], dh['d'], dh['theta'])]}"))
+                                 "(a [mm], α [°], d [mm], θ [°]): " + "; ".join(
+                                     f"({float(a):.4g}, {float(np.degrees(al)):.4g}, {float(d):.4g}, {float(np.degrees(t)):.4g})"
+                                     for a, al, d, t in zip(dh["a"], dh["alpha"], dh["d"], dh["theta"]))))
         rt = [x for x in recs if x["kind"] == "roundtrip"]
         if rt:
             out.append(TableSpec("catalogue_roundtrip", "Catalogue — DH → PZ → DH round trip and PZ forward kinematics",
@@ -408,6 +410,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
         axes[1].legend(fontsize=7, ncol=2)
         figs.append(FigureSpec(save(fig, out_dir, "fig06_22_23_test3_strategies"), "Figs 6.22–6.23 — Test 3, errors vs iteration per strategy",
                                "PUMA, target of Table 6.10. Left: position error; right: orientation error δR = ||R_g Rᵀ − I||²."))
+        figs.append(_fig06_14(df, out_dir, plt, save))
     if "test2" in A:
         df = _test_frame(A["test2"])
         pub = published(Path(__file__).resolve().parents[3] / "data" / "published", STUDY, "table06_09")
@@ -455,6 +458,28 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
         figs.append(FigureSpec(save(fig, out_dir, "fig06_28_29_test5"), "Figs 6.28–6.29 — Test 5 joint values per robot and stage",
                                "Joint values along the two-segment task (rad; mm for prismatic joints, Stanford q3)."))
     return figs
+
+
+def _fig06_14(df: pd.DataFrame, out_dir: Path, plt, save) -> FigureSpec:
+    """Fig. 6.14: the joint weights c(j) of strategies 6-10 (eqs. 6.1-6.2) for the Test 3 arm's N joints,
+    from the weight function the archived Test 3 solves ran with (no solve data is needed)."""
+    from pipeline.solvers.zero_position import strategy_weights
+
+    n = len(df["q_start"].iloc[0])
+    j = np.arange(1, n + 1)
+    fig, ax = plt.subplots(figsize=(5.2, 3.6))
+    for strategy, label in ((6, "eq. 6.1, n = 1"), (7, "eq. 6.1, n = 2"), (8, "eq. 6.1, n = 3"),
+                            (9, "eq. 6.2, n = 2"), (10, "eq. 6.2, n = 3")):
+        c = strategy_weights(strategy, np.zeros(n, dtype=bool))
+        ax.plot(j, c, "-o" if strategy <= 8 else "--s", ms=4, label=f"strategy {strategy} ({label})")
+    ax.set_xlabel("joint j [1]")
+    ax.set_ylabel("weight c [1]")
+    ax.set_xticks(j)
+    ax.legend(fontsize=7)
+    return FigureSpec(save(fig, out_dir, "fig06_14_weights"), "Fig. 6.14 — ZP weight c per joint for strategies 6–10",
+                      f"c = [(j − N)/(1 − N)]ⁿ (eq. 6.1) and c = (jⁿ − Nⁿ)/(1 − Nⁿ) (eq. 6.2) for the N = {n} joints of "
+                      "the Test 3 PUMA, from pipeline.solvers.zero_position.strategy_weights (the function the "
+                      "archived Test 3 solves used): c = 1 at the base, 0 at the wrist.")
 
 
 def _drawings(A, out_dir, plt, save) -> list[FigureSpec]:
