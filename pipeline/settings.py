@@ -282,7 +282,16 @@ def load_study(path: str | Path) -> Study:
     solvers = {name: _solver_entry(name, s, f"{path}: solvers/{name}", default)
                for name, s in (doc.get("solvers") or {}).items()}
     for variant, overrides in doc.get("readings", {}).get("variants", {}).items():
+        overrides = dict(overrides)
+        only = overrides.pop("only", None)  # the solvers the reading concerns (default: every solver)
+        if only is not None:
+            unknown = [o for o in only if o not in doc["solvers"]]
+            if unknown:
+                raise ConfigError(f"{path}: field 'readings/variants/{variant}/only': unknown solver(s) {unknown} "
+                                  f"(have {sorted(doc['solvers'])})")
         for name, base in doc["solvers"].items():
+            if only is not None and name not in only:
+                continue
             label = f"{name}_{variant}"
             if label in solvers:
                 raise ConfigError(f"{path}: field 'readings/variants/{variant}': label {label!r} clashes with a solver")

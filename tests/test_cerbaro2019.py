@@ -123,6 +123,22 @@ def test_readings_expand_and_switch_units():
     assert sv["sdls_m_posorient"].criterion == "pos_orient" and st.solvers["sdls_m_posorient"].method == "sdls"
     assert st.readings["sdls_m_axisangle"] == "m_axisangle" and st.readings["sdls"] == "m_dqnorm"
     assert st.solver_hash("random", "dls", "full") != st.solver_hash("random", "dls_cm_dqnorm", "full")
+    # explicit text wins: SDLS clamps by the 1-norm of §3; Buss's max-abs is a reading for SDLS only
+    assert sv["sdls"].sdls_norm == "one" and sv["sdls_maxabs"].sdls_norm == "maxabs"
+    assert "dls_maxabs" not in sv and st.readings["sdls_maxabs"] == "maxabs"
+
+
+def test_a_reading_limited_to_unknown_solvers_is_refused(tmp_path):
+    import yaml
+
+    from pipeline.settings import ConfigError
+
+    doc = yaml.safe_load((DATA / "studies" / "cerbaro2019.yaml").read_text())
+    doc["readings"]["variants"]["maxabs"]["only"] = ["sdsl"]
+    bad = tmp_path / "cerbaro2019.yaml"
+    bad.write_text(yaml.safe_dump(doc, allow_unicode=True))
+    with pytest.raises(ConfigError, match=r"readings/variants/maxabs/only': unknown solver\(s\) \['sdsl'\]"):
+        load_study(bad)
 
 
 def test_unit_reading_changes_the_tolerance_meaning(lwr):

@@ -174,8 +174,10 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     out.append(TableSpec("sensitivity_readings", "Sensitivity — success per method under each reading of the open questions",
                          sens, "Readings: length unit in code (m or cm) × success test (8-coefficient DQ norm ≤ 1 + 1e-6, "
                          "or |Δp| ≤ 1 mm and angle ≤ 1e-3 rad) × orientation half of the 6-vector "
-                         "(quaternion vector part, or rotation vector). The default is the reading whose success "
-                         "rates and failure causes come closest to Tables 7 and 15."))
+                         "(quaternion vector part, or rotation vector); for SDLS also the clamp norm (the 1-norm §3 "
+                         "states, default; or the max-abs norm of Buss's reference code: reading maxabs). The "
+                         "default follows the document where it is explicit (SDLS 1-norm) and otherwise is the "
+                         "reading whose success rates and failure causes come closest to Tables 7 and 15."))
     return out
 
 

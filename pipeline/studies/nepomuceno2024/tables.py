@@ -94,6 +94,35 @@ def _pub(pub: pd.DataFrame | None, name: str, col: str):
     return r.iloc[0][col] if len(r) else np.nan
 
 
+def _table5_2(study, g_pts: pd.DataFrame, methods: list[str], pub2) -> pd.DataFrame:
+    """Tabela 5.2's rows (ours beside the published values) over the points ``g_pts``."""
+    st = study.settings
+    rows = []
+    for m in methods:
+        g = g_pts[g_pts["method"] == m]
+        if not len(g):
+            continue
+        pname = st["methods"][m].get("published_as", "")
+        rows.append({
+            "method": _label(st, m),
+            "points (ours)": len(g),
+            "document's error measure": g["doc_measure"].iloc[0],
+            "mean error, document's measure (ours)": g["doc_error"].mean(),
+            "mean error (published)": _pub(pub2, pname, "mean_error"),
+            "mean position error [m] (ours)": g["position_error"].mean(),
+            "max position error [m] (ours)": g["position_error"].max(),
+            "mean orientation error [rad] (ours)": g["orientation_error"].mean(),
+            "FK-verified successes [%] (ours)": 100.0 * g["success"].mean(),
+            "mean iterations per point (ours)": g["iterations"].mean() if not is_analytic(study, m) else np.nan,
+            "mean iterations per point (published)": _pub(pub2, pname, "iterations_per_point_text"),
+            "mean function evaluations per point (ours)": g["nfev"].mean(),
+            "'custo computacional por iteração' (published)": _pub(pub2, pname, "cost_per_iteration"),
+            "mean solve time per point [ms] (ours)": 1e3 * g["solve_time_s"].mean(),
+            "'tempo médio para convergência de uma iteração', no unit (published)": _pub(pub2, pname, "time_per_iteration"),
+        })
+    return pd.DataFrame(rows)
+
+
 def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     st = study.settings
     pts, reps = load_runs(study, archives)
@@ -135,37 +164,31 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         "Our trajectories are designed (the document gives none), so point counts differ too."))
 
     # Tabela 5.2 -----------------------------------------------------------------------------
-    rows = []
-    for m in methods:
-        g = pts[pts["method"] == m]
-        pname = st["methods"][m].get("published_as", "")
-        rows.append({
-            "method": _label(st, m),
-            "points (ours)": len(g),
-            "document's error measure": g["doc_measure"].iloc[0],
-            "mean error, document's measure (ours)": g["doc_error"].mean(),
-            "mean error (published)": _pub(pub2, pname, "mean_error"),
-            "mean position error [m] (ours)": g["position_error"].mean(),
-            "max position error [m] (ours)": g["position_error"].max(),
-            "mean orientation error [rad] (ours)": g["orientation_error"].mean(),
-            "FK-verified successes [%] (ours)": 100.0 * g["success"].mean(),
-            "mean iterations per point (ours)": g["iterations"].mean() if not is_analytic(study, m) else np.nan,
-            "mean iterations per point (published)": _pub(pub2, pname, "iterations_per_point_text"),
-            "mean function evaluations per point (ours)": g["nfev"].mean(),
-            "'custo computacional por iteração' (published)": _pub(pub2, pname, "cost_per_iteration"),
-            "mean solve time per point [ms] (ours)": 1e3 * g["solve_time_s"].mean(),
-            "'tempo médio para convergência de uma iteração', no unit (published)": _pub(pub2, pname, "time_per_iteration"),
-        })
-    out.append(TableSpec(
-        "table5_2_error_iterations", "Tabela 5.2 — mean error, iterations, evaluations and time per point",
-        pd.DataFrame(rows),
-        "Pooled over every point of both motions (repetition 0). Common measure for every method: position "
-        "error and rotation angle between goal and reached pose by an independent numpy FK. The document's "
-        "own 'Erro médio' is a different quantity per method (‖e‖ for the descent, cost A for BFGS, cost B "
-        "for L-BFGS-B and Nelder-Mead) and is shown beside it. Function evaluations: SciPy's nfev "
-        "(finite-difference gradient evaluations included), FK evaluations for the descent, the 8 FK "
-        "checks of the closed form. The published 'custo computacional' and 'tempo ... de uma iteração' "
-        "columns are undefined and unitless in the document (notes §6.4-6.5)."))
+    # "Média de erro e iteração ao longo de um movimento": one motion (table5_2_motion, default home,
+    # the motion of Figura 5.2); both motions pooled run beside it as the earlier reading
+    one = st.get("table5_2_motion", "home")
+    one = one if one in motions else None
+    pts52 = pts[pts["motion"] == one] if one is not None else pts
+    common = ("Common measure for every method: position "
+              "error and rotation angle between goal and reached pose by an independent numpy FK. The document's "
+              "own 'Erro médio' is a different quantity per method (‖e‖ for the descent, cost A for BFGS, cost B "
+              "for L-BFGS-B and Nelder-Mead) and is shown beside it. Function evaluations: SciPy's nfev "
+              "(finite-difference gradient evaluations included), FK evaluations for the descent, the 8 FK "
+              "checks of the closed form. The published 'custo computacional' and 'tempo ... de uma iteração' "
+              "columns are undefined and unitless in the document (notes §6.4-6.5).")
+    if one is not None:
+        where = (f"One motion, {MOTION_LABEL.get(one, one)} (repetition 0): the caption says 'ao longo de um "
+                 "movimento' and Figura 5.2 shows that motion (study setting table5_2_motion). ")
+    else:
+        where = "Pooled over every point of every motion run (repetition 0; the table's motion has no archive). "
+    out.append(TableSpec("table5_2_error_iterations", "Tabela 5.2 — mean error, iterations, evaluations and time per point",
+                         _table5_2(study, pts52, methods, pub2), where + common))
+    if one is not None and len(motions) > 1:
+        out.append(TableSpec(
+            "table5_2_pooled", "Tabela 5.2, other reading — both motions pooled", _table5_2(study, pts, methods, pub2),
+            "The reading before the document's 'um movimento' was followed: every point of both motions "
+            "(repetition 0). The pick-and-place points where BFGS stalls on pure translations raise its "
+            "mean error here. " + common))
 
     # Continuity -----------------------------------------------------------------------------
     rows = []
@@ -228,11 +251,13 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             "orientation and the forward-difference gradient of ‖ΔR‖_F at its kink points uphill."))
 
     # Published orderings ----------------------------------------------------------------------
-    out.append(_orderings(study, pts, mean_t, methods, motions))
+    out.append(_orderings(study, pts52, mean_t, methods, motions))
     return out
 
 
 def _orderings(study, pts, mean_t, methods, motions) -> TableSpec:
+    """Tabela 5.1's time orderings per motion (``mean_t``) and Tabela 5.2's iteration and error
+    orderings on the points of that table (``pts``)."""
     st = study.settings
     num = [m for m in methods if not is_analytic(study, m)]
     per = pts[pts["method"].isin(methods)].groupby("method")
