@@ -333,11 +333,11 @@ def _results_relative(path, sid: str) -> str:
 def cmd_aggregate_tables(args) -> None:
     from pipeline.io.archive import read_archive
     from pipeline.settings import load_study
-    from pipeline.studies import get_study_module, write_tables
+    from pipeline.studies import build_study_tables, write_tables
 
     study = load_study(args.study)
     archives = [read_archive(p) for p in args.archives]
-    tables = get_study_module(study.id).build_tables(study, archives, Path(args.published))
+    tables = build_study_tables(study, archives, Path(args.published))
     write_tables(tables, Path(args.out_dir))
     prov = [{"archive": _results_relative(a.path, study.id), "problems": len(a.solves), **a.metadata}
             for a in archives]

@@ -65,7 +65,7 @@ def verify_study(results: Path, data: Path, sid: str) -> list[str]:
     """What differs for study ``sid`` (empty list: everything matches)."""
     from pipeline.io.archive import read_archive
     from pipeline.settings import load_study
-    from pipeline.studies import get_study_module, write_tables
+    from pipeline.studies import build_study_tables, write_tables
 
     folder = results / sid
     prov = json.loads((folder / "tables" / "provenance.json").read_text())
@@ -98,7 +98,7 @@ def verify_study(results: Path, data: Path, sid: str) -> list[str]:
         return problems
     study = load_study(data / "studies" / f"{sid}.yaml")
     with tempfile.TemporaryDirectory() as tmp:
-        tables = get_study_module(sid).build_tables(study, archives, data / "published")
+        tables = build_study_tables(study, archives, data / "published")
         write_tables(tables, Path(tmp))
         index = json.loads((Path(tmp) / "index.json").read_text())
         for name in [t["file"] for t in index] + ["index.json"]:

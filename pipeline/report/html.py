@@ -171,6 +171,9 @@ def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | Non
     return {"robots": robots, "figures": [x for x in figures if x.get("extra", {}).get("answer")]}
 
 
+HEAD_TABLES = ("claims", "not_reproduced")  # pipeline.studies.claims: shown first in a study's section
+
+
 def study_context(study: Study, results: Path) -> dict:
     folder = results / study.id
     tables = []
@@ -212,8 +215,10 @@ def study_context(study: Study, results: Path) -> dict:
         shown = {id(x) for r in answer["robots"] for x in (r["table"], *r["figures"])} | {id(f) for f in answer["figures"]}
         tables = [t for t in tables if id(t) not in shown and t["name"] != "answer"]
         figures = [f for f in figures if id(f) not in shown]
+    head = [t for t in tables if t["name"] in HEAD_TABLES]  # claims and not-reproduced: top of the section
+    tables = [t for t in tables if t["name"] not in HEAD_TABLES]
     return {
-        "answer": answer,
+        "answer": answer, "head_tables": head,
         "id": study.id, "title": study.doc["title"], "document": study.doc["document"],
         "notes": study.doc.get("notes", ""), "robots": study.doc["robots"],
         "problems_yaml": yaml.safe_dump(study.problem_sets, sort_keys=False) if study.generic else "",

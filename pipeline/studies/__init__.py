@@ -67,6 +67,13 @@ def get_study_module(study_id: str):
     return importlib.import_module(name)
 
 
+def build_study_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+    """The study module's tables, opened by its claims and not-reproduced tables (:mod:`pipeline.studies.claims`)."""
+    from pipeline.studies.claims import with_claims
+
+    return with_claims(study, get_study_module(study.id).build_tables(study, archives, published_dir))
+
+
 def write_tables(tables: list[TableSpec], out_dir: Path) -> None:
     """Each table as ``<name>.csv`` plus ``index.json`` (order, titles, notes)."""
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,79 @@
+"""Claims of a document checked on a study's tables (pipeline.studies.claims): computed verdicts."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import pandas as pd
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from pipeline.settings import load_study
+from pipeline.studies import TableSpec
+from pipeline.studies.claims import DIFFERS, HOLDS, MISSING, claims_table, evaluate, with_claims
+from tests.conftest import DATA
+
+FRAME = pd.DataFrame({"method": ["A", "B", "C"], "x (ours)": [1.0, 3.0, 2.0], "x (published)": [1.0, 2.0, 3.0]})
+
+
+@pytest.mark.parametrize("check,verdict", [
+    ({"max": "B"}, HOLDS), ({"max": "C"}, DIFFERS), ({"min": "A"}, HOLDS),
+    ({"order": ["A", "C", "B"]}, HOLDS), ({"order": ["A", "B", "C"]}, DIFFERS),
+    ({"less": ["A", "B"]}, HOLDS), ({"less": ["B", "C"]}, DIFFERS),
+    ({"ratio_at_least": ["B", "A", 3]}, HOLDS), ({"ratio_at_least": ["B", "A", 3.5]}, DIFFERS),
+    ({"max": "Z"}, MISSING), ({"less": ["A", "Z"]}, MISSING),
+])
+def test_checks(check, verdict):
+    assert evaluate(check, FRAME, "method", "x (ours)")[0] == verdict
+
+
+def test_within_compares_ours_with_published():
+    assert evaluate({"within": {"row": "B", "rel": 0.5}}, FRAME, "method", "x (ours)", "x (published)")[0] == HOLDS
+    assert evaluate({"within": {"row": "B", "rel": 0.4}}, FRAME, "method", "x (ours)", "x (published)")[0] == DIFFERS
+    assert evaluate({"within": {"row": "B", "rel": 0.4}}, FRAME, "method", "x (ours)")[0] == MISSING
+
+
+def test_a_missing_table_or_column_or_nan_is_not_reproduced():
+    assert evaluate({"max": "A"}, None, "method", "x (ours)")[0] == MISSING
+    assert evaluate({"max": "A"}, FRAME, "method", "y (ours)")[0] == MISSING
+    nan = FRAME.assign(**{"x (ours)": [1.0, float("nan"), 2.0]})
+    assert evaluate({"less": ["A", "B"]}, nan, "method", "x (ours)")[0] == MISSING
+
+
+@given(st.lists(st.floats(-1e6, 1e6, allow_nan=False), min_size=2, max_size=6, unique=True))
+def test_max_and_min_agree_with_pandas(values):
+    f = pd.DataFrame({"k": [f"r{i}" for i in range(len(values))], "v": values})
+    top, low = f.loc[f["v"].idxmax(), "k"], f.loc[f["v"].idxmin(), "k"]
+    assert evaluate({"max": top}, f, "k", "v")[0] == HOLDS
+    assert evaluate({"min": low}, f, "k", "v")[0] == HOLDS
+    assert evaluate({"max": low}, f, "k", "v")[0] == DIFFERS
+
+
+def test_claims_table_comes_first_and_computes_both_verdicts():
+    study = SimpleNamespace(doc={
+        "claims": [{"claim": "B largest", "table": "t", "key": "method", "ours": "x (ours)",
+                    "published": "x (published)", "check": {"max": "B"}, "reason": "because"},
+                   {"claim": "C largest", "table": "t", "key": "method", "ours": "x (ours)",
+                    "published": "x (published)", "check": {"max": "C"}, "reason": "ours differs"},
+                   {"claim": "in another table", "table": "absent", "key": "method", "ours": "x (ours)",
+                    "check": {"min": "A"}}],
+        "not_reproduced": [{"item": "Table 9", "why": "no data"}]})
+    tables = with_claims(study, [TableSpec("t", "T", FRAME)])
+    assert [t.name for t in tables] == ["claims", "not_reproduced", "t"]
+    c = tables[0].frame
+    assert list(c["verdict (ours)"]) == [HOLDS, DIFFERS, MISSING]
+    assert list(c["verdict (published numbers)"]) == [DIFFERS, HOLDS, "—"]
+    assert list(c["why"]) == ["", "ours differs", ""]
+
+
+def test_without_claims_nothing_is_added():
+    study = SimpleNamespace(doc={})
+    assert claims_table(study, []) is None and with_claims(study, []) == []
+
+
+@pytest.mark.parametrize("sid", ["cerbaro2019", "erthal1992", "borges_kr6", "mariano2019", "nepomuceno2024"])
+def test_every_document_study_lists_its_claims_and_what_it_leaves_out(sid):
+    doc = load_study(DATA / "studies" / f"{sid}.yaml").doc
+    assert len(doc.get("claims", [])) >= 3, "each document study checks its headline claims"
+    assert doc.get("not_reproduced"), "each document study lists what it does not reproduce"
