@@ -257,3 +257,26 @@ def test_settings_are_si_and_checked():
         make_settings("pso", {"search": "everywhere"})
     assert make_settings("inverse_jacobian_fd", {"criterion": "position"}).rows() == FD.ROWS_POSITION
     assert make_settings("inverse_jacobian_fd", {}).rows() == FD.ROWS_POSE
+
+
+def test_pso_velocity_clamp_as_a_fraction_of_each_joints_range():
+    """max_velocity_fraction k clamps joint j at k (hi_j - lo_j); a scalar max_velocity is the same for
+    every joint; 0 means no clamp; setting both is one error naming the field."""
+    s = make_settings("pso", {"max_velocity_fraction": 0.2})
+    lo, hi = np.array([-1.0, 0.0, -3.0]), np.array([1.0, 0.5, 3.0])
+    np.testing.assert_allclose(s.velocity_limits(lo, hi), [0.4, 0.1, 1.2])
+    np.testing.assert_allclose(make_settings("pso", {"max_velocity": 0.03}).velocity_limits(lo, hi), [0.03] * 3)
+    assert not make_settings("pso", None).velocity_limits(lo, hi).any()
+    with pytest.raises(SettingsError, match="field 'max_velocity_fraction': set either"):
+        make_settings("pso", {"max_velocity": 0.03, "max_velocity_fraction": 0.1})
+
+
+def test_pso_with_equal_per_joint_clamps_matches_the_scalar_clamp(robot):
+    """A fraction giving the same clamp on every joint reproduces the scalar-clamp run bit for bit."""
+    prep = Prepared(robot, "m")
+    q_goal = np.full(robot.chain.n, 0.2)  # the window q_start +- 0.25 stays inside every joint's limits
+    T = fk_htm(robot.chain, q_goal)
+    base = {"search": "window", "window_half_width": 0.25, "max_iterations": 40, "particles": 20}
+    a = solve("pso", prep, T, q_goal + 0.1, {**base, "max_velocity": 0.05}, seed=2)
+    b = solve("pso", prep, T, q_goal + 0.1, {**base, "max_velocity_fraction": 0.1}, seed=2)  # 0.1 x 0.5 rad
+    assert a.iterations == b.iterations and np.array_equal(a.q, b.q)

@@ -37,7 +37,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
-from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, StopReason, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.6, eqs. 9-11; Rookfighter/pso-cpp Optimizer::minimize"
@@ -61,6 +61,10 @@ class PSOSettings(Settings):
                                   "joint): > 0 draws random initial velocities clamped to +-maxVel and clamps every "
                                   "velocity; 0 (library default) starts at rest and never clamps", unit="rad",
                                   minimum=0.0)
+    max_velocity_fraction: float = setting(0.0, "velocity clamp per joint as a fraction k of that joint's search "
+                                           "range, Vmax_j = k (hi_j - lo_j) (Eberhart & Shi 2001: Vmax at 10-20 % "
+                                           "of the dynamic range); > 0 replaces max_velocity, with its meaning",
+                                           minimum=0.0, maximum=1.0)
     feps: float = setting(1e-9, "library stop: mean |change of personal-best fitness| <= feps; negative disables",
                           unit="m", length=True)
     xeps: float = setting(1e-6, "library stop: mean ||change of personal-best position|| <= xeps; negative "
@@ -80,8 +84,19 @@ class PSOSettings(Settings):
     seed: int = setting(0, "0: the solve's seed argument seeds the stream as is; else mixed with it "
                         "(numpy SeedSequence)", minimum=0)
 
+    def check(self, where: str) -> None:
+        if self.max_velocity > 0 and self.max_velocity_fraction > 0:
+            raise SettingsError(f"{where}: field 'max_velocity_fraction': set either max_velocity or "
+                                "max_velocity_fraction, not both")
+
     def pose(self) -> bool:
         return self.criterion not in POSITION_CRITERIA
+
+    def velocity_limits(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Per-joint velocity clamp (n,) for the search box [lo, hi]; 0 = no clamp (the library default)."""
+        if self.max_velocity_fraction > 0:
+            return self.max_velocity_fraction * (hi - lo)
+        return np.full(len(lo), float(self.max_velocity))
 
 
 # ---- compiled kernel ------------------------------------------------------------------------
@@ -115,7 +130,7 @@ def _best_row(a, alpha, d, offs, prism, modified, base, tool, Tg, x, pose, trace
 
 
 @numba.njit(cache=True)
-def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_particles, w, phip, phig, max_vel, feps,
+def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_particles, w, phip, phig, vmax, feps,
               xeps, max_iter, stop_at_tol, pose, scale, tol_pos, tol_rot, seed, q, trace, times):
     """The pso-cpp loop in the box [lo, hi]. Returns (code, iterations); ``times`` = (wall ns, thread CPU ns)."""
     np.random.seed(seed)
@@ -137,7 +152,7 @@ def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_part
         for j in range(n):
             diff = hi[j] - lo[j]
             vel = -diff + np.random.random() * 2.0 * diff
-            v[i, j] = min(max_vel, max(-max_vel, vel))
+            v[i, j] = min(vmax[j], max(-vmax[j], vel))
     fv = np.empty(P)
     for i in range(P):
         fv[i] = _fitness(a, alpha, d, offs, prism, modified, base, tool, Tg, x[i], pose, scale, T)
@@ -161,8 +176,8 @@ def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_part
                 velp = np.random.random() * (bx[i, j] - x[i, j])
                 velg = np.random.random() * (bx[gb, j] - x[i, j])
                 vel = w * v[i, j] + phip * velp + phig * velg
-                if max_vel > 0:
-                    vel = min(max_vel, max(-max_vel, vel))
+                if vmax[j] > 0:
+                    vel = min(vmax[j], max(-vmax[j], vel))
                 v[i, j] = vel
         for i in range(P):
             for j in range(n):
@@ -245,7 +260,7 @@ def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: PSOSettings,
     trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
     times = np.zeros(2, np.int64)
     code, it = pso_solve(*prep.args, T_goal, lo, hi, int(s.particles), float(s.inertia), float(s.c1), float(s.c2),
-                         float(s.max_velocity), float(s.feps), float(s.xeps), int(s.max_iterations),
+                         s.velocity_limits(lo, hi), float(s.feps), float(s.xeps), int(s.max_iterations),
                          bool(s.stop_at_tolerance), s.pose(), float(s.orientation_scale), float(s.tol_pos),
                          float(s.tol_rot), sseed, q, trace, times)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
