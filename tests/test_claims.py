@@ -34,6 +34,25 @@ def test_within_compares_ours_with_published():
     assert evaluate({"within": {"row": "B", "rel": 0.4}}, FRAME, "method", "x (ours)")[0] == MISSING
 
 
+def test_row_filter_absolute_bound_and_two_columns_of_one_row():
+    from pipeline.studies.claims import evaluate_claim, select
+
+    f = pd.DataFrame({"method": ["A", "A", "B", "B"], "statistic": ["mean", "max", "mean", "max"],
+                      "t (ours)": [1.0, 9.0, 2.0, 3.0], "t (published)": [5.0, 6.0, 4.0, 7.0],
+                      "u (ours)": [2.0, 0.0, 1.0, 0.0], "u (published)": [6.0, 0.0, 3.0, 0.0]})
+    means = select(f, {"statistic": "mean"})
+    assert list(means["method"]) == ["A", "B"] and select(f, {"nope": 1}) is None
+    claim = {"key": "method", "ours": "t (ours)", "published": "t (published)", "check": {"min": "A"}}
+    assert evaluate_claim(claim, means)[::2] == (HOLDS, DIFFERS)
+    assert evaluate({"abs_at_most": 2.0}, means, "method", "t (ours)")[0] == HOLDS
+    assert evaluate({"abs_at_most": 1.5}, means, "method", "t (ours)")[0] == DIFFERS
+    two = {"key": "method", "ours": "t (ours)", "published": "t (published)",
+           "check": {"column_less": {"row": "A", "than": "u (ours)", "than_published": "u (published)"}}}
+    assert evaluate_claim(two, means)[::2] == (HOLDS, HOLDS)
+    two["check"]["column_less"]["row"] = "B"
+    assert evaluate_claim(two, means)[::2] == (DIFFERS, DIFFERS)
+
+
 def test_a_missing_table_or_column_or_nan_is_not_reproduced():
     assert evaluate({"max": "A"}, None, "method", "x (ours)")[0] == MISSING
     assert evaluate({"max": "A"}, FRAME, "method", "y (ours)")[0] == MISSING

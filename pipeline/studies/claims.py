@@ -11,6 +11,13 @@ claim names a table the study builds from its archives, the column that holds th
 ``less: [ROW_A, ROW_B]``          ROW_A's value < ROW_B's
 ``ratio_at_least: [A, B, X]``     A's value / B's value >= X
 ``within: {row: ROW, rel: R}``    ours within a relative R of the published value of ROW
+``abs_at_most: X``                every row's |value| <= X
+``column_less: {row: ROW, than: COL, than_published: PCOL}``
+                                  ROW's value < its value in column COL (the published check
+                                  compares ``published`` with PCOL): two quantities of one row
+
+An optional ``rows: {column: value, ...}`` keeps only the matching rows first (e.g. the ``mean``
+rows of a table with a ``statistic`` column).
 
 The verdict is computed, never typed: *holds* when the check passes on our values, *differs* when
 it fails, *not reproduced* when the table, a row or a value is missing (e.g. a quick build without
@@ -28,7 +35,7 @@ import pandas as pd
 
 from pipeline.studies import TableSpec
 
-CHECKS = ("max", "min", "order", "less", "ratio_at_least", "within")
+CHECKS = ("max", "min", "order", "less", "ratio_at_least", "within", "abs_at_most", "column_less")
 HOLDS, DIFFERS, MISSING = "holds", "differs", "not reproduced"
 
 
@@ -60,9 +67,10 @@ def _all_rows(frame: pd.DataFrame, key: str, col: str) -> dict[str, float] | Non
     return out or None
 
 
-def evaluate(check: dict, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None = None
-             ) -> tuple[str, str]:
-    """(verdict, the values the verdict rests on) of one check on column ``col`` of ``frame``."""
+def evaluate(check: dict, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None = None,
+             *, on_published: bool = False) -> tuple[str, str]:
+    """(verdict, the values the verdict rests on) of one check on column ``col`` of ``frame``
+    (``on_published``: ``col`` is the published column, so ``column_less`` compares with ``than_published``)."""
     (kind, arg), = check.items()
     if kind in ("max", "min"):
         vals = _all_rows(frame, key, col)
@@ -99,7 +107,45 @@ def evaluate(check: dict, frame: pd.DataFrame | None, key: str, col: str, publis
         o, p = ours[row], pub[row]
         dev = abs(o - p) / abs(p) if p else math.inf
         return (HOLDS if dev <= rel else DIFFERS), f"{row}: {o:.4g} against {p:.4g} ({100 * dev:.3g} % off; claim: ≤ {100 * rel:g} %)"
+    if kind == "abs_at_most":
+        vals = _all_rows(frame, key, col)
+        if vals is None:
+            return MISSING, ""
+        worst = max(vals, key=lambda r: abs(vals[r]))
+        return ((HOLDS if abs(vals[worst]) <= float(arg) else DIFFERS),
+                f"largest |value|: {worst} {vals[worst]:.4g} (claim: ≤ {float(arg):g})")
+    if kind == "column_less":
+        row = str(arg["row"])
+        other = arg["than_published"] if on_published else arg["than"]
+        a = _values(frame, key, col, [row])
+        b = _values(frame, key, other, [row])
+        if a is None or b is None:
+            return MISSING, ""
+        return (HOLDS if a[row] < b[row] else DIFFERS), f"{row}: {a[row]:.4g} against {b[row]:.4g} ({other})"
     raise ClaimError(f"unknown claim check {kind!r} (known: {', '.join(CHECKS)})")
+
+
+def select(frame: pd.DataFrame | None, rows: dict | None) -> pd.DataFrame | None:
+    """The rows of ``frame`` whose columns equal ``rows``' values (compared as text); None stays None."""
+    if frame is None or not rows:
+        return frame
+    keep = pd.Series(True, index=frame.index)
+    for col, val in rows.items():
+        if col not in frame.columns:
+            return None
+        keep &= frame[col].astype(str) == str(val)
+    return frame[keep]
+
+
+def evaluate_claim(c: dict, frame: pd.DataFrame | None) -> tuple[str, str, str, str]:
+    """(our verdict, our values, verdict on the published numbers, those values) of one claim on its
+    (row-selected) table; the published pair is empty when the claim has no published column."""
+    kind = next(iter(c["check"]))
+    verdict, ours = evaluate(c["check"], frame, c["key"], c["ours"], c.get("published"))
+    if not c.get("published") or kind == "within":
+        return verdict, ours, "", ""
+    pub_verdict, pub = evaluate(c["check"], frame, c["key"], c["published"], on_published=True)
+    return verdict, ours, pub_verdict, pub
 
 
 def claims_table(study, tables: list[TableSpec]) -> TableSpec | None:
@@ -110,11 +156,8 @@ def claims_table(study, tables: list[TableSpec]) -> TableSpec | None:
     by_name = {t.name: t.frame for t in tables}
     rows = []
     for c in claims:
-        frame = by_name.get(c["table"])
-        verdict, ours = evaluate(c["check"], frame, c["key"], c["ours"], c.get("published"))
-        pub_verdict, pub = ("", "")
-        if c.get("published") and next(iter(c["check"])) != "within":
-            pub_verdict, pub = evaluate(c["check"], frame, c["key"], c["published"])
+        frame = select(by_name.get(c["table"]), c.get("rows"))
+        verdict, ours, pub_verdict, pub = evaluate_claim(c, frame)
         rows.append({"claim of the document": c["claim"], "where": c.get("where", ""), "table": c["table"],
                      "our values": ours or "—", "published values": pub or "—",
                      "verdict (ours)": verdict, "verdict (published numbers)": pub_verdict or "—",
@@ -144,5 +187,5 @@ def with_claims(study, tables: list[TableSpec]) -> list[TableSpec]:
     return head + list(tables)
 
 
-__all__ = ["CHECKS", "ClaimError", "DIFFERS", "HOLDS", "MISSING", "claims_table", "evaluate",
-           "not_reproduced_table", "with_claims"]
+__all__ = ["CHECKS", "ClaimError", "DIFFERS", "HOLDS", "MISSING", "claims_table", "evaluate", "evaluate_claim",
+           "not_reproduced_table", "select", "with_claims"]
