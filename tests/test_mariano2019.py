@@ -192,3 +192,103 @@ def test_generic_chains_modified_and_prismatic(convention):
     Q, Q_ref = np.array(A.fk_dq_chain(c, list(q))), fk_dq(c, q)
     Q_ref = Q_ref if np.dot(Q[:4], Q_ref[:4]) >= 0 else -Q_ref
     assert np.allclose(Q, Q_ref, atol=FK_TOL)
+
+
+# --- print variant: FK + print_array of the result inside the timed region -----------------------
+
+def test_uart_setting_as_arduino_serial_begin():
+    assert codegen.uart_setting(9600, 16e6) == {"baud": 9600, "ubrr": 207, "u2x": True,
+                                                "baud_actual": pytest.approx(16e6 / 8 / 208)}
+    assert codegen.uart_setting(115200, 16e6)["ubrr"] == 16
+    s = codegen.uart_setting(57600, 16e6)          # Arduino's 16 MHz exception: no U2X at 57600
+    assert (s["u2x"], s["ubrr"]) == (False, 16)
+    assert codegen.uart_setting(codegen.PRINT_BUFFERED, 16e6)["baud_actual"] == 0.0
+    with pytest.raises(ValueError, match="baud"):
+        codegen.uart_setting(-1, 16e6)
+
+
+def test_print_codegen_rejects_bad_input_and_leaves_fk_programs_alone():
+    with pytest.raises(ValueError, match="print variant"):
+        codegen.generate_print_program("htm", ARM.chain, np.zeros((1, 4)), 9600, 16e6)
+    with pytest.raises(ValueError, match="shape"):
+        codegen.generate_print_program("dq_print", ARM.chain, np.zeros(4), 9600, 16e6)
+    q = np.zeros((1, 4))
+    for v in ("htm", "dq"):
+        fk_src = codegen.generate_fk_program(v, ARM.chain, q)
+        assert "print_array" not in fk_src and "PRINT_" not in fk_src
+        pr = codegen.generate_print_program(f"{v}_print", ARM.chain, q, 9600, 16e6)
+        assert {"htm": codegen.HTM_CODE, "dq": codegen.DQ_CODE}[v] in pr   # the same FK functions
+        assert "#define PRINT_UBRR 207" in pr and "#define PRINT_TO_RAM 0" in pr
+    assert "#define PRINT_TO_RAM 1" in codegen.generate_print_program("dq_print", ARM.chain, q, 0, 16e6)
+
+
+def test_parse_print_output_counts_bytes_through_simavr_echo():
+    # simavr echoes bytes < ' ' as '.', ends its line after '\n' and after 127 bytes (forced newline)
+    row = "12.34 -0.50 0.00 7.25 .."
+    long = "1.00 " * 30 + ".."
+    shown = long[:127] + "\n" + long[127:] + "\n"
+    text = ("OVERHEAD 12.\nPRINT.\n" + (row + "\n") * 4 + "PCONF i=0 x=3f800000 y=40000000 z=c0400000 fk=100 "
+            "print=50 total=150 chars=96 .\nPRINT.\n" + shown + "PCONF i=1 x=00000000 y=00000000 z=00000000 fk=1 "
+            f"print=2 total=3 chars={len(long)} .\nEND.\n")
+    r = avr.parse_print_output(text)
+    a, b = r["confs"]
+    assert r["overhead"] == 12 and (a["x"], a["y"], a["z"]) == (1.0, 2.0, -3.0)
+    assert a["values"] == [12.34, -0.5, 0.0, 7.25] * 4 and len(a["text"]) == a["chars"] == 96
+    assert b["values"] == [1.0] * 30 and len(b["text"]) == b["chars"]
+    with pytest.raises(avr.AvrError, match="print-variant"):
+        avr.parse_print_output("OVERHEAD 1.\nEND.\n")
+
+
+def test_print_table_not_measured_without_toolchain():
+    import pandas as pd
+
+    from pipeline.studies.mariano2019.report import NOT_MEASURED, _print_variant_table
+
+    st = {"measured": False, "missing": ["simavr"], "hint": avr.ENABLE_HINT}
+    t = _print_variant_table({"fk": pd.DataFrame(), "print": pd.DataFrame()}, None, st, 16e6)
+    assert t.name == "table04_print_variant" and t.frame["timed region"].iloc[0] == NOT_MEASURED
+    assert "install_avr_toolchain" in t.note
+
+
+@pytest.mark.skipif(not avr.toolchain()["available"], reason="AVR toolchain (avr-gcc, avr-size, simavr) not installed")
+def test_mcu_print_variant_prints_the_pose_and_costs_more_than_the_fk(tmp_path):
+    import pandas as pd
+
+    from pipeline.studies.common import published
+    from pipeline.studies.mariano2019.report import _print_variant_table
+
+    configs = np.array([[0.1, 0.5, -0.7, 0.3], [-1.2, 2.0, -1.0, 0.5]])
+    f = 16_000_000
+    s = {"mcu": "atmega328p", "freq_hz": f, "timeout_s": 120, "op_values": {"a": [0.7], "b": [1.3]},
+         "cflags": ["-Os", "-ffunction-sections", "-fdata-sections", "-Wl,--gc-sections"],
+         "print_bauds": [codegen.PRINT_BUFFERED, 9600]}
+    recs = mcu_records(ARM, configs, s, tmp_path)
+    fk = {(r["variant"], r["i"]): r for r in recs["fk"]}
+    pr = recs["print"]
+    assert len(pr) == 2 * 2 * len(configs)
+    for r in pr:
+        n = codegen.PRINT_VALUES[f"{r['variant']}_print"]
+        assert r["n_values"] == n == len(r["values_ref"]) and r["chars"] == len(r["text"])
+        # 2 decimals: rounding (0.005) + float32
+        assert np.allclose(r["values"], r["values_ref"], atol=0.005 + MCU_TOL)
+        assert np.allclose([r["x"], r["y"], r["z"]], [fk[(r["variant"], r["i"])][k] for k in "xyz"], atol=0)
+        only = fk[(r["variant"], r["i"])]["total"]
+        assert r["total"] > only and r["total"] == pytest.approx(r["fk"] + r["print"], abs=2 * r["timer_overhead"])
+        assert r["fk"] == pytest.approx(only, rel=0.01)      # the same FK code (Timer1 overflow ISR jitter)
+        if r["mode"] == "uart":
+            # simavr waits for each byte: at least a 10-bit frame per character after the first
+            assert r["print"] >= (r["chars"] - 1) * 10 * f / r["baud_actual"]
+    ram = {(r["variant"], r["i"]): r for r in pr if r["mode"] == "ram"}
+    for r in pr:
+        if r["mode"] == "uart":
+            assert r["total"] > ram[(r["variant"], r["i"])]["total"] and r["chars"] == ram[(r["variant"], r["i"])]["chars"]
+    mcu = {"fk": pd.DataFrame(recs["fk"]), "print": pd.DataFrame(pr)}
+    t = _print_variant_table(mcu, published(ROOT / "data/published", "mariano2019", "table04_interrupt_timing"),
+                             recs["status"][0], f)
+    df = t.frame.set_index("timed region")
+    assert list(df.index) == ["FK only (Table IV, table04_mcu_time)", "FK + print, text to RAM (formatting only, no UART)",
+                              "FK + print at 9600 baud (simavr UART)", "FK + print at 9600 baud, 8N1 frame (computed)"]
+    assert df["ratio HTM/DQ (published)"].iloc[0] == pytest.approx(233176 / 152770)
+    assert (df["HTM cycles, median (ours)"].iloc[1:] > df["HTM cycles, median (ours)"].iloc[0]).all()
+    # HTM prints twice the values of DQ: with the slow UART the ratio goes well above the FK-only tie
+    assert df.loc["FK + print at 9600 baud (simavr UART)", "ratio HTM/DQ, median (ours)"] > 1.5

@@ -18,6 +18,10 @@ ENABLE_HINT = ("install the AVR toolchain (Debian: `bash data/mariano2019/instal
 _CONF = re.compile(r"CONF i=(\d+) x=([0-9a-f]{8}) y=([0-9a-f]{8}) z=([0-9a-f]{8}) links=(\d+) products=(\d+) "
                    r"translation=(\d+) total=(\d+)")
 _OP = re.compile(r"OP (\w+) i=(\d+) cycles=(\d+)")
+# print variant: "PRINT" line, the text printed inside the timed region, then its "PCONF" line
+_PRINT = re.compile(r"PRINT\.\n(.*?)PCONF i=(\d+) x=([0-9a-f]{8}) y=([0-9a-f]{8}) z=([0-9a-f]{8}) fk=(\d+) "
+                    r"print=(\d+) total=(\d+) chars=(\d+)", re.S)
+_VALUE = re.compile(r"-?\d+\.\d+|-?nan|-?inf|-?ovf")
 
 
 class AvrError(RuntimeError):
@@ -115,6 +119,27 @@ def parse_fk_output(text: str) -> dict:
     if not confs or over is None or stack is None:
         raise AvrError(f"cannot parse the firmware output: {text.strip()[:200]!r}")
     return {"overhead": int(over.group(1)), "stack_peak": int(stack.group(1)), "confs": confs}
+
+
+def parse_print_output(text: str) -> dict:
+    """The print-variant output -> {overhead, confs: [{i, x, y, z, fk, print, total, chars, text, values}]}.
+
+    ``text`` is what the firmware printed inside the timed region as simavr echoes it: simavr shows
+    every byte below ' ' as '.' and ends its own output lines with a newline (after a '\\n' byte or
+    127 bytes), so with those newlines removed ``text`` has one character per byte sent (``chars``,
+    counted by the firmware, must equal ``len(text)``). ``values`` are the printed numbers.
+    """
+    confs = []
+    for m in _PRINT.finditer(text):
+        body, i, x, y, z, fk, pr, tot, n = m.groups()
+        shown = body.replace("\n", "")
+        values = [float(v) if v[-1].isdigit() else float("nan") for v in _VALUE.findall(shown)]
+        confs.append({"i": int(i), "x": _f32(x), "y": _f32(y), "z": _f32(z), "fk": int(fk), "print": int(pr),
+                      "total": int(tot), "chars": int(n), "text": shown, "values": values})
+    over = re.search(r"OVERHEAD (\d+)", text)
+    if not confs or over is None:
+        raise AvrError(f"cannot parse the print-variant output: {text.strip()[:200]!r}")
+    return {"overhead": int(over.group(1)), "confs": confs}
 
 
 def parse_ops_output(text: str) -> list[dict]:

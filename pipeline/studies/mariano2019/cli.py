@@ -2,7 +2,7 @@
 
 mariano_count_ops     operation counts (eqs. 21-22, Tables II-III, Gráficos 1-3)
 mariano_time_host     host FK timing, HTM vs DQ, for one robot
-mariano_measure_mcu   generated C on the simulated ATmega328P (Tables IV-VI, Gráfico 4)
+mariano_measure_mcu   generated C on the simulated ATmega328P (Tables IV-VI, Gráfico 4; FK + printing)
 """
 
 from __future__ import annotations
@@ -110,13 +110,14 @@ def cmd_measure_mcu(args) -> None:
     except (AvrError, ValueError) as exc:
         raise CLIError(str(exc)) from None
     with ArchiveWriter(args.out, _meta(study, model.name, "mcu", args.scale, s["seed"])) as w:
-        for ch in ("status", "sizes", "fk", "ops"):
+        for ch in ("status", "sizes", "fk", "ops", "print"):
             w.add_channel(TOPIC + "mcu_" + ch, _schema(f"Mariano.mcu_{ch}", f"ATmega328P measurements: {ch}"))
             for r in recs[ch]:
                 w.write_message(TOPIC + "mcu_" + ch, r)
     st = recs["status"][0]
     if st["measured"]:
-        print(f"wrote {args.out}: {len(recs['fk'])} FK runs, {len(recs['ops'])} operation timings")
+        print(f"wrote {args.out}: {len(recs['fk'])} FK runs, {len(recs['ops'])} operation timings, "
+              f"{len(recs['print'])} FK + print runs")
     else:
         print(f"wrote {args.out}: NOT MEASURED (missing {', '.join(st['missing'])}); to enable: {st['hint']}")
 

@@ -89,8 +89,9 @@ def count_records(model, max_links: int, seed: int) -> dict:
 def mcu_records(model, configs: np.ndarray, mcu: dict, workdir) -> dict:
     """Build, size and simulate the three firmwares (+ the operation-cost one).
 
-    Returns ``{"status": [...], "fk": [...], "sizes": [...], "ops": [...]}``; when the toolchain
-    is missing ``status`` says so and the other lists are empty.
+    Returns ``{"status": [...], "fk": [...], "sizes": [...], "ops": [...], "print": [...]}``; when the
+    toolchain is missing ``status`` says so and the other lists are empty. ``print`` holds the print
+    variants (:func:`print_records`).
     """
     from pathlib import Path
 
@@ -101,7 +102,7 @@ def mcu_records(model, configs: np.ndarray, mcu: dict, workdir) -> dict:
     status = {"measured": tc["available"], "missing": tc["missing"], "versions": tc["versions"],
               "mcu": mcu["mcu"], "freq_hz": mcu["freq_hz"], "cflags": mcu["cflags"],
               "hint": "" if tc["available"] else avr.ENABLE_HINT}
-    out = {"status": [status], "fk": [], "sizes": [], "ops": []}
+    out = {"status": [status], "fk": [], "sizes": [], "ops": [], "print": []}
     if not tc["available"]:
         return out
     workdir = Path(workdir)
@@ -123,4 +124,39 @@ def mcu_records(model, configs: np.ndarray, mcu: dict, workdir) -> dict:
     a_vals, b_vals = mcu["op_values"]["a"], mcu["op_values"]["b"]
     elf = avr.compile_c(codegen.generate_ops_program(a_vals, b_vals), workdir, "ops", mcu["mcu"], mcu["cflags"])
     out["ops"] = avr.parse_ops_output(avr.simulate(elf, mcu["mcu"], mcu["freq_hz"], mcu["timeout_s"]))
+    out["print"] = print_records(model, configs, mcu, workdir)
+    return out
+
+
+def print_records(model, configs: np.ndarray, mcu: dict, workdir) -> list[dict]:
+    """The print variants: FK + printing its final pose inside the timed region, per baud rate.
+
+    Baud rates: ``mcu["print_bauds"]`` if the settings give it, else ``codegen.PRINT_BAUDS``
+    (0 = the text goes to RAM: formatting only). One record per (algebra, baud, configuration):
+    cycles of the FK, of the printing and of both (``total``), characters sent, the printed values
+    and the same values from the Python chain (``values_ref``, float64). Needs the toolchain.
+    """
+    from pathlib import Path
+
+    from pipeline.studies.mariano2019 import algebra as A
+    from pipeline.studies.mariano2019 import avr, codegen
+
+    workdir = Path(workdir)
+    ref = {"htm": [np.ravel(A.fk_htm_chain(model.chain, list(q))).tolist() for q in configs],
+           "dq": [list(map(float, A.fk_dq_chain(model.chain, list(q)))) for q in configs]}
+    out = []
+    for baud in mcu.get("print_bauds", codegen.PRINT_BAUDS):
+        u = codegen.uart_setting(int(baud), mcu["freq_hz"])
+        for variant in codegen.PRINT_VARIANTS:
+            alg = variant.removesuffix("_print")
+            src = codegen.generate_print_program(variant, model.chain, configs, int(baud), mcu["freq_hz"])
+            elf = avr.compile_c(src, workdir, f"{variant}_{int(baud)}", mcu["mcu"], mcu["cflags"])
+            res = avr.parse_print_output(avr.simulate(elf, mcu["mcu"], mcu["freq_hz"], mcu["timeout_s"]))
+            for c in res["confs"]:
+                i = c["i"]
+                out.append({"variant": alg, "mode": "ram" if u["baud"] == codegen.PRINT_BUFFERED else "uart",
+                            **u, "freq_hz": mcu["freq_hz"], "digits": codegen.PRINT_DIGITS,
+                            "timer_overhead": res["overhead"], **c, "n_values": len(c["values"]),
+                            "values_ref": ref[alg][i], "q": [float(v) for v in configs[i]],
+                            "length_unit": model.length_unit})
     return out

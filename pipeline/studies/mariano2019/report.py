@@ -14,6 +14,8 @@ STUDY = "mariano2019"
 T = "/mariano2019/"
 NOT_MEASURED = "not measured"
 TIE = 0.02  # |ratio - 1| below this is called a tie: the spread between configurations is ~1 %
+RECOVER = 0.05  # table04_print_variant: ours "recovers" the published ratio when within 5 % of it
+UART_BITS = 10  # 8N1 frame: start + 8 data + stop bits per character (the computed rows)
 VARIANT_LABEL = {
     "chain_general": "chain, general (eqs. 21-22 model)",
     "chain_folded": "chain, arm constants folded",
@@ -57,7 +59,7 @@ def _mcu(by) -> dict:
     status = _msgs(arch, "mcu_status")
     st = status[0] if status else {"measured": False, "hint": "no MCU archive", "missing": []}
     return {"status": st, "fk": pd.DataFrame(_msgs(arch, "mcu_fk")), "sizes": pd.DataFrame(_msgs(arch, "mcu_sizes")),
-            "ops": pd.DataFrame(_msgs(arch, "mcu_ops"))}
+            "ops": pd.DataFrame(_msgs(arch, "mcu_ops")), "print": pd.DataFrame(_msgs(arch, "mcu_print"))}
 
 
 def _not_measured_note(st) -> str:
@@ -163,6 +165,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     else:
         note4 = _not_measured_note(st)
     out.append(TableSpec("table04_mcu_time", "Table IV — FK time on the ATmega328P", df4, note4))
+    out.append(_print_variant_table(mcu, pub4, st, freq))
 
     # Table V: per function group
     pub5 = published(published_dir, STUDY, "table05_ram_model_steps")
@@ -252,10 +255,139 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                          "`elbow`). Errors: independent FK of the returned angles against the goal, over the solved "
                          "poses; 'reported unreachable' = no FK-valid solution on that branch (stop reason 7)."))
 
-    out.append(TableSpec("verdict", "Verdict — which algebra wins which measure", _verdict(arm, fk, sizes, host, st),
+    out.append(TableSpec("verdict", "Verdict — which algebra wins which measure", _verdict(arm, fk, sizes, host, st, mcu["print"], _pub_ratio(pub4)),
                          "'HTM' / 'DQ' = the cheaper one by that measure; 'tie' when the ratio is within 2 % of 1. Ratios are "
                          "HTM/DQ (> 1: DQ cheaper)."))
     return out
+
+
+def _paired(df: pd.DataFrame, col: str) -> tuple[np.ndarray, np.ndarray]:
+    """``col`` of the HTM and DQ records of the same configurations (sorted by configuration)."""
+    h = df[df["variant"] == "htm"].set_index("i")[col]
+    d = df[df["variant"] == "dq"].set_index("i")[col]
+    common = sorted(set(h.index) & set(d.index))
+    return h.loc[common].to_numpy(float), d.loc[common].to_numpy(float)
+
+
+def simavr_byte_cycles(ubrr: int, u2x: bool, freq: float) -> float:
+    """CPU cycles simavr 1.6 waits between a UDR0 write and UDRE0 (sim/avr_uart.c, avr_uart_baud_write):
+    baud = F/(UBRR+1)/(8 or 16) and usec_per_byte = 1e6 / (baud / 11), all in integers (11 bits: start,
+    8 data, a parity bit counted even when parity is off, 1 stop)."""
+    baud = int(freq) // (int(ubrr) + 1) // (8 if u2x else 16)
+    return (1_000_000 // (baud // 11)) * freq / 1e6
+
+
+def _print_variant_table(mcu, pub4, st, freq) -> TableSpec:
+    """Table IV with the result printed inside the timed region (print_array of Tabela V).
+
+    Rows: the FK alone (``mcu_fk``), FK + printing to RAM (formatting only), FK + printing over
+    simavr's UART at each measured baud rate (``mcu_print``), and per baud rate the same with a
+    real 8N1 frame computed as FK + max(formatting, characters x 10 bit / baud) from the measured FK
+    cycles, formatting cycles and characters of the same configuration.
+    """
+    name, title = "table04_print_variant", "Table IV with printing — FK + print_array of the result in the timed region"
+    pr, fk = mcu["print"], mcu["fk"]
+    pub = {}
+    if pub4 is not None:
+        pub = {alg: pub4[pub4["algebra"] == alg].iloc[0] for alg in ("htm", "dq") if alg in set(pub4["algebra"])}
+    pub_ratio = _pub_ratio(pub4)
+    pub_cols = {"HTM time [ms] (published)": 1e3 * float(pub["htm"]["time_s"]) if "htm" in pub else np.nan,
+                "DQ time [ms] (published)": 1e3 * float(pub["dq"]["time_s"]) if "dq" in pub else np.nan,
+                "ratio HTM/DQ (published)": pub_ratio}
+    if not st["measured"] or not len(pr) or not len(fk):
+        why = _not_measured_note(st) if not st["measured"] else (
+            "Print variants NOT MEASURED: the MCU archive has no mcu_print records (rerun mariano_measure_mcu).")
+        return TableSpec(name, title, pd.DataFrame([{"timed region": NOT_MEASURED, **pub_cols}]), why)
+
+    def row(region, source, baud, h, d, hc, dc, per_char):
+        r = h / d
+        med = float(np.median(r))
+        rec = "yes" if np.isfinite(pub_ratio) and abs(med / pub_ratio - 1) <= RECOVER else "no"
+        return {"timed region": region, "source": source, "baud set / actual [bit/s]": baud,
+                "HTM characters printed, median (ours)": float(np.median(hc)),
+                "DQ characters printed, median (ours)": float(np.median(dc)),
+                "cycles per character (measured: print cycles / characters; computed: 8N1 byte time)": per_char,
+                "HTM cycles, median (ours)": float(np.median(h)), "DQ cycles, median (ours)": float(np.median(d)),
+                "HTM time [ms] at 16 MHz (ours)": 1e3 * float(np.median(h)) / freq,
+                "DQ time [ms] at 16 MHz (ours)": 1e3 * float(np.median(d)) / freq,
+                "ratio HTM/DQ, median (ours)": med, "ratio min–max (ours)": f"{r.min():.3f}–{r.max():.3f}",
+                **pub_cols, f"recovers the published ratio (within {RECOVER:.0%})": rec}
+
+    measured = "measured (simavr)"
+    h, d = _paired(fk, "total")
+    rows = [row("FK only (Table IV, table04_mcu_time)", measured, "—", h, d, np.zeros(len(h)), np.zeros(len(d)), np.nan)]
+    ram = pr[pr["mode"] == "ram"]
+    if len(ram):
+        h, d = _paired(ram, "total")
+        hc, dc = _paired(ram, "chars")
+        per = float(np.median(ram["print"] / ram["chars"]))
+        rows.append(row("FK + print, text to RAM (formatting only, no UART)", measured, "—", h, d, hc, dc, per))
+    uart = pr[pr["mode"] == "uart"]
+    for baud, g in uart.groupby("baud", sort=True):
+        actual = float(g["baud_actual"].iloc[0])
+        bset = f"{int(baud)} / {actual:.0f}"
+        h, d = _paired(g, "total")
+        hc, dc = _paired(g, "chars")
+        rows.append(row(f"FK + print at {int(baud)} baud (simavr UART)", measured, bset, h, d, hc, dc,
+                        float(np.median(g["print"] / g["chars"]))))
+    for baud, g in uart.groupby("baud", sort=True):
+        if not len(ram):
+            break
+        actual = float(g["baud_actual"].iloc[0])
+        byte = UART_BITS * freq / actual   # cycles per 8N1 character
+        comp = g[["variant", "i", "fk", "chars"]].merge(ram[["variant", "i", "print"]], on=["variant", "i"])
+        comp["total"] = comp["fk"] + np.maximum(comp["print"], comp["chars"] * byte)
+        h, d = _paired(comp, "total")
+        hc, dc = _paired(comp, "chars")
+        rows.append(row(f"FK + print at {int(baud)} baud, 8N1 frame (computed)",
+                        f"computed: FK and formatting measured, UART = characters × {UART_BITS} bit / baud",
+                        f"{int(baud)} / {actual:.0f}", h, d, hc, dc, byte))
+    df = pd.DataFrame(rows)
+
+    # the computed rows' formula with simavr's own byte time, against the simavr rows (its accuracy)
+    check = []
+    if len(ram):
+        for baud, g in uart.groupby("baud", sort=True):
+            byte = simavr_byte_cycles(g["ubrr"].iloc[0], bool(g["u2x"].iloc[0]), freq)
+            m = g[["variant", "i", "fk", "chars", "total"]].merge(ram[["variant", "i", "print"]], on=["variant", "i"])
+            est = m["fk"] + np.maximum(m["print"], m["chars"] * byte)
+            dev = est / m["total"] - 1
+            ratio8n1 = byte / (UART_BITS * freq / float(g["baud_actual"].iloc[0]))
+            check.append(f"{int(baud)} baud {dev.min():+.1%} to {dev.max():+.1%} (simavr's byte time {byte:.0f} "
+                         f"cycles = {ratio8n1:.3f} × the 8N1 one)")
+    n_conf = int(pr["i"].nunique())
+    digits = int(pr["digits"].iloc[0])
+    err = max(float(np.max(np.abs(np.asarray(v, float) - np.asarray(r, float))))
+              for v, r in zip(pr["values"], pr["values_ref"]))
+    bauds = sorted(int(b) for b in uart["baud"].unique())
+    pub_chars = ""
+    if len(pub) == 2 and bauds:
+        b0 = bauds[0]
+        act = float(uart.loc[uart["baud"] == b0, "baud_actual"].iloc[0])
+        ch = {alg: float(pub[alg]["time_s"]) * act / UART_BITS for alg in ("htm", "dq")}
+        pub_chars = (f" The published times would fill {ch['htm']:.0f} (HTM) and {ch['dq']:.0f} (DQ) characters at "
+                     f"{b0} baud 8N1 (computed from the published seconds). The published counters mod 4 are "
+                     f"{int(pub['htm']['counter_value']) % 4} and {int(pub['dq']['counter_value']) % 4}: they cannot "
+                     "both be differences of Arduino's micros() (4 µs steps at 16 MHz).")
+    note = (f"Ours: the FK programs of table04_mcu_time, then, inside the same Timer1 region, the final pose printed "
+            f"as a sketch's print_array would (HTM: the 4×4 matrix, one row per line; DQ: the 8 components; each "
+            f"float as Arduino's Print::print(float), {digits} decimals, a space after each value, CR LF after each "
+            f"line), {n_conf} joint configurations per row; ratio = median over configurations of HTM/DQ of the same "
+            f"configuration. The UART is set as Arduino's Serial.begin (U2X, UBRR = (F_CPU/4/baud − 1)/2; 9600 baud "
+            f"is Serial.begin's usual rate in sketches of the time) and each character waits for UDRE0 (blocking "
+            f"write, UART idle when the region starts; Arduino's interrupt-driven 64-byte TX buffer is not modelled). "
+            f"simavr (sim/avr_uart.c) models the byte time: a UDR0 write clears UDRE0 and sets it again "
+            f"1e6/(baud/11) µs later (integer µs; 11 bits per byte — a parity bit is counted even when parity is off "
+            f"— and no double buffering), so the 'simavr UART' rows charge more per character than a real "
+            f"8N1 frame; the 'computed' rows use 10 bits per character instead: measured FK cycles + max(measured "
+            f"formatting cycles, characters × 10 × F_CPU / baud); the same formula with simavr's byte time "
+            f"instead of 10 bits deviates from the simavr rows by {'; '.join(check) or 'n/a'} (it ignores that the "
+            f"first character does not wait and the formatting the transmission does not hide). The "
+            f"printed values agree with the Python chain to {err:.2g} {pr['length_unit'].iloc[0]} "
+            f"(rounding to {digits} decimals). The document does not say what its sketch printed or whether the "
+            f"printing was timed; 'recovers' = our median ratio within {RECOVER:.0%} of the published "
+            f"{pub_ratio:.3f}." + pub_chars)
+    return TableSpec(name, title, df, note)
 
 
 def _ik_roundtrip(archives) -> pd.DataFrame:
@@ -281,7 +413,15 @@ def _ik_roundtrip(archives) -> pd.DataFrame:
     return pd.DataFrame(sorted(rows, key=lambda r: order.get(r["elbow branch (sign in eq. 30)"], 2)))
 
 
-def _verdict(arm, fk, sizes, host, st) -> pd.DataFrame:
+def _pub_ratio(pub4) -> float:
+    """Published counter HTM / DQ of Tabela IV (NaN without the published file)."""
+    if pub4 is None or not {"htm", "dq"} <= set(pub4["algebra"]):
+        return np.nan
+    c = pub4.set_index("algebra")["counter_value"]
+    return float(c["htm"] / c["dq"])
+
+
+def _verdict(arm, fk, sizes, host, st, prt=None, pub_print=np.nan) -> pd.DataFrame:
     rows = []
 
     def add(measure, ours, ratio, published, pub_ratio):
@@ -307,6 +447,11 @@ def _verdict(arm, fk, sizes, host, st) -> pd.DataFrame:
         add("flash of the FK", "HTM" if fh < fd else "DQ", fh / fd, "HTM (Table VI)", 4780 / 7088)
         rh, rd = s.loc["htm", "sram"] - s.loc["baseline", "sram"], s.loc["dq", "sram"] - s.loc["baseline", "sram"]
         add("static SRAM of the FK", "HTM" if rh < rd else "DQ", rh / rd, "DQ (Table VI)", 958 / 496)
+        if prt is not None and len(prt):
+            for baud, g in prt[prt["mode"] == "uart"].groupby("baud", sort=True):
+                h, d = g.loc[g["variant"] == "htm", "total"].median(), g.loc[g["variant"] == "dq", "total"].median()
+                add(f"MCU cycles per FK + print of the pose, {int(baud)} baud (simavr)", "HTM" if h < d else "DQ",
+                    h / d, "DQ (Table IV)", pub_print)
     else:
         add("MCU cycles / flash / SRAM", NOT_MEASURED, np.nan, "DQ / HTM / DQ", np.nan)
     if len(host):
