@@ -222,26 +222,3 @@ def test_puma_single_call_info():
     deg = [k for k, w in enumerate(words) if w.endswith("d")]
     assert r.success and r.info["degenerate_wrist"] == len(deg) == 2 and r.info["chosen"] in deg
     assert np.all(r.solutions[deg, 3] == 0.0)
-
-
-@pytest.mark.parametrize("case", ["ur5", "ur5_mm", "puma560_mm", "puma_variant"])
-def test_the_check_run_inside_the_kernel_equals_finishs_own(case):
-    """``Raw.checked`` (the FK check run in the kernel's compiled call) gives finish() exactly the
-    values of its own check: success, errors, limits record and stop reason."""
-    from dataclasses import replace
-
-    from pipeline.solvers.base import finish
-    from pipeline.solvers.registry import bind
-
-    name, model, mapping = CASES[case]
-    b = bind(name, model, mapping)
-    G, S = _problems(model, n=60)
-    for Tg, q0 in zip(G, S):
-        Tw = b.prep.working_goal(Tg)
-        raw = b.run1(Tw, np.ascontiguousarray(q0, dtype=float), 0)
-        assert raw.checked is not None
-        fused, own = finish(b.prep, Tw, raw, b.sc), finish(b.prep, Tw, replace(raw, checked=None), b.sc)
-        for k in ("success", "stop_reason", "within_limits", "claimed_success"):
-            assert getattr(fused, k) == getattr(own, k), k
-        for k in ("position_error", "orientation_error"):
-            np.testing.assert_equal(getattr(fused, k), getattr(own, k))

@@ -54,8 +54,7 @@ import numpy as np
 from pipeline.kinematics.fkcheck import meets
 from pipeline.solvers._kin import now_ns
 from pipeline.solvers.analytic_ur import InfoRows, copy12, mul34, mul_link, pose_errors, rigid_rows
-from pipeline.solvers.base import (CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, StopReason, check_args,
-                                   check_within_into, finish_args)
+from pipeline.solvers.base import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, StopReason
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) A5.3 cin_inv_PUMA(), after Fu, Gonzalez & Lee [02]"
@@ -361,14 +360,11 @@ def puma_core(P, Tg, q_start, W, clk, sols, q, iv, fv):
 
 
 @numba.njit(cache=True)
-def puma_one(P, Tg, q_start, sols, q, iv, fv, F, prism, crit, tol_pos, tol_rot, tol_dq, checked):
-    """:func:`puma_core` with its own scratch (the single-pose call), then the independent FK check of
-    the chosen ``q`` into ``checked`` (:func:`pipeline.solvers.base.check_within_into`), untimed."""
+def puma_one(P, Tg, q_start, sols, q, iv, fv):
+    """:func:`puma_core` with its own scratch (the single-pose call)."""
     W = np.empty(N_W)
     clk = np.zeros(2, np.int64)
-    ns = puma_core(P, Tg, q_start, W, clk, sols, q, iv, fv)
-    check_within_into(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, checked)
-    return ns
+    return puma_core(P, Tg, q_start, W, clk, sols, q, iv, fv)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -412,19 +408,16 @@ def _info(iv: list, maxdp: float, maxang: float) -> dict:
 def bind(prep: Prepared, s: AnalyticPumaSettings):
     """``run1(T_goal, q_start, seed) -> Raw`` with the geometry, bare-goal transforms and FK check packed once."""
     P = packed(prep, s)
-    F, prism = finish_args(prep)
-    crit, tol_pos, tol_rot, tol_dq = check_args(s)
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
         sols = np.empty((8, 6))
         q = np.empty(6)
         iv = np.empty(N_I, np.int64)
         fv = np.empty(2)
-        checked = np.empty(4)
-        ns = puma_one(P, T_goal, q_start, sols, q, iv, fv, F, prism, crit, tol_pos, tol_rot, tol_dq, checked)
+        ns = puma_one(P, T_goal, q_start, sols, q, iv, fv)
         v = iv.tolist()
         return Raw(q=q, code=SUCCESS if v[I_CHOSEN] >= 0 else NO_SOLUTION, iterations=0, solve_ns=ns, ik_ns=ns,
-                   solutions=sols[:v[I_FOUND]], info=_info(v, float(fv[0]), float(fv[1])), checked=checked)
+                   solutions=sols[:v[I_FOUND]], info=_info(v, float(fv[0]), float(fv[1])))
 
     return run1
 

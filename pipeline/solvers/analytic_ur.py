@@ -49,8 +49,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers._kin import now_ns
-from pipeline.solvers.base import (BatchRaw, Prepared, Raw, Settings, StopReason, check_args, check_within_into,
-                                   finish_args, setting)
+from pipeline.solvers.base import BatchRaw, Prepared, Raw, Settings, StopReason, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "004_957b32c2b06ea31d.txt (Nepomuceno 2024) §4.8; Hawkins (2013)"
@@ -427,14 +426,11 @@ def ur_core(P, Tg, q_start, W, clk, S, q, trace, start_row):
 
 
 @numba.njit(cache=True)
-def ur_one(P, Tg, q_start, S, q, trace, F, prism, crit, tol_pos, tol_rot, tol_dq, checked):
-    """:func:`ur_core` with its own scratch (the single-pose call), then the independent FK check of
-    the chosen ``q`` into ``checked`` (:func:`pipeline.solvers.base.check_within_into`), untimed."""
+def ur_one(P, Tg, q_start, S, q, trace):
+    """:func:`ur_core` with its own scratch (the single-pose call)."""
     W = np.empty(N_W)
     clk = np.zeros(2, np.int64)
-    out = ur_core(P, Tg, q_start, W, clk, S, q, trace, True)
-    check_within_into(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, checked)
-    return out
+    return ur_core(P, Tg, q_start, W, clk, S, q, trace, True)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -464,17 +460,14 @@ def _info(nv: int, best: int, doc: float) -> dict:
 def bind(prep: Prepared, s: AnalyticURSettings):
     """``run1(T_goal, q_start, seed) -> Raw`` with the robot and settings packed once (see :func:`packed`)."""
     P = packed(prep, s)
-    F, prism = finish_args(prep)
-    crit, tol_pos, tol_rot, tol_dq = check_args(s)
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
         S = np.empty((8, 6))
         q = np.empty(6)
         trace = np.empty((2, 8))
-        checked = np.empty(4)
-        nv, best, ns = ur_one(P, T_goal, q_start, S, q, trace, F, prism, crit, tol_pos, tol_rot, tol_dq, checked)
+        nv, best, ns = ur_one(P, T_goal, q_start, S, q, trace)
         return Raw(q=q, code=SUCCESS if best >= 0 else NO_SOLUTION, iterations=1, solve_ns=ns, trace=trace,
-                   solutions=S[:nv], info=_info(nv, best, float(trace[1, 0])), checked=checked)
+                   solutions=S[:nv], info=_info(nv, best, float(trace[1, 0])))
 
     return run1
 

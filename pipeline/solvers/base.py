@@ -347,10 +347,6 @@ class Raw:
     solutions : ndarray, shape (m, n), optional
         Analytic methods: every solution found (``q`` is the one chosen).
     info : dict                             method-specific counters (JSON scalars), archived as is
-    checked : ndarray, shape (4,), optional
-        The independent FK check of ``q`` already run by the kernel in its own compiled call
-        (:func:`check_within_into`: meets the criterion, |dp|, angle, within the limits), which
-        saves :func:`finish` a second compiled call; ignored under ``require_limits``.
     """
 
     q: np.ndarray
@@ -361,7 +357,6 @@ class Raw:
     ik_ns: int = 0
     solutions: np.ndarray | None = None
     info: dict = field(default_factory=dict)
-    checked: np.ndarray | None = None
 
 
 @dataclass(slots=True)
@@ -661,13 +656,12 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
         q = raw.q
         if type(q) is not np.ndarray or q.dtype != np.float64:
             q = np.asarray(q, dtype=float)
-    if raw.checked is not None and not settings.require_limits:  # the kernel ran the same check on q
-        okf, dp, ang, insf = raw.checked.tolist()
-        ok, inside = okf != 0.0, insf != 0.0
-    else:
-        F, prism = finish_args(prep)
-        ok, dp, ang, inside = _check_within(F, prism, q, T_goal, CRITERION_CODE[settings.criterion], settings.tol_pos,
-                                            settings.tol_rot, settings.tol_dq)
+    fa = prep._finish_args
+    if fa is None:
+        fa = prep._finish_args = _finish_args(prep)
+    F, prism = fa
+    ok, dp, ang, inside = _check_within(F, prism, q, T_goal, CRITERION_CODE[settings.criterion], settings.tol_pos,
+                                        settings.tol_rot, settings.tol_dq)
     code = int(raw.code)
     claimed = code == _SUCCESS
     if claimed and not ok:
@@ -694,19 +688,6 @@ _SUCCESS, _FK_CHECK_FAILED, _NON_FINITE, _OUT_OF_LIMITS = (int(StopReason.SUCCES
                                                           int(StopReason.NON_FINITE), int(StopReason.OUT_OF_LIMITS))
 
 
-def finish_args(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
-    """``(F, prism)`` of :func:`check_within_into` for ``prep`` (built once, kept on the prepared robot)."""
-    fa = prep._finish_args
-    if fa is None:
-        fa = prep._finish_args = _finish_args(prep)
-    return fa
-
-
-def check_args(settings: Settings) -> tuple[int, float, float, float]:
-    """``(criterion code, tol_pos, tol_rot, tol_dq)`` of :func:`check_within_into` (settings in the working unit)."""
-    return CRITERION_CODE[settings.criterion], float(settings.tol_pos), float(settings.tol_rot), float(settings.tol_dq)
-
-
 def _finish_args(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
     """The check's model and the limits packed into one float array (fewer arguments = a cheaper
     compiled call): K (n+1, 8), axis (n, 3), offset (n,), limits (n, 2), then 8 floats of scratch."""
@@ -728,14 +709,3 @@ def _check_within(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq):
     limits = F[o3:o4].reshape((n, 2))
     ok, dp, ang, _ = check_one(K, axis, F[o2:o3], prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, F[o4:])
     return ok, dp, ang, _within(q, limits, prism, 1e-9)
-
-
-@numba.njit(cache=True)
-def check_within_into(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, out):
-    """:func:`_check_within` for a kernel to call inside its own compiled call: ``out`` (4,) = (meets
-    the criterion 1/0, |dp|, angle, within the limits 1/0); the kernel returns it as ``Raw.checked``."""
-    ok, dp, ang, inside = _check_within(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq)
-    out[0] = 1.0 if ok else 0.0
-    out[1] = dp
-    out[2] = ang
-    out[3] = 1.0 if inside else 0.0
