@@ -123,7 +123,10 @@ def test_study_settings_are_si_in_mm(study):
     for label in ("ji", "lm"):
         assert study.solvers[label].settings.converted().error_change_stop == pytest.approx(1e-6)
     sweep = {k: study.solvers[k].settings for k in study.set_solvers("alpha_sweep")}
-    assert sorted(s.alpha for s in sweep.values()) == [0.004, 0.005, 0.006]
+    printed = [s for s in sweep.values() if s.delta == 0.01]  # the document's δ; δ = 0.005 is the Table 2 reading
+    assert sorted(s.alpha for s in printed) == [0.004, 0.005, 0.006]
+    assert sorted((s.delta, s.alpha) for s in sweep.values() if s.delta != 0.01) == [(0.005, 0.004), (0.005, 0.005),
+                                                                                     (0.005, 0.006)]
     assert all(s.stop == "reach" for s in sweep.values()) and study.solvers["ji"].settings.stop == "error_change"
 
 
@@ -350,7 +353,7 @@ def test_workflow_dry_run_lists_one_archive_per_solver_and_set(tmp_path):
     assert out.returncode == 0, out.stderr[-2000:]
     counts = {ln.split()[0]: int(ln.split()[-1]) for ln in out.stdout.splitlines()
               if ln.strip() and ln.split()[0] in ("solve_problems", "make_problems")}
-    assert counts["solve_problems"] == len(study.jobs()) == 3 + 12 + 6
+    assert counts["solve_problems"] == len(study.jobs()) == 6 + 12 + 6
     assert counts["make_problems"] == 3
     assert "solve_borges_kr6" not in out.stdout
 
