@@ -37,10 +37,11 @@ Sections (each prints medians and 95th percentiles; every time is per problem un
               pose with one method, then the next).
 
 Each section runs ``--repeat`` times (default 2); the machine's load average is printed with each
-run so a busy machine shows. Within a run, the hot loop (10 passes of 20 problems) and the single-pose
-analytic calls alone (20 passes of 100 poses), 0.25 s apart, keep the fastest pass, as ``timeit``
-advises: this shared VM switches between a fast and a ~1.5x slower phase every 0.2-5 s; the median
-over every pass is written too (``p50_all_passes``). ``--json`` writes every number for the report's performance table.
+run so a busy machine shows. Within a run, the hot loop (5 passes) and the single-pose analytic calls
+alone (10 passes), 0.3 s apart, time every problem in every pass and keep each problem's fastest time
+(medians and p95 are over the problems), as ``timeit`` advises: this shared VM switches between a fast
+and a ~1.5x slower phase every 0.2-5 s; the median over every measurement is written too
+(``p50_all_passes``). ``--json`` writes every number for the report's performance table.
 """
 
 from __future__ import annotations
@@ -61,28 +62,27 @@ from pipeline.solvers import NotApplicableError, make_settings, prepare, solve, 
 
 ROOT = Path(__file__).resolve().parent.parent
 BLOCK = 100  # problems per method in turn (public section)
-PASSES = 20  # passes (each a slice of the problems) in the hot-loop and single-pose analytic sections
-PAUSE = 0.25  # [s] between passes, so they sample the VM's fast and slow phases (see _best_pass)
+PASSES = 10  # passes over every problem in the single-pose analytic sections (5 in the hot loop)
+PAUSE = 0.3  # [s] between passes, so each problem is timed in the VM's fast and slow phases (see _best_of)
 PEERS = ("rtb_ik_lm", "rtb_ik_nr", "rtb_ik_gn", "trac_ik", "pinocchio_clik")
 
 
-def _best_pass(measure, items: int, passes: int = PASSES, pause: float = PAUSE) -> dict:
-    """Stats of the fastest of ``passes`` passes of ``measure(lo, hi)`` (per-item times of items
-    lo..hi-1), plus the median over every pass.
+def _best_of(measure, items: int, passes: int = PASSES, pause: float = PAUSE) -> dict:
+    """Stats over ``items`` problems of each problem's fastest time in ``passes`` passes of
+    ``measure()`` (a list of per-item times), plus the median over every measurement.
 
     This shared 2-core VM switches between a fast and a ~1.5x slower phase every 0.2-5 s (the same
-    UR5 call in one process: 8.0 us, then 11-13 us, then 8.0 us again; steal time is non-zero). Each
-    pass covers ``items / passes`` problems and passes are ``pause`` seconds apart, so over the section
-    they sample both phases; as ``timeit`` advises, the fastest pass stands for the method and the
-    all-pass median (``p50_all_passes``) shows what the machine's slow phases add."""
-    bounds = np.linspace(0, items, passes + 1).astype(int)
+    UR5 call in one process: 8.0 us, then 11-13 us, then 8.0 us again; steal time is non-zero). The
+    passes are ``pause`` seconds apart, so each problem is timed in both phases; as ``timeit``
+    advises, a problem's fastest time stands for the method, and the median over every measurement
+    (``p50_all_passes``) shows what the machine's slow phases add."""
     runs = []
-    for lo, hi in zip(bounds[:-1], bounds[1:]):
-        runs.append(np.asarray(measure(lo, hi), dtype=float))
+    for _ in range(passes):
+        runs.append(np.asarray(measure(), dtype=float))
         time.sleep(pause)
-    best = min(runs, key=np.median)
-    return {**_stats(best), "p50_all_passes": float(np.median(np.concatenate(runs))), "passes": passes,
-            "items_per_pass": int(bounds[1] - bounds[0])}
+    runs = np.vstack(runs)
+    assert runs.shape[1] == items
+    return {**_stats(runs.min(axis=0)), "p50_all_passes": float(np.median(runs)), "passes": passes}
 
 
 def _stats(x) -> dict:
@@ -183,9 +183,9 @@ def hotloop(n: int) -> dict:
     for method, extra in (("jacobian_transpose", {}), ("pseudoinverse", {}), ("dls", {}),
                           ("dls", {"time_ik_block": True})):
         prep, s = _prepared(method, lwr, {**mapping, **extra})
-        st = _best_pass(lambda lo, hi: [r.solve_time_s * 1e9 / r.iterations
-                                        for r in (solve(method, prep, T[i], ps.q_start[i], s) for i in range(lo, hi))],
-                        len(ps), passes=10)
+        st = _best_of(lambda: [r.solve_time_s * 1e9 / r.iterations
+                               for r in (solve(method, prep, T[i], ps.q_start[i], s) for i in range(len(ps)))],
+                      len(ps), passes=5)
         flops = flops_per_iteration(7, method)
         floor = flops / 2 * fma_ns + 7 * trig_ns  # flops counts a multiply-add as 2
         label = method if not extra else f"{method}_timed"  # clock reads around the step (cerbaro2019's ik_time_s)
@@ -236,8 +236,8 @@ def analytic(n: int) -> dict:
                 rows[name]["solve"].append(r.solve_time_s * 1e6)
         alone = {}
         for name, (prep, s) in methods.items():  # each method on all poses in a row (warm caches)
-            alone[name] = _best_pass(lambda lo, hi: [solve(name, prep, T[i], ps.q_start[i], s).call_time_s * 1e6
-                                                     for i in range(lo, hi)], len(ps))
+            alone[name] = _best_of(lambda: [solve(name, prep, T[i], ps.q_start[i], s).call_time_s * 1e6
+                                            for i in range(len(ps))], len(ps))
         print(f"{robot}: all solutions per pose, {n} poses [us]")
         for name, r in rows.items():
             c, k, a = _stats(r["call"]), _stats(r["solve"]), alone[name]
