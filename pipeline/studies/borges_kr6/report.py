@@ -45,6 +45,8 @@ def label_of(study, m: str) -> str:
     """JI / LM / PSO, or e.g. ``PSO w=0.7`` for a PSO reading (its settings that differ from ``pso``'s)."""
     if m in LABEL:
         return LABEL[m]
+    if m in READING_NAME:
+        return READING_NAME[m]
     if m not in study.solvers or "pso" not in study.solvers:
         return m
     base, mine = _params(study, "pso"), _params(study, m)
@@ -57,7 +59,9 @@ def label_of(study, m: str) -> str:
 
 CALIBRATION = "pso_cal"  # the PSO label fitted to Table 3's mean iterations (data/studies/borges_kr6.yaml)
 READING_NAME = {"pso": "PSO (default: literature clamp)",
-                CALIBRATION: "PSO calibration: maxVel fitted to Table 3's mean iterations"}
+                CALIBRATION: "PSO calibration: maxVel fitted to Table 3's mean iterations",
+                "pso_v0": "PSO library default (no clamp, maxVel = 0)",
+                "pso_v0_nostop": "PSO library default, stop off"}
 
 VARIANT_COLORS = ("tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:gray")
 
