@@ -62,6 +62,33 @@ def test_quick_run_builds_report(built):
     assert not list(built.rglob("*.partial"))
 
 
+@pytest.mark.parametrize("sid", ["cerbaro2019", "erthal1992", "borges_kr6", "mariano2019", "nepomuceno2024"])
+def test_each_study_opens_with_claims_whose_verdicts_are_computed_from_its_tables(built, sid):
+    """Every claim's verdict is recomputed here from the named table's CSV (itself computed from the
+    archives): none is typed in. Where the document's numbers are in the table, the claim as encoded
+    holds on them (a miscoded claim fails here). The report shows the claims first in the section.
+    (Before the tests below that delete parts of the shared build.)"""
+    import pandas as pd
+
+    from pipeline.settings import load_study
+    from pipeline.studies.claims import MISSING, evaluate_claim, select
+
+    doc = load_study(ROOT / "data" / "studies" / f"{sid}.yaml").doc
+    tables = built / sid / "tables"
+    claims = pd.read_csv(tables / "claims.csv", keep_default_na=False)
+    assert len(claims) == len(doc["claims"])
+    for spec, (_, row) in zip(doc["claims"], claims.iterrows()):
+        path = tables / f"{spec['table']}.csv"
+        frame = select(pd.read_csv(path) if path.is_file() else None, spec.get("rows"))
+        verdict, _, pub, _ = evaluate_claim(spec, frame)
+        assert row["verdict (ours)"] == verdict, spec["claim"]
+        assert pub in ("", "holds", MISSING), f"{sid}: claim {spec['claim']!r} does not hold on the published numbers"
+    assert (tables / "not_reproduced.csv").is_file()
+    html = (built / "report.html").read_text()
+    section = html[html.index(f'<section id="{sid}"'):]
+    assert section.index(f'id="tab-{sid}-claims"') < section.index(f'id="{sid}-settings"')
+
+
 def test_rerun_has_nothing_to_do(built):
     proc = _snakemake(built, "-n")
     assert "Nothing to be done" in proc.stdout + proc.stderr
@@ -177,32 +204,6 @@ def test_report_opens_with_the_answer(built):
     assert len(ans) == 2 * 13 and ans["answer"].str.contains("solves the most goals").all()
     heat = pd.read_csv(built / "arm_benchmark" / "tables" / "heatmap.csv")
     assert len(heat) == 13
-
-
-@pytest.mark.parametrize("sid", ["cerbaro2019", "erthal1992", "borges_kr6", "mariano2019", "nepomuceno2024"])
-def test_each_study_opens_with_claims_whose_verdicts_are_computed_from_its_tables(built, sid):
-    """Every claim's verdict is recomputed here from the named table's CSV (itself computed from the
-    archives): none is typed in. Where the document's numbers are in the table, the claim as encoded
-    holds on them (a miscoded claim fails here). The report shows the claims first in the section."""
-    import pandas as pd
-
-    from pipeline.settings import load_study
-    from pipeline.studies.claims import MISSING, evaluate_claim, select
-
-    doc = load_study(ROOT / "data" / "studies" / f"{sid}.yaml").doc
-    tables = built / sid / "tables"
-    claims = pd.read_csv(tables / "claims.csv", keep_default_na=False)
-    assert len(claims) == len(doc["claims"])
-    for spec, (_, row) in zip(doc["claims"], claims.iterrows()):
-        path = tables / f"{spec['table']}.csv"
-        frame = select(pd.read_csv(path) if path.is_file() else None, spec.get("rows"))
-        verdict, _, pub, _ = evaluate_claim(spec, frame)
-        assert row["verdict (ours)"] == verdict, spec["claim"]
-        assert pub in ("", "holds", MISSING), f"{sid}: claim {spec['claim']!r} does not hold on the published numbers"
-    assert (tables / "not_reproduced.csv").is_file()
-    html = (built / "report.html").read_text()
-    section = html[html.index(f'<section id="{sid}"'):]
-    assert section.index(f'id="tab-{sid}-claims"') < section.index(f'id="{sid}-settings"')
 
 
 def test_an_unseen_urdf_arm_joins_the_benchmark(tmp_path):
