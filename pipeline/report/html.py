@@ -125,9 +125,10 @@ def _table_layout(df: pd.DataFrame, budget: float = TABLE_BUDGET_PX) -> list[pd.
     return [cells[keys + g] for g in groups]
 
 
-def _table_html(path: Path) -> str:
+def _table_html(path: Path, text: bool = False) -> str:
+    """A table CSV as HTML (``text``: every column left-aligned, for tables of prose)."""
     parts = _table_layout(pd.read_csv(path))
-    html = [p.to_html(index=False, classes="data", border=0, escape=True) for p in parts]
+    html = [p.to_html(index=False, classes="data text" if text else "data", border=0, escape=True) for p in parts]
     if len(parts) == 1:
         return html[0]
     return "".join(f'<p class="part">columns, part {k + 1} of {len(parts)}</p>{h}' for k, h in enumerate(html))
@@ -179,7 +180,8 @@ def study_context(study: Study, results: Path) -> dict:
     tables = []
     tindex = folder / "tables" / "index.json"
     for t in json.loads(tindex.read_text()) if tindex.is_file() else []:
-        tables.append({**t, "html": _table_html(folder / "tables" / t["file"]), "anchor": f"tab-{study.id}-{t['name']}"})
+        tables.append({**t, "html": _table_html(folder / "tables" / t["file"], text=t["name"] in HEAD_TABLES),
+                       "anchor": f"tab-{study.id}-{t['name']}"})
     figures = []
     findex = folder / "figures" / "index.json"
     for f in json.loads(findex.read_text()) if findex.is_file() else []:
