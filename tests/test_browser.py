@@ -122,7 +122,8 @@ def test_no_console_error_and_no_network(page):
 
 
 def test_screenshots_of_each_section(page):
-    """The first screen of every section, for a person to look at (results/screenshots/)."""
+    """The first screen of every section and the first figure of the answer and of the first study, for a
+    person to look at (results/screenshots/)."""
     out = Path(os.environ.get("IK_SCREENSHOTS", ROOT / "results" / "screenshots"))
     sections = page.evaluate("Array.from(document.querySelectorAll('main > section[id]')).map(s => s.id)")
     assert sections and "provenance" in sections
@@ -132,6 +133,17 @@ def test_screenshots_of_each_section(page):
         target = "window.scrollTo(0, 0)" if sid == "top" else f"document.getElementById({sid!r}).scrollIntoView()"
         page.evaluate(f"{target}; new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
         page.screenshot(out / f"{k:02d}_{sid}.png")
+    # the first figure of the answer and of the first study, at the top of the screen (legibility)
+    shown = 0
+    first = page.evaluate("(Array.from(document.querySelectorAll('main > section[id]'))"
+                          ".find(s => s.id !== 'answer' && s.querySelector('figure')) || {id: ''}).id")
+    for sid in (s for s in ("answer", first) if s):
+        if page.evaluate(f"(() => {{ const f = document.querySelector('#{sid} figure'); if (!f) return false; "
+                         "f.scrollIntoView(); return true; })()"):
+            page.evaluate("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+            page.screenshot(out / f"figure_{sid}.png")
+            shown += 1
+    assert shown >= 1
     # a narrow window: the contents fold into one line above the text
     page.call("Emulation.setDeviceMetricsOverride", {"width": 700, "height": 900, "deviceScaleFactor": 1, "mobile": False})
     try:
@@ -144,4 +156,4 @@ def test_screenshots_of_each_section(page):
         page.call("Emulation.setDeviceMetricsOverride",
                   {"width": WIDTH, "height": HEIGHT, "deviceScaleFactor": 1, "mobile": False})
     assert state == {"open": False, "position": "static"}
-    assert len(list(out.glob("*.png"))) == len(sections) + 2
+    assert len(list(out.glob("*.png"))) == len(sections) + 2 + shown
