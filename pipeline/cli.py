@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -136,6 +137,8 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
         "settings_hash": study.solver_hash(args.problem_set, entry.label, args.scale),
         "seed": str(spec["seed"]), "scale": args.scale, "problems": str(n_sel), "repetitions": str(reps),
         "problem_file": Path(args.problems).name, "problem_sha256": file_sha256(args.problems)[:16],
+        "problem_path": os.path.relpath(Path(args.problems).resolve(), Path(out).resolve().parent),
+        "robot_file": str(args.robot), "robot_sha256": file_sha256(args.robot)[:16],
         **({"robot_repairs": "; ".join(model.repairs)} if model.repairs else {}),
         "length_unit": unit, "package_version": pipeline.__version__, "git_commit": git_commit(),
         "timing": "solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "
@@ -144,20 +147,23 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
         **(extra_meta or {}),
     }
     keep_traces = bool(study.doc.get("archive_traces", True))
-    meta["traces"] = "per problem" if keep_traces else "none (study setting archive_traces: false)"
+    derive = _derivable(entry.method, settings)
+    meta["traces"] = (("derived: digests stored, re-run on demand (pipeline.io.archive.derive)" if derive
+                       else "stored per problem") if keep_traces else "none (study setting archive_traces: false)")
     t0 = time.monotonic()
     n_ok = done = 0
     total = n_sel * reps
     shown = 0
     threads = max(1, int(getattr(args, "threads", 1) or 1))
     t_solve = t_write = 0.0
-    with ArchiveWriter(out, meta) as w:
+    with ArchiveWriter(out, meta, derive=derive) as w:
         for rows, rep, q0, res in solve_set_batches(entry.method, settings, model, ps, repetitions=reps,
                                                     set_seed=spec["seed"], select=select, threads=threads):
             t_solve += res.call_time_s
             tw = time.perf_counter()
             cols, traces = batch_columns(ps.problem_id[rows], rep, ps.chain[rows], model.name, entry.label, unit, q0,
-                                         ps.goal_position[rows] * to_unit, ps.goal_quat[rows], res, method=entry.method)
+                                         ps.goal_position[rows] * to_unit, ps.goal_quat[rows], res, method=entry.method,
+                                         start_from_file=np.all(q0 == ps.q_start[rows], axis=1))
             # repetitions repeat the same iterates: one trace per problem (none when the study says so)
             if traces is not None and (not keep_traces or reps > 1):
                 traces = None if not keep_traces else _first_repetition(traces)
@@ -181,8 +187,19 @@ def _first_repetition(traces: dict) -> dict:
     keep = traces["repetition"] == 0
     rows = np.repeat(keep, traces["rows"])
     return {"problem_id": traces["problem_id"][keep], "repetition": traces["repetition"][keep],
-            "rows": traces["rows"][keep], "error": traces["error"][rows],
-            "position_error": traces["position_error"][rows], "error_vector": traces["error_vector"][rows]}
+            "rows": traces["rows"][keep], "full": traces["full"][rows]}
+
+
+def _derivable(method: str, settings) -> bool:
+    """Whether a solve can be re-run bit for bit from its archive (traces and analytic solutions are
+    then stored as digests only): this package's own methods without a wall-time budget. The peer
+    libraries (racing threads, C ``rand()`` state, a library that may not be installed) and time
+    budgets are not."""
+    from pipeline.solvers import get
+
+    spec = get(method)
+    own = not spec.run.__module__.startswith("pipeline.solvers.peers")
+    return own and not float(getattr(settings, "time_budget", 0.0) or 0.0) > 0.0
 
 
 def _study_solver(args):
