@@ -618,10 +618,11 @@ class Archive:
     robot_file: str | Path | None = None  # where to find the robot for re-derivation (default: metadata)
 
     def frame(self):
-        """Solve records as a pandas DataFrame (vectors kept as lists)."""
+        """Solve records as a pandas DataFrame (vectors kept as lists; private ``_`` keys left out)."""
         import pandas as pd
 
-        return pd.DataFrame(self.solves)
+        df = pd.DataFrame(self.solves)
+        return df.drop(columns=[c for c in df.columns if str(c).startswith("_")])
 
     def messages(self, topic: str) -> Iterator[dict]:
         """Yield the decoded JSON records of a JSON channel (e.g. a study's measurement channel)."""
@@ -690,7 +691,7 @@ class Archive:
             raise ArchiveError(f"{self.path}: problem {problem_id} (repetition {repetition}) is not in the archive")
         if rec.get("solutions") is not None:
             return rec["solutions"]
-        if rec.get("n_solutions") is None:
+        if rec.get("_n_solutions") is None:
             return None
         return self._derive([(int(problem_id), 0)])[(int(problem_id), 0)][1]
 
@@ -842,7 +843,7 @@ def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[
                         "orientation": {"x": o[0], "y": o[1], "z": o[2], "w": o[3]}},
                "info": info[i]}
         if sols is not None:
-            rec["n_solutions"] = int(ns[i])
+            rec["_n_solutions"] = int(ns[i])  # private keys (not in frame()): what derive() checks
             if sols[i] is not None:
                 rec["solutions"] = sols[i]
             else:
@@ -1063,7 +1064,7 @@ def read_archive(path: str | Path) -> Archive:
             raise ArchiveError(f"{path}: metadata field '{key}' missing")
     if meta["format_version"] not in READABLE_VERSIONS:
         raise ArchiveError(f"{path}: metadata field 'format_version' is {meta['format_version']!r}, this version "
-                           f"reads {' and '.join(READABLE_VERSIONS)}")
+                           f"reads {', '.join(READABLE_VERSIONS[:-1])} and {READABLE_VERSIONS[-1]}")
     if meta["format_version"] in ("3", "4") and not has_data_crc:
         raise ArchiveError(f"{path}: no data-section CRC (every format-{meta['format_version']} archive has one): "
                            f"not written by this package")

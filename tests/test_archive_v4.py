@@ -1,4 +1,5 @@
-"""Archive format 3: batched solve columns (strict JSON), protobuf traces, counts checked on read."""
+"""Archive format 4: protobuf solve batches, traces and analytic solutions derived from digests,
+the problem file joined and checked, counts checked on read, every damaged copy refused."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 from pipeline.io.archive import (FORMAT_VERSION, SOLVE_TOPIC, TRACE_TOPIC, ArchiveError, ArchiveWriter, batch_columns,
-                                 decode_trace_batch, encode_trace_batch, read_archive, trace_descriptor)
+                                 decode_trace_batch, encode_trace_batch, read_archive, solve_descriptor, trace_descriptor)
 from pipeline.problems import random_joint_pairs
 from pipeline.solvers import make_settings, prepare, solve_batch
 
@@ -37,7 +38,7 @@ def test_columns_round_trip_to_the_version_2_records(tmp_path, lwr):
     p = tmp_path / "a.mcap"
     ps, res = _write(p, lwr)
     a = read_archive(p)
-    assert a.metadata["format_version"] == "3" and len(a.solves) == len(ps)
+    assert a.metadata["format_version"] == "4" and len(a.solves) == len(ps)
     for i, rec in enumerate(a.solves):
         assert rec["problem_id"] == ps.problem_id[i] and rec["success"] == bool(res.success[i])
         assert rec["q_solution"] == res.q[i].tolist() and rec["iterations"] == res.iterations[i]
@@ -50,16 +51,30 @@ def test_columns_round_trip_to_the_version_2_records(tmp_path, lwr):
         np.testing.assert_allclose(t["error_vector"], want[:, 1:7], rtol=1e-6, atol=1e-30)  # float32 on disk
 
 
-def test_every_solve_message_is_strict_json(tmp_path, lwr):
-    """Position-only checks leave the orientation error NaN: it is written null and read back NaN."""
+def _protobuf_class(schema):
+    from google.protobuf import descriptor_pb2, message_factory
+
+    fds = descriptor_pb2.FileDescriptorSet.FromString(schema.data)
+    return message_factory.GetMessages(list(fds.file))[schema.name]
+
+
+def test_every_message_decodes_with_its_protobuf_schema_and_holds_no_nan(tmp_path, lwr):
+    """Position-only checks leave the orientation error absent: flagged (written 0), read back NaN."""
+    pytest.importorskip("google.protobuf", reason="protobuf (test extra) not installed")
     from mcap.reader import make_reader
 
     p = tmp_path / "a.mcap"
     _write(p, lwr, criterion="position")
+    seen = set()
     with open(p, "rb") as fh:
-        for _, channel, msg in make_reader(fh).iter_messages(topics=[SOLVE_TOPIC]):
-            batch = json.loads(msg.data, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
-            assert batch["orientation_error"][0] is None
+        for schema, channel, msg in make_reader(fh).iter_messages():
+            assert channel.message_encoding == "protobuf" and schema.encoding == "protobuf"
+            m = _protobuf_class(schema).FromString(msg.data)
+            for field, value in m.ListFields():
+                if field.type in (field.TYPE_DOUBLE, field.TYPE_FLOAT):
+                    assert np.isfinite(np.asarray(value, dtype=float)).all(), field.name
+            seen.add(channel.topic)
+    assert seen == {SOLVE_TOPIC, TRACE_TOPIC}
     assert all(np.isnan(r["orientation_error"]) for r in read_archive(p).solves)
 
 
@@ -86,8 +101,8 @@ def test_trace_schema_is_a_valid_protobuf_descriptor():
     m = int(rows.sum())
     cols = (np.array([7, -1, 9]), np.array([0, 2, 1]), rows, rng.normal(size=m), rng.normal(size=m),
             rng.normal(size=(m, 6)))
-    msg = cls.FromString(encode_trace_batch(*cols))
-    assert list(msg.problem_id) == [7, -1, 9] and list(msg.rows) == [3, 1, 4]
+    msg = cls.FromString(encode_trace_batch(*cols, digest=np.array([1, 2, 3]), stored=np.ones(3)))
+    assert list(msg.problem_id) == [7, -1, 9] and list(msg.rows) == [3, 1, 4] and list(msg.digest) == [1, 2, 3]
     np.testing.assert_array_equal(msg.error, cols[3])
     np.testing.assert_allclose(msg.error_vector, cols[5].ravel(), rtol=1e-6)
     assert pb.__version__  # the library that decoded it
@@ -96,7 +111,7 @@ def test_trace_schema_is_a_valid_protobuf_descriptor():
 @pytest.mark.parametrize("cut", [1, 5, 17])
 def test_damaged_trace_batches_are_one_line_errors(cut):
     data = encode_trace_batch(np.array([1]), np.array([0]), np.array([2], np.uint32), np.ones(2), np.ones(2),
-                              np.ones((2, 6)))
+                              np.ones((2, 6)), digest=np.zeros(1), stored=np.ones(1))
     with pytest.raises(ValueError):
         decode_trace_batch(data[:-cut])
 
@@ -116,7 +131,7 @@ def test_a_column_of_the_wrong_length_is_an_error(tmp_path, lwr):
     p = tmp_path / "a.mcap"
     with ArchiveWriter(p, META) as w:
         w._emit(cols, 5, None)
-    with pytest.raises(ArchiveError, match=r"message \d+ on /ik/solve: column 'iterations' 4 values, count is 5"):
+    with pytest.raises(ArchiveError, match=r"message \d+ on /ik/solve: field 'iterations' holds 4 values for 5 solves"):
         read_archive(p)
 
 
@@ -147,7 +162,7 @@ def test_version_2_archives_still_read(tmp_path):
 def test_unknown_format_version_is_refused_in_one_line(tmp_path, lwr):
     p = tmp_path / "a.mcap"
     _write(p, lwr, n=3, meta={"format_version": "9"})
-    with pytest.raises(ArchiveError, match=r"format_version' is '9', this version reads 2 and 3"):
+    with pytest.raises(ArchiveError, match=r"format_version' is '9', this version reads 2, 3 and 4"):
         read_archive(p)
 
 
@@ -210,3 +225,138 @@ def test_inspect_and_aggregation_refuse_a_damaged_archive_with_one_line(tmp_path
     assert proc.returncode != 0 and "Traceback" not in proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and str(p) in lines[0], proc.stderr
+
+
+# ---- derived traces and solutions: the problem file and the robot file, checked on every read ----------
+
+def _derived_archive(tmp_path, method="dls", robot="kuka_lwr", n=40, settings=None, seed=5):
+    """An archive as a solve job writes it: goals in a problem file beside it, traces as digests."""
+    import os
+
+    from pipeline.io.problems import read_problems, write_problems
+    from pipeline.problems import random_joint_pairs
+    from pipeline.robots import load_robot
+    from pipeline.runner import solve_set_batches
+    from pipeline.settings import file_sha256
+    from pipeline.solvers import make_settings
+
+    from tests.conftest import DATA
+
+    rf = DATA / "robots" / f"{robot}.yaml"
+    model = load_robot(rf)
+    pf = tmp_path / "problems" / "set" / f"{robot}.csv"
+    write_problems(pf, random_joint_pairs(model, n, np.random.default_rng(seed)), {"seed": str(seed)})
+    ps, _ = read_problems(pf)
+    s = make_settings(method, settings or {})
+    out = tmp_path / "runs" / "set" / f"{robot}__{method}.mcap"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    meta = {**META, "robot": robot, "solver": method, "method": method, "problems": str(n), "seed": str(seed),
+            "settings": json.dumps({"method": method, **s.as_dict()}) if hasattr(s, "as_dict") else json.dumps(
+                {"method": method, **(settings or {})}),
+            "problem_sha256": file_sha256(pf)[:16], "problem_path": os.path.relpath(pf, out.parent),
+            "robot_file": str(rf), "robot_sha256": file_sha256(rf)[:16], "length_unit": s.length_unit}
+    results = []
+    with ArchiveWriter(out, meta, derive=True) as w:
+        for rows, rep, q0, res in solve_set_batches(method, s, model, ps, set_seed=seed):
+            cols, traces = batch_columns(ps.problem_id[rows], rep, ps.chain[rows], robot, method, s.length_unit, q0,
+                                         ps.goal_position[rows], ps.goal_quat[rows], res, method=method,
+                                         start_from_file=np.all(q0 == ps.q_start[rows], axis=1))
+            w.write_columns(cols, traces)
+            results.append(res)
+    return out, pf, ps, results[0]
+
+
+def test_derived_traces_are_the_solver_traces_bit_for_bit(tmp_path):
+    p, _, ps, res = _derived_archive(tmp_path)
+    a = read_archive(p)
+    from pipeline.robots import LENGTH_UNITS
+
+    scale = LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[a.metadata["length_unit"]]  # goals in the solver's unit
+    for i, rec in enumerate(a.solves):  # goals and starts come from the problem file
+        assert rec["q_start"] == ps.q_start[i].tolist() and rec["goal"]["position"]["x"] == ps.goal_position[i, 0] * scale
+        assert rec["q_solution"] == res.q[i].tolist() and rec["solve_time_s"] == pytest.approx(res.solve_time_s[i], abs=1e-9)
+    traces = {t["problem_id"]: t for t in a.traces()}
+    assert len(traces) == len(ps)
+    for i in range(len(ps)):
+        want = res.trace(i)
+        t = traces[int(ps.problem_id[i])]
+        assert t["error"] == want[:, 0].tolist() and t["error_vector"] == want[:, 1:7].tolist()  # float64, exact
+
+
+def test_solve_messages_cost_little_without_goals_starts_and_traces(tmp_path):
+    """The compact encoding: no goal or start repeated from the problem file, no trace rows."""
+    from mcap.reader import make_reader
+
+    p, *_ = _derived_archive(tmp_path, n=1000)
+    with open(p, "rb") as fh:
+        sizes = {t: 0 for t in (SOLVE_TOPIC, TRACE_TOPIC)}
+        for _, ch, msg in make_reader(fh).iter_messages():
+            sizes[ch.topic] += len(msg.data)
+    # raw (uncompressed) bytes per solve: 7 joint values, 4 errors, 3 times, 6 ints, info
+    assert sizes[SOLVE_TOPIC] / 1000 < 220 and sizes[TRACE_TOPIC] / 1000 <= 24, sizes
+
+
+def test_analytic_solutions_are_derived_and_checked(tmp_path):
+    p, _, ps, res = _derived_archive(tmp_path, method="analytic_ur", robot="ur5", n=12)
+    a = read_archive(p)
+    for i, rec in enumerate(a.solves):
+        assert "solutions" not in rec and rec["_n_solutions"] == int(res.n_solutions[i])
+        assert a.solutions(rec["problem_id"]) == res.solutions[i, : int(res.n_solutions[i])].tolist()
+
+
+def test_a_changed_or_missing_problem_file_is_one_line(tmp_path):
+    p, pf, _, _ = _derived_archive(tmp_path, n=5)
+    text = pf.read_text()
+    pf.write_text(text.replace(",0.", ",1.", 1))
+    with pytest.raises(ArchiveError, match=r"metadata field 'problem_sha256'.*problem file changed"):
+        read_archive(p)
+    pf.unlink()
+    with pytest.raises(ArchiveError, match=r"metadata field 'problem_path': problem file .* not found"):
+        read_archive(p)
+
+
+def test_a_re_run_that_differs_from_the_digest_is_an_error_not_a_silent_trace(tmp_path, monkeypatch):
+    """Written by 'another version': the archived digests do not match what this code computes."""
+    import pipeline.io.archive as A
+
+    real = A.digest
+    monkeypatch.setattr(A, "digest", lambda x: (real(x) + 1) & 0xFFFFFFFF)
+    p, *_ = _derived_archive(tmp_path, n=5)
+    monkeypatch.setattr(A, "digest", real)
+    a = read_archive(p)  # the records read; only the derived traces are refused
+    with pytest.raises(ArchiveError, match=r"problem \d+: the re-run trace differs from the archived digest .* commit"):
+        list(a.traces())
+
+
+def test_a_robot_file_changed_since_writing_is_refused_on_derivation(tmp_path):
+    p, *_ = _derived_archive(tmp_path, n=5)
+    a = read_archive(p)
+    other = tmp_path / "kuka_lwr.yaml"
+    from tests.conftest import DATA
+
+    other.write_text((DATA / "robots" / "kuka_lwr.yaml").read_text() + "\n# edited\n")
+    a.metadata = {**a.metadata, "robot_file": str(other)}
+    with pytest.raises(ArchiveError, match="robot_sha256.*changed since the archive was written"):
+        list(a.traces())
+
+
+def test_every_damaged_copy_of_a_derived_archive_is_refused_or_reads_the_same(tmp_path):
+    p, pf, _, _ = _derived_archive(tmp_path, n=30)
+    good = read_archive(p)
+    want = (good.metadata, good.solves, list(good.traces()))
+    data = p.read_bytes()
+    refused = 0
+    for name, blob in _corpus(data, max(1, len(data) // 200)):
+        q = p.with_name(f"{name}.mcap")
+        q.write_bytes(blob)
+        try:
+            a = read_archive(q)
+            got = (a.metadata, a.solves, list(a.traces()))
+        except ArchiveError as exc:
+            assert str(exc).startswith(f"{q}: ") and "\n" not in str(exc), str(exc)
+            refused += 1
+            continue
+        finally:
+            q.unlink()
+        assert repr(got) == repr(want), name
+    assert refused > 150
