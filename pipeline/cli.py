@@ -139,6 +139,7 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
         "problem_file": Path(args.problems).name, "problem_sha256": file_sha256(args.problems)[:16],
         "problem_path": os.path.relpath(Path(args.problems).resolve(), Path(out).resolve().parent),
         "robot_file": str(args.robot), "robot_sha256": file_sha256(args.robot)[:16],
+        "robot_path": os.path.relpath(Path(args.robot).resolve(), Path(out).resolve().parent),
         **({"robot_repairs": "; ".join(model.repairs)} if model.repairs else {}),
         "length_unit": unit, "package_version": pipeline.__version__, "git_commit": git_commit(),
         "timing": "solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "

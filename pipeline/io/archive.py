@@ -134,7 +134,9 @@ SOLVE_FIELDS = (
     (19, "solutions", "<f8", 1),       # stored solutions (F_SOLUTIONS_STORED solves), rows of joints
     (20, "solutions_digest", "<u4", 7),  # CRC-32 of each solve's solutions (derived ones)
     (21, "joints", "<u4", 7),          # one value: joints per row
-    (22, "info_json", None, 9))        # strict JSON array of the solves' info objects
+    (22, "info_json", None, 9),        # strict JSON array of the solves' info objects
+    (23, "labels_json", None, 9))      # only when a solve's robot/solver/method/length_unit is not the
+                                       # metadata's: strict JSON object of per-solve string columns
 SOLVE_MESSAGE = "ik_pipeline.SolveBatch"
 
 
@@ -326,6 +328,7 @@ class ArchiveWriter:
         self._pending: list[tuple[dict, dict | None]] = []
         self._extra: dict[str, int] = {}
         self.derive = bool(derive)  # traces and analytic solutions: digests only (re-derived on read)
+        self.meta = {k: str(v) for k, v in metadata.items()}
         self.inline_goals = "problem_path" not in metadata
 
     def add_channel(self, topic: str, schema: dict) -> None:
@@ -377,7 +380,8 @@ class ArchiveWriter:
     def _emit(self, cols: dict, count: int, traces: dict | None) -> None:
         t = np.asarray(cols["solve_time_s"], dtype=float)
         self._clock += int(round(float(np.nansum(t)) * 1e9))
-        self._add(self._solve, _encode(SOLVE_FIELDS, _solve_message(cols, count, self.derive, self.inline_goals)))
+        self._add(self._solve, _encode(SOLVE_FIELDS, _solve_message(cols, count, self.derive, self.inline_goals,
+                                                                    self.meta)))
         if traces is not None and len(traces["problem_id"]):
             self._add(self._trace, _encode(TRACE_FIELDS, _trace_message(traces, self.derive)))
 
@@ -438,7 +442,7 @@ def _dumps(obj) -> bytes:
 
 def _columns(recs: list[dict]) -> dict:
     """Per-solve records (:func:`solve_record`) -> the columns of one batch (as :func:`batch_columns`)."""
-    cols = {k: [r.get(k) for r in recs] for k in _RECORD_KEYS}
+    cols = {k: [r.get(k) for r in recs] for k in _RECORD_KEYS + _LABELS}
     cols["goal_position"] = [[r["goal"]["position"][a] for a in "xyz"] for r in recs]
     cols["goal_orientation"] = [[r["goal"]["orientation"][a] for a in "xyzw"] for r in recs]
     cols["info"] = [r.get("info", {}) for r in recs]
@@ -466,7 +470,7 @@ def _ns(x) -> np.ndarray:
     return np.where(np.isfinite(x) & (x > 0), np.rint(np.where(np.isfinite(x), x, 0.0)), 0).astype("<u8")
 
 
-def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool) -> dict:
+def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, meta: dict | None = None) -> dict:
     """The fields of one ``SolveBatch`` from the columns of ``count`` solves."""
     import orjson
 
@@ -511,7 +515,14 @@ def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool) -> 
                 out["solutions"] = np.where(np.isfinite(S), S, 0.0)
     out["flags"] = flags.astype("<u4")
     out["info_json"] = orjson.dumps(list(cols["info"]), option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
+    labels = {k: [cols[k]] * count if isinstance(cols[k], str) else [str(v) for v in cols[k]]
+              for k in _LABELS if k in cols and cols[k] is not None}
+    if any(set(v) != {(meta or {}).get(k, "")} for k, v in labels.items()):
+        out["labels_json"] = orjson.dumps(labels)
     return out
+
+
+_LABELS = ("robot", "solver", "method", "length_unit")
 
 
 def _trace_message(tr: dict, derive: bool) -> dict:
@@ -546,6 +557,7 @@ def batch_columns(problem_id, repetition, chain, robot: str, solver: str, length
     problem_id = np.asarray(problem_id, dtype=np.int64)
     cols = {
         "problem_id": problem_id, "repetition": np.asarray(repetition, dtype=np.int64),
+        "robot": robot, "solver": solver, "method": method, "length_unit": length_unit,
         "chain": np.asarray(chain, dtype=np.int64), "success": res.success, "claimed_success": res.claimed_success,
         "stop_reason": res.stop_reason, "iterations": res.iterations, "solve_time_s": res.solve_time_s,
         "ik_time_s": res.ik_time_s,
@@ -821,8 +833,16 @@ def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[
             raise ArchiveError(f"{where}: field 'solutions' holds {len(b['solutions'])} values, n_solutions promises {want}")
         S = iter(np.split(b["solutions"].reshape(-1, j), np.cumsum(ns[stored])[:-1]) if stored.any() else [])
         sols = [next(S).tolist() if stored[i] else None for i in range(n)]
-    fixed = {"robot": meta.get("robot", ""), "solver": meta.get("solver", ""), "method": meta.get("method", ""),
-             "length_unit": meta.get("length_unit", "")}
+    fixed = {k: meta.get(k, "") for k in _LABELS}
+    labels = None
+    if b["labels_json"]:
+        try:
+            labels = orjson.loads(b["labels_json"])
+        except ValueError as exc:
+            raise ArchiveError(f"{where}: field 'labels_json' is not JSON ({exc})") from None
+        if not isinstance(labels, dict) or any(k not in _LABELS or not isinstance(v, list) or len(v) != n
+                                               for k, v in labels.items()):
+            raise ArchiveError(f"{where}: field 'labels_json' is not an object of {n}-value label columns")
     sv = (b["solve_time_ns"] * 1e-9).tolist()
     ik = (b["ik_time_ns"] * 1e-9).tolist()
     ct = (b["call_time_ns"] * 1e-9).tolist()
@@ -834,6 +854,7 @@ def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[
         f = fl[i]
         g, o = gp[i], go[i]
         rec = {"problem_id": pid[i], "repetition": rep[i], "chain": ch[i], **fixed,
+               **({k: v[i] for k, v in labels.items()} if labels else {}),
                "success": bool(f & F_SUCCESS), "claimed_success": bool(f & F_CLAIMED), "stop_reason": sr[i],
                "iterations": it[i], "solve_time_s": sv[i], "ik_time_s": ik[i], "call_time_s": ct[i],
                "within_limits": bool(f & F_WITHIN), "initial_error": errs["initial_error"][i],
@@ -929,7 +950,13 @@ def derive(arch: Archive, keys: list[tuple[int, int]]) -> dict:
         method, settings = settings_from_archive(meta, str(path))
     except ReplayError as exc:
         raise ArchiveError(str(exc)) from None
-    rf = Path(arch.robot_file) if arch.robot_file else Path(meta.get("robot_file") or f"data/robots/{meta['robot']}.yaml")
+    if arch.robot_file:  # given by the caller
+        tries = [Path(arch.robot_file)]
+    else:  # next to the archive as written, as named (from the project folder), the project's catalogue
+        tries = [path.parent / meta.get("robot_path", ""), Path(meta.get("robot_file", "")),
+                 Path("data") / "robots" / f"{meta['robot']}.yaml"]
+        tries = [t for t in tries if t.suffix in (".yaml", ".yml")]
+    rf = next((t for t in tries if t.is_file()), tries[0])
     if not rf.is_file():
         raise ArchiveError(f"{path}: metadata field 'robot_file': {rf} not found (run from the project folder, "
                            f"or give the robot file): needed to re-derive traces")

@@ -196,8 +196,11 @@ def problem_view(arch: Archive, problem: int) -> list[str]:
     if info:
         lines.append("  info: " + ", ".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
                                             for k, v in info.items()))
-    if r.get("solutions") is not None:
-        lines.append(f"  analytic solutions: {len(r['solutions'])}")
+    sols = arch.solutions(problem, r.get("repetition", 0))  # stored, or re-derived and checked
+    if sols is not None:
+        how = "stored" if r.get("solutions") is not None else "re-derived from the archive, checked against its digest"
+        lines.append(f"  analytic solutions: {len(sols)} [count] ({how}):")
+        lines += [f"    {k + 1}: {_joints(q)}" for k, q in enumerate(sols)]
     if len(recs) > 1:
         t = np.array([x.get("solve_time_s", math.nan) for x in recs]) * 1e3
         lines.append(f"  repetitions: {len(recs)} [count], solve time p50 {_g(_pct(t, [50])[0])} ms, "
@@ -228,7 +231,13 @@ def raw_record(arch: Archive, problem: int) -> str:
     """The problem's record(s) as strict JSON (NaN -> null): one object, or a list for several repetitions."""
     import orjson
 
-    recs = _records_of(arch, problem)
+    recs = []
+    for r in _records_of(arch, problem):
+        out = {k: v for k, v in r.items() if not k.startswith("_")}
+        sols = arch.solutions(problem, r.get("repetition", 0))
+        if sols is not None:
+            out["solutions"] = sols
+        recs.append(out)
     return orjson.dumps(recs[0] if len(recs) == 1 else recs, option=orjson.OPT_INDENT_2).decode()
 
 
@@ -245,7 +254,10 @@ def write_csv(arch: Archive, out: str) -> int:
     n = max((len(r["q_start"]) for r in recs), default=0)
     info_keys = sorted({k for r in recs for k, v in (r.get("info") or {}).items()
                         if v is None or isinstance(v, (bool, int, float, str))})
-    any_sol = any(r.get("solutions") is not None for r in recs)
+    any_sol = any(r.get("solutions") is not None or r.get("_n_solutions") is not None for r in recs)
+    if any_sol:  # re-derive every analytic solution set in one batch (checked against the digests)
+        arch._derive([(r["problem_id"], 0) for r in recs if r.get("_n_solutions") is not None
+                      and r.get("solutions") is None])
     header = ([k + (f"_{unit}" if u == "L" else u) for k, u in _SCALARS] + ["length_unit"]
               + [f"q_start_{j}" for j in range(1, n + 1)] + [f"q_solution_{j}" for j in range(1, n + 1)]
               + [f"goal_{a}_{unit}" for a in "xyz"] + [f"goal_q{a}" for a in "xyzw"]
@@ -268,7 +280,7 @@ def write_csv(arch: Archive, out: str) -> int:
                    + [num(g["position"][a]) for a in "xyz"] + [num(g["orientation"][a]) for a in "xyzw"]
                    + [num(info.get(k)) if not isinstance(info.get(k), str) else info[k] for k in info_keys])
             if any_sol:
-                s = r.get("solutions")
+                s = arch.solutions(r["problem_id"], r.get("repetition", 0))
                 row.append("" if s is None else json.dumps(s, separators=(",", ":")))
             w.writerow(row)
     return len(recs)
