@@ -73,9 +73,10 @@ def solve_set_batches(method: str, settings: Settings, model: RobotModel, ps: Pr
     if independent and spec.batch is not None:
         for lo in range(0, len(idx), BATCH):
             part = idx[lo:lo + BATCH]
-            seeds = None  # batch kernels are deterministic methods; a stochastic one gets per-problem seeds
-            if spec.kind == "global":
-                seeds = np.array([problem_seed(set_seed, ps.problem_id[i], 0) for i in part], dtype=np.int64)
+            # every problem its own seed, as in the one-call-at-a-time path (stochastic methods and
+            # random restarts draw from it): a solve does not depend on its place in the batch, so
+            # an archived solve can be re-run alone (pipeline.io.archive.derive)
+            seeds = np.array([problem_seed(set_seed, ps.problem_id[i], 0) for i in part], dtype=np.int64)
             res = solve_batch(method, prep, T_goals[part], ps.q_start[part], settings, seeds=seeds, threads=threads)
             yield part, np.zeros(len(part), np.int64), ps.q_start[part], res
         return
