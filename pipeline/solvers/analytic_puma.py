@@ -35,12 +35,13 @@ Speed. :func:`puma_core` does the closed form, the checks and the choice in one 
 compiled call (the bare goal ``base^-1 T tool^-1`` with precomputed inverses; the FK keeps
 ``base A1`` and ``base A1 A2 A3`` between solutions that share those joints); the ``branches`` /
 ``valid`` strings come from small caches keyed by the kernel's packed codes. ``bind`` gives the
-lean single call, ``batch`` N poses on every core (per-pose ``info`` as
-:class:`~pipeline.solvers.analytic_ur.InfoRows`, built on access). Results equal the reference
-(numpy-checked) version to ~1e-13; within ~1e-9 of the wrist degeneracy the θ4/θ6 split is
-ill-conditioned and the solutions may differ by up to ~1e-4 rad (at sin θ5 = 0 exactly, θ6 = ±π
-may flip sign with the sign of a rounding-level zero, and which of the two wrist branches is
-nearest the start may swap).
+lean single call, :func:`bind_call` the public call fused (closed form, independent FK check, limit
+record in one compiled call, the result built positionally), ``batch`` N poses on every core
+(per-pose ``info`` as :class:`~pipeline.solvers.analytic_ur.InfoRows`, built on access). Results
+equal the reference (numpy-checked) version to ~1e-13; within ~1e-9 of the wrist degeneracy the
+θ4/θ6 split is ill-conditioned and the solutions may differ by up to ~1e-4 rad (at sin θ5 = 0
+exactly, θ6 = ±π may flip sign with the sign of a rounding-level zero, and which of the two wrist
+branches is nearest the start may swap).
 """
 
 from __future__ import annotations
@@ -54,8 +55,10 @@ import numpy as np
 from pipeline.kinematics.fkcheck import meets
 from pipeline.solvers._kin import now_ns
 from pipeline.solvers.analytic_ur import InfoRows, copy12, mul34, mul_link, pose_errors, rigid_rows
-from pipeline.solvers.base import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, StopReason
+from pipeline.solvers.base import (CRITERION_CODE, TRACE_COLS, BatchRaw, IKResult, Prepared, Raw, Settings,
+                                   SettingsError, StopReason, check_pack, check_packed)
 from pipeline.solvers.registry import Solver, register
+from pipeline.solvers.timing import clock_ns
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) A5.3 cin_inv_PUMA(), after Fu, Gonzalez & Lee [02]"
 DEGENERATE_S5 = 1e-12  # |sin theta5| below this: wrist degeneracy (theta4 := 0)
@@ -121,6 +124,8 @@ CHUNK = 64  # poses per work item of the batch kernel
 
 SUCCESS = int(StopReason.SUCCESS)
 NO_SOLUTION = int(StopReason.NO_SOLUTION)
+FK_CHECK_FAILED = int(StopReason.FK_CHECK_FAILED)
+NON_FINITE = int(StopReason.NON_FINITE)
 
 
 def packed(prep: Prepared, s: AnalyticPumaSettings) -> np.ndarray:
@@ -367,6 +372,36 @@ def puma_one(P, Tg, q_start, sols, q, iv, fv):
     return puma_core(P, Tg, q_start, W, clk, sols, q, iv, fv)
 
 
+@numba.njit(cache=True)
+def puma_call(PC, Tg, q_start, sols, q, iv, fv, trace):
+    """The whole public single call in one compiled call: :func:`puma_core`, then the independent FK
+    check of the chosen ``q`` and its joint-limit record (:func:`pipeline.solvers.base.check_packed`:
+    the dual-quaternion FK, no code shared with the closed form's), the stop reason and the one-row
+    trace as :func:`pipeline.solvers.base.finish` sets them (without ``require_limits``).
+
+    ``PC`` = :func:`packed` followed by :func:`~pipeline.solvers.base.check_pack`; ``trace`` (1, 8)
+    gets NaN but |dp|. Returns (solve time [ns] (puma_core's, the check excluded), stop reason,
+    claimed success, FK check passed, |dp|, angle, within the limits).
+    """
+    W = np.empty(N_W)
+    clk = np.zeros(2, np.int64)
+    ns = puma_core(PC[:N_P], Tg, q_start, W, clk, sols, q, iv, fv)
+    ok, dp, ang, inside = check_packed(PC[N_P:], q, Tg)
+    claimed = iv[I_CHOSEN] >= 0
+    code = SUCCESS if claimed else NO_SOLUTION
+    if claimed and not ok:
+        code = FK_CHECK_FAILED
+    if dp != dp:  # a NaN error: a non-finite joint value (or goal)
+        for j in range(6):
+            if not math.isfinite(q[j]):
+                code = NON_FINITE
+                break
+    for c in range(7):
+        trace[0, c] = math.nan
+    trace[0, 7] = dp
+    return ns, code, claimed, ok, dp, ang, inside
+
+
 @numba.njit(cache=True, parallel=True)
 def puma_batch(P, goals, starts, S, Q, IV, FV, ns):
     """:func:`puma_core` for every row (work items of ``CHUNK`` poses, one workspace each; every pose
@@ -422,6 +457,47 @@ def bind(prep: Prepared, s: AnalyticPumaSettings):
     return run1
 
 
+def bind_call(prep: Prepared, s: AnalyticPumaSettings):
+    """The public single call fused: ``call(T_goal, q_start, seed, t0) -> IKResult`` (the registry's
+    ``Solver.bind_call``), or None under ``require_limits`` (the generic ``bind`` + ``finish`` path).
+
+    Why it exists: as for :func:`pipeline.solvers.analytic_ur.bind_call`, ``run1`` + ``finish``
+    (two compiled dispatches, a :class:`Raw` and an :class:`IKResult` built by keyword) cost ~5 us
+    around a ~6 us kernel; here the kernel, the independent FK check and the limit record are one
+    compiled call (:func:`puma_call`) and the result is built positionally, with the generic path's
+    values bit for bit (tests/test_fastpath_ur.py). ``T_goal`` in the robot file's unit; ``t0`` the
+    caller's start on the call clock [ns].
+    """
+    if s.require_limits:
+        return None
+    PC = np.concatenate([packed(prep, s), check_pack(prep, s)])
+    scale, unit, working_goal = prep.goal_scale, prep.unit, prep.working_goal
+    pos_only = s.criterion == "position"
+    nan, empty, contiguous = math.nan, np.empty, np.ascontiguousarray
+    shape = (6,)
+    int64 = np.int64
+
+    def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
+        Tg = contiguous(T_goal, dtype=float) if scale == 1.0 else working_goal(T_goal)
+        q0 = contiguous(q_start, dtype=float)  # the kernel never writes into the start
+        if q0.shape != shape:
+            raise SettingsError(f"q_start: expected shape {shape}, got {q0.shape}")
+        sols = empty((8, 6))
+        q = empty(6)
+        iv = empty(N_I, int64)
+        fv = empty(2)
+        trace = empty((1, TRACE_COLS))
+        ns, code, claimed, ok, dp, ang, inside = puma_call(PC, Tg, q0, sols, q, iv, fv, trace)
+        v = iv.tolist()
+        t = ns * 1e-9
+        res = IKResult(q, claimed and ok and code == SUCCESS, code, 0, trace, t, t, dp, nan if pos_only else ang,
+                       claimed, inside, nan, unit, sols[:v[I_FOUND]], _info(v, float(fv[0]), float(fv[1])))
+        res.call_time_s = (clock_ns() - t0) * 1e-9
+        return res
+
+    return call
+
+
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: AnalyticPumaSettings, seed: int) -> Raw:
     """One pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``."""
     return bind(prep, s)(np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q_start, dtype=float), seed)
@@ -452,4 +528,4 @@ def batch(prep: Prepared, s: AnalyticPumaSettings, goals: np.ndarray, starts: np
 
 register(Solver("analytic_puma", "closed-form IK of PUMA-type arms (spherical wrist): all 8 solutions, the one "
                 "nearest the start returned", "analytic", AnalyticPumaSettings, run, applies_to=applies_to,
-                source=SOURCE, bind=bind, batch=batch))
+                source=SOURCE, bind=bind, batch=batch, bind_call=bind_call))

@@ -30,7 +30,9 @@ Speed. :func:`ur_core` is allocation-free (3 × 4 blocks in one float workspace,
 settings packed once per job by :func:`packed`); the base and tool are stripped inside it with
 precomputed inverses; the per-branch FK keeps ``base A1`` (per θ1) and ``A5 A6 tool`` (per θ1, θ5)
 and reuses a sine/cosine wherever its angle is bitwise one already computed, so the check costs
-what its distinct joint values need. ``bind`` gives the lean single call, ``batch`` runs N poses on
+what its distinct joint values need. ``bind`` gives the lean single call, :func:`bind_call` the
+public call fused (closed form, independent FK check, limit record in one compiled call, the result
+built positionally: ~5 us instead of ~8 us, the kernel being ~2.2 us), ``batch`` runs N poses on
 every core (``numba.prange`` over chunks of poses; each pose writes only its own rows, so results
 do not depend on the thread count) and returns per-pose ``info`` as :class:`InfoRows` (dicts built
 on access). Results equal the reference transcription (the matrix-product version before the
@@ -49,8 +51,10 @@ import numba
 import numpy as np
 
 from pipeline.solvers._kin import now_ns
-from pipeline.solvers.base import BatchRaw, Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, SettingsError, StopReason, check_pack,
+                                   check_packed, setting)
 from pipeline.solvers.registry import Solver, register
+from pipeline.solvers.timing import clock_ns
 
 SOURCE = "004_957b32c2b06ea31d.txt (Nepomuceno 2024) §4.8; Hawkins (2013)"
 UR_ALPHA = np.array([math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0])
@@ -103,6 +107,8 @@ CHUNK = 64  # poses per work item of the batch kernel (one workspace each)
 
 SUCCESS = int(StopReason.SUCCESS)
 NO_SOLUTION = int(StopReason.NO_SOLUTION)
+FK_CHECK_FAILED = int(StopReason.FK_CHECK_FAILED)
+NON_FINITE = int(StopReason.NON_FINITE)
 
 
 def rigid_rows(T: np.ndarray, inverse: bool = False) -> np.ndarray:
@@ -433,6 +439,33 @@ def ur_one(P, Tg, q_start, S, q, trace):
     return ur_core(P, Tg, q_start, W, clk, S, q, trace, True)
 
 
+@numba.njit(cache=True)
+def ur_call(PC, Tg, q_start, S, q, trace):
+    """The whole public single call in one compiled call: :func:`ur_core`, then the independent FK check
+    of the chosen ``q`` and its joint-limit record (:func:`pipeline.solvers.base.check_packed`: the
+    dual-quaternion FK, no code shared with the closed form's), then the stop reason as
+    :func:`pipeline.solvers.base.finish` sets it (without ``require_limits``).
+
+    ``PC`` = :func:`packed` followed by :func:`~pipeline.solvers.base.check_pack`. Returns (number
+    valid, chosen row or −1, solve time [ns] (ur_core's, the check excluded), stop reason, claimed
+    success, FK check passed, |dp|, angle, within the limits, the document's error at ``q``).
+    """
+    W = np.empty(N_W)
+    clk = np.zeros(2, np.int64)
+    nv, best, ns = ur_core(PC[:N_P], Tg, q_start, W, clk, S, q, trace, True)
+    ok, dp, ang, inside = check_packed(PC[N_P:], q, Tg)
+    claimed = best >= 0
+    code = SUCCESS if claimed else NO_SOLUTION
+    if claimed and not ok:
+        code = FK_CHECK_FAILED
+    if dp != dp:  # a NaN error: a non-finite joint value (or goal)
+        for j in range(6):
+            if not math.isfinite(q[j]):
+                code = NON_FINITE
+                break
+    return nv, best, ns, code, claimed, ok, dp, ang, inside, trace[1, 0]
+
+
 @numba.njit(cache=True, parallel=True)
 def ur_batch(P, goals, starts, S, Q, traces, nsol, best, ns, start_rows):
     """:func:`ur_core` for every row: ``goals`` (N, 4, 4), ``starts`` (N, 6) -> ``S`` (N, 8, 6),
@@ -470,6 +503,52 @@ def bind(prep: Prepared, s: AnalyticURSettings):
                    solutions=S[:nv], info=_info(nv, best, float(trace[1, 0])))
 
     return run1
+
+
+_NO_SOLUTION_TEXT = "no valid closed-form solution"
+
+
+def bind_call(prep: Prepared, s: AnalyticURSettings):
+    """The public single call fused: ``call(T_goal, q_start, seed, t0) -> IKResult`` (the registry's
+    ``Solver.bind_call``), or None under ``require_limits`` (the registry's generic path then runs
+    ``bind`` and :func:`~pipeline.solvers.base.finish`).
+
+    Why it exists: the closed form costs ~2.2 us, but ``run1`` + ``finish`` around it cost ~5.5 us
+    more (two compiled dispatches with 6 and 8 arguments, a :class:`Raw` and an :class:`IKResult`
+    built by keyword, the FK check's arguments looked up per call), which put the call at 8 us in
+    this VM's fast phase and 11-13 us in its slow one. Here the kernel, the choice, the independent
+    FK check and the limit record are one compiled call (:func:`ur_call`, 6 array arguments, the
+    robot, the settings and the check's model packed once into one array), and the result is built
+    positionally. Its values are those of the generic path bit for bit (tests/test_fastpath_ur.py).
+    ``T_goal`` is in the robot file's unit (as the public call takes it); ``t0`` the caller's start
+    on the call clock [ns], so ``call_time_s`` covers the whole call, result included.
+    """
+    if s.require_limits:
+        return None
+    PC = np.concatenate([packed(prep, s), check_pack(prep, s)])
+    scale, unit, working_goal = prep.goal_scale, prep.unit, prep.working_goal
+    pos_only = s.criterion == "position"
+    nan, empty, contiguous = math.nan, np.empty, np.ascontiguousarray
+    shape = (6,)
+    messages = _MESSAGES
+
+    def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
+        Tg = contiguous(T_goal, dtype=float) if scale == 1.0 else working_goal(T_goal)
+        q0 = contiguous(q_start, dtype=float)  # the kernel never writes into the start
+        if q0.shape != shape:
+            raise SettingsError(f"q_start: expected shape {shape}, got {q0.shape}")
+        S = empty((8, 6))
+        q = empty(6)
+        trace = empty((2, 8))
+        nv, best, ns, code, claimed, ok, dp, ang, inside, doc = ur_call(PC, Tg, q0, S, q, trace)
+        info = {"n_solutions": nv, "branch": best, "nfev": 8, "njev": 0, "doc_error": doc,
+                "message": messages[nv] if claimed else _NO_SOLUTION_TEXT}
+        res = IKResult(q, claimed and ok and code == SUCCESS, code, 1, trace, ns * 1e-9, 0.0, dp,
+                       nan if pos_only else ang, claimed, inside, nan, unit, S[:nv], info)
+        res.call_time_s = (clock_ns() - t0) * 1e-9
+        return res
+
+    return call
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: AnalyticURSettings, seed: int) -> Raw:
@@ -532,4 +611,5 @@ def batch(prep: Prepared, s: AnalyticURSettings, goals: np.ndarray, starts: np.n
 
 
 register(Solver("analytic_ur", "closed-form IK of UR-type arms, all 8 solutions (Hawkins 2013), nearest to the start",
-                "analytic", AnalyticURSettings, run, applies_to=applies_to, source=SOURCE, bind=bind, batch=batch))
+                "analytic", AnalyticURSettings, run, applies_to=applies_to, source=SOURCE, bind=bind, batch=batch,
+                bind_call=bind_call))

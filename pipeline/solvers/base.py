@@ -649,6 +649,13 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
     call_ns : int                    the whole call's duration so far [ns] (set again by the registry)
     q_start : ndarray, shape (n,), optional   the start (for an analytic method's choice under
                                               ``require_limits``)
+
+    Notes
+    -----
+    The analytic closed forms' fused public calls (``Solver.bind_call``: ``analytic_ur.ur_call``,
+    ``analytic_puma.puma_call``) do this same work inside their compiled call, through
+    :func:`check_packed`; a change here must be made there too (tests/test_fastpath_ur.py holds the
+    two paths equal bit for bit).
     """
     if settings.require_limits:
         q = _within_limit_choice(prep, T_goal, raw, settings, q_start)
@@ -656,10 +663,7 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
         q = raw.q
         if type(q) is not np.ndarray or q.dtype != np.float64:
             q = np.asarray(q, dtype=float)
-    fa = prep._finish_args
-    if fa is None:
-        fa = prep._finish_args = _finish_args(prep)
-    F, prism = fa
+    F, prism = finish_args(prep)
     ok, dp, ang, inside = _check_within(F, prism, q, T_goal, CRITERION_CODE[settings.criterion], settings.tol_pos,
                                         settings.tol_rot, settings.tol_dq)
     code = int(raw.code)
@@ -676,16 +680,22 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
         trace = np.asarray(trace)[: raw.iterations + 1]
     if code == _SUCCESS and settings.require_limits and not inside:
         code = _OUT_OF_LIMITS
-    return IKResult(q=q, success=bool(claimed and ok and code == _SUCCESS), stop_reason=code,
-                    iterations=int(raw.iterations), trace=trace, solve_time_s=raw.solve_ns * 1e-9,
-                    ik_time_s=raw.ik_ns * 1e-9, position_error=dp,
-                    orientation_error=math.nan if settings.criterion == "position" else ang,
-                    claimed_success=claimed, within_limits=inside,
-                    call_time_s=call_ns * 1e-9, length_unit=prep.unit, solutions=raw.solutions, info=raw.info)
+    # positional: a keyword call of the 15-field dataclass costs ~0.5 us more (Python 3.11), on every solve
+    return IKResult(q, bool(claimed and ok and code == _SUCCESS), code, int(raw.iterations), trace,
+                    raw.solve_ns * 1e-9, raw.ik_ns * 1e-9, dp, math.nan if settings.criterion == "position" else ang,
+                    claimed, inside, call_ns * 1e-9, prep.unit, raw.solutions, raw.info)
 
 
 _SUCCESS, _FK_CHECK_FAILED, _NON_FINITE, _OUT_OF_LIMITS = (int(StopReason.SUCCESS), int(StopReason.FK_CHECK_FAILED),
                                                           int(StopReason.NON_FINITE), int(StopReason.OUT_OF_LIMITS))
+
+
+def finish_args(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
+    """``(F, prism)`` of :func:`_check_within` for ``prep`` (built once, kept on the prepared robot)."""
+    fa = prep._finish_args
+    if fa is None:
+        fa = prep._finish_args = _finish_args(prep)
+    return fa
 
 
 def _finish_args(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
@@ -709,3 +719,31 @@ def _check_within(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq):
     limits = F[o3:o4].reshape((n, 2))
     ok, dp, ang, _ = check_one(K, axis, F[o2:o3], prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, F[o4:])
     return ok, dp, ang, _within(q, limits, prism, 1e-9)
+
+
+# ---- the check packed for a fused call (an analytic solver's kernel, choice and check in one call) ----
+C_CRIT, C_TOLP, C_TOLR, C_TOLDQ, C_F = 0, 1, 2, 3, 4  # criterion code, tolerances, then F (:func:`_finish_args`)
+
+
+def check_pack(prep: Prepared, settings: Settings) -> np.ndarray:
+    """The success test, the FK check's model and the limits in one float array, for :func:`check_packed`.
+
+    ``[criterion code, tol_pos, tol_rot, tol_dq, F (see :func:`_finish_args`), prismatic flags as 1.0/0.0]``
+    (``settings`` in the working unit). A kernel that runs the check inside its own compiled call
+    takes this appended to its own packed parameters, so the check adds no argument to the call
+    (numba's dispatch costs ~40 ns per array argument).
+    """
+    F, prism = finish_args(prep)
+    head = [float(CRITERION_CODE[settings.criterion]), float(settings.tol_pos), float(settings.tol_rot),
+            float(settings.tol_dq)]
+    return np.concatenate([head, F, prism.astype(float)])
+
+
+@numba.njit(cache=True, inline="always")
+def check_packed(C, q, Tg):
+    """:func:`_check_within` (the independent dual-quaternion FK check of ``q`` against ``Tg`` and the
+    joint-limit record, the same arithmetic) from one :func:`check_pack` array: (ok, |dp|, angle, within)."""
+    n = q.shape[0]
+    nf = 14 * n + 16  # len(F): K 8 (n + 1), axis 3 n, offset n, limits 2 n, scratch 8
+    return _check_within(C[C_F:C_F + nf], C[C_F + nf:C_F + nf + n], q, Tg, int(C[C_CRIT]), C[C_TOLP], C[C_TOLR],
+                         C[C_TOLDQ])

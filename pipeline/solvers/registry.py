@@ -44,6 +44,15 @@ class Solver:
     batch : callable, optional      ``batch(prep, settings, goals, starts, seeds, threads, traces) ->
                                     BatchRaw``: N problems in one compiled call (see
                                     :func:`solve_batch`); without it a batch runs ``run`` per problem
+    bind_call : callable, optional  ``bind_call(prep, settings) -> call(T_goal, q_start, seed, t0) ->
+                                    IKResult`` or None: the whole public call fused (kernel, FK check,
+                                    limits and result in one compiled call; ``T_goal`` in the robot
+                                    file's unit, ``t0`` the call's start [ns]), for methods whose
+                                    kernel is so short that ``bind`` + :func:`finish` would cost more
+                                    than it (the analytic closed forms). It must give what ``bind`` +
+                                    :func:`finish` give, bit for bit, timings aside; used only with
+                                    ``bind``, and not for restarts or scaled prismatic joints; None =
+                                    the generic path for these settings
     """
 
     name: str
@@ -55,6 +64,7 @@ class Solver:
     source: str = ""
     bind: Callable | None = None
     batch: Callable | None = None
+    bind_call: Callable | None = None
 
     def refusal(self, prep: Prepared) -> str | None:
         """Why this solver does not apply to the prepared robot, or None."""
@@ -119,9 +129,13 @@ class Bound:
     (through ``Solver.bind``) and the FK check's model, so that :meth:`solve` costs the kernel plus a
     few microseconds. Obtain one with :func:`bind`; :func:`solve` uses a cached one when given a
     :class:`Prepared` robot and a :class:`Settings` object.
+
+    ``call(T_goal, q_start, seed, t0)`` is what :func:`solve` calls: the solver's fused call
+    (``Solver.bind_call``) when it has one for these settings, else :meth:`solve`; :func:`solve`
+    calls it straight from the cache, one Python frame less per call.
     """
 
-    __slots__ = ("spec", "prep", "settings", "sc", "run1", "scaled", "shape", "may_restart")
+    __slots__ = ("spec", "prep", "settings", "sc", "run1", "scaled", "shape", "may_restart", "fused", "call")
 
     def __init__(self, spec: Solver, prep: Prepared, settings: Settings):
         self.spec, self.prep, self.settings = spec, prep, settings
@@ -135,10 +149,16 @@ class Bound:
         self.scaled = prep.goal_scale != 1.0 and bool(prep.prismatic.any())
         self.shape = (prep.n,)
         self.may_restart = bool(self.sc.restarts) and spec.kind != "analytic"
+        self.fused = None
+        if spec.bind_call is not None and spec.bind is not None and not self.may_restart and not self.scaled:
+            self.fused = spec.bind_call(prep, self.sc)
+        self.call = self.fused if self.fused is not None else self.solve
 
     def solve(self, T_goal: np.ndarray, q_start: np.ndarray, seed: int = 0, t0: int | None = None) -> IKResult:
         """One problem (see :func:`solve`); ``t0`` = the caller's start time on the call clock [ns]."""
         t0 = clock_ns() if t0 is None else t0
+        if self.fused is not None:
+            return self.fused(T_goal, q_start, seed, t0)
         prep, sc = self.prep, self.sc
         Tg = prep.working_goal(T_goal)
         q0 = np.ascontiguousarray(q_start, dtype=float)  # kernels never write into the start
@@ -204,7 +224,11 @@ def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: 
         One line naming the field, or the robot and why the method does not fit it.
     """
     t0 = clock_ns()
-    return bind(name, robot, settings).solve(T_goal, q_start, seed, t0)
+    if type(robot) is Prepared:  # the cached binding (as in bind), called without further frames
+        hit = robot._bound.get((name, id(settings)))
+        if hit is not None and hit.settings is settings:
+            return hit.call(T_goal, q_start, seed, t0)
+    return bind(name, robot, settings).call(T_goal, q_start, seed, t0)
 
 
 def solve_batch(name: str, robot: RobotModel | Prepared, goals: np.ndarray, starts: np.ndarray,
