@@ -149,15 +149,16 @@ def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -
     }
     keep_traces = bool(study.doc.get("archive_traces", True))
     derive = _derivable(entry.method, settings)
-    meta["traces"] = (("derived: digests stored, re-run on demand (pipeline.io.archive.derive)" if derive
-                       else "stored per problem") if keep_traces else "none (study setting archive_traces: false)")
+    meta["derive"] = derive
+    meta["traces"] = ((f"derived ({derive}): digests stored, re-derived on demand (pipeline.io.archive.derive)"
+                       if derive else "stored per problem") if keep_traces else "none (study setting archive_traces: false)")
     t0 = time.monotonic()
     n_ok = done = 0
     total = n_sel * reps
     shown = 0
     threads = max(1, int(getattr(args, "threads", 1) or 1))
     t_solve = t_write = 0.0
-    with ArchiveWriter(out, meta, derive=derive) as w:
+    with ArchiveWriter(out, meta, derive=bool(derive)) as w:
         for rows, rep, q0, res in solve_set_batches(entry.method, settings, model, ps, repetitions=reps,
                                                     set_seed=spec["seed"], select=select, threads=threads):
             t_solve += res.call_time_s
@@ -191,16 +192,27 @@ def _first_repetition(traces: dict) -> dict:
             "rows": traces["rows"][keep], "full": traces["full"][rows]}
 
 
-def _derivable(method: str, settings) -> bool:
-    """Whether a solve can be re-run bit for bit from its archive (traces and analytic solutions are
-    then stored as digests only): this package's own methods without a wall-time budget. The peer
-    libraries (racing threads, C ``rand()`` state, a library that may not be installed) and time
-    budgets are not."""
+def _derivable(method: str, settings) -> str:
+    """How the traces and analytic solutions of a job can be re-derived from its archive, which then
+    stores their digests only (``pipeline.io.archive.derive``):
+
+    ``"rerun"``  re-run the solve bit for bit: this package's own methods and the closed forms of
+                 ur_analytic_ik (deterministic), without a wall-time budget;
+    ``"fk"``     recompute the trace from the record by this package's FK
+                 (:func:`pipeline.solvers.peers.trace_from_record`): the other peers (racing threads,
+                 C ``rand()`` state) run once from the archived start (no restarts, no time budget);
+    ``""``       neither: traces and solutions stored in full.
+    """
     from pipeline.solvers import get
 
     spec = get(method)
-    own = not spec.run.__module__.startswith("pipeline.solvers.peers")
-    return own and not float(getattr(settings, "time_budget", 0.0) or 0.0) > 0.0
+    budget = float(getattr(settings, "time_budget", 0.0) or 0.0) > 0.0
+    peer = spec.run.__module__.startswith("pipeline.solvers.peers")
+    if budget:
+        return ""
+    if not peer or method == "ur_analytic_ik":
+        return "rerun"
+    return "" if int(getattr(settings, "restarts", 0) or 0) else "fk"
 
 
 def _study_solver(args):

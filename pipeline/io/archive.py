@@ -64,6 +64,7 @@ TRACE_TOPIC = "/ik/trace"
 REQUIRED_META = ("format_version", "study", "robot", "solver", "settings", "settings_hash", "seed",
                  "package_version", "git_commit")
 
+# ---- format 3 (read only): /ik/solve as strict-JSON columns ------------------------------------
 _NUMS = {"type": "array", "items": {"type": ["number", "null"]}}
 _ROWS = {"type": "array", "items": _NUMS}
 _INTS = {"type": "array", "items": {"type": "integer"}}
@@ -976,6 +977,8 @@ def derive(arch: Archive, keys: list[tuple[int, int]]) -> dict:
     sub = ps.take(sel)
     sub = replace(sub, q_start=np.array([by_key[k]["q_start"] for k in keys], dtype=float).reshape(len(keys), -1),
                   chain=np.full(len(keys), -1))
+    if meta.get("derive") == "fk":
+        return _derive_by_fk(arch, keys, by_key, idx, model, settings, sub)
     seed = int(meta["seed"]) if str(meta.get("seed", "")).lstrip("-").isdigit() else 0
     out = {}
     i = 0
@@ -1001,6 +1004,41 @@ def derive(arch: Archive, keys: list[tuple[int, int]]) -> dict:
                                    f"{meta.get('git_commit', '?')[:12]}, package {meta.get('package_version', '?')}); "
                                    f"its traces cannot be re-derived by this version")
             out[key] = (full, None if sols is None else sols.tolist())
+    return out
+
+
+def settings_method(arch: Archive) -> str:
+    """The registered method an archive's solves ran (metadata ``method``, else the settings' ``method``)."""
+    return arch.metadata.get("method") or json.loads(arch.metadata.get("settings", "{}")).get("method", "")
+
+
+def _derive_by_fk(arch: Archive, keys, by_key, idx, model, settings, sub) -> dict:
+    """:func:`derive` for peer solves (``derive: fk``): each trace recomputed from the record by this
+    package's FK (:func:`pipeline.solvers.peers.trace_from_record`), units as the solve job had them."""
+    from pipeline.robots import LENGTH_UNITS
+    from pipeline.solvers.base import Prepared
+    from pipeline.solvers.peers import trace_from_record
+
+    prep = Prepared(model, settings.length_unit)
+    T = sub.goal_transforms()
+    if sub.length_unit != model.length_unit:
+        T[:, :3, 3] *= LENGTH_UNITS[sub.length_unit] / LENGTH_UNITS[model.length_unit]
+    prism = np.asarray(prep.prismatic, dtype=bool)
+    out = {}
+    for i, key in enumerate(keys):
+        rec = by_key[key]
+        q0 = np.array(rec["q_start"], dtype=float)
+        q = np.array(rec["q_solution"], dtype=float)
+        if prep.goal_scale != 1.0 and prism.any():
+            q0[prism] *= prep.goal_scale
+            q[prism] *= prep.goal_scale
+        n_rows, dig, _ = idx.get(key, (0, 0, None))
+        full = trace_from_record(settings_method(arch), prep, prep.working_goal(T[i]), q0, q, rec["iterations"],
+                                 rec["position_error"])
+        if key in idx and (len(full) != n_rows or digest(full) != dig):
+            raise ArchiveError(f"{arch.path}: problem {key[0]}: the trace recomputed from the record differs from the "
+                               f"archived digest (archive written by commit {arch.metadata.get('git_commit', '?')[:12]})")
+        out[key] = (full, None)
     return out
 
 

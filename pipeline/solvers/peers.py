@@ -98,7 +98,7 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.chain import Chain
 from pipeline.robots import LENGTH_UNITS
 from pipeline.solvers import _kin
-from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting, wrap_into_limits
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -171,6 +171,42 @@ class _Metric:
 
 def _metric(prep: Prepared) -> _Metric:
     return prep.memo(("peers", "metric"), lambda: _Metric(prep))
+
+
+def trace_from_record(method: str, prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray,
+                      iterations: int, position_error: float) -> np.ndarray:
+    """The trace a peer solve archived, recomputed from its record (no peer library needed).
+
+    A peer reports no iterates. The Robotics Toolbox and Pinocchio solvers' trace is this
+    package's own FK of the start and of the returned angles (:func:`_trace`, cut to
+    ``iterations + 1`` rows by :func:`pipeline.solvers.base.finish`); TRAC-IK and ur_analytic_ik
+    give none, and ``finish`` writes one row with only |dp| known. How an archive re-derives the
+    traces of peer solves it stores as digests (``pipeline.io.archive.derive``).
+
+    Parameters
+    ----------
+    method : str                         the registered peer
+    prep : Prepared                      the robot in the solver's working unit
+    T_goal : ndarray, shape (4, 4)       goal in the working unit
+    q0, q : ndarray, shape (n,)          start and returned joint values, working unit
+    iterations : int                     the archived iteration count
+    position_error : float               the archived |dp| [working unit]
+    """
+    if method not in _NO_TRACE:
+        return _trace(prep, T_goal, q0, q)[: iterations + 1]
+    out = np.full((1, 8), np.nan)
+    out[0, 7] = position_error
+    return out
+
+
+_NO_TRACE = ("trac_ik", "ur_analytic_ik")  # peers whose Raw carries no trace
+
+
+def _returned(prep: Prepared, q: np.ndarray, s: Settings) -> np.ndarray:
+    """The angles a peer returns: under ``require_limits`` already wrapped into the limits as
+    :func:`pipeline.solvers.base.finish` would (a no-op there then), so that the trace's last row is
+    the FK of the returned angles and can be recomputed from the archive (:func:`trace_from_record`)."""
+    return wrap_into_limits(q, prep.limits, prep.prismatic) if s.require_limits else q
 
 
 def _trace(prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -363,7 +399,7 @@ def _rtb_run(method: str):
         sol = fn(Tm, q0=q0, ilimit=int(s.ilimit), slimit=int(s.slimit), tol=tol,
                  joint_limits=bool(s.joint_limits), **extra)
         ns = clock_ns() - t0
-        q = m.q_out(sol.q)
+        q = _returned(prep, m.q_out(sol.q), s)
         it = int(sol.iterations)
         capped = it >= s.slimit * (s.ilimit + 1)  # rtb 1.5.0: a capped search counts ilimit + 1
         code = _peer_code(bool(sol.success), StopReason.ITERATION_CAP if capped else StopReason.OUT_OF_LIMITS)
@@ -541,7 +577,7 @@ def _pin_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Pinocch
     qm, ok, it, en = _clik(pin, model, data, jid, tool, tia, oMdes, q0, float(s.eps), int(s.max_iterations),
                            float(s.dt), float(s.damp), bool(s.jlog6))
     ns = clock_ns() - t0
-    q = m.q_out(qm)
+    q = _returned(prep, m.q_out(qm), s)
     code = _peer_code(ok, StopReason.ITERATION_CAP)
     if not (math.isfinite(en) and np.all(np.isfinite(q))):
         code = int(StopReason.NON_FINITE)
