@@ -384,4 +384,11 @@ def git_commit(root: Path = ROOT) -> str:
 
 
 def file_sha256(path: str | Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    """SHA-256 of a file's content: of the decompressed text for a ``.gz`` file (a problem set), so
+    the hash does not depend on the compressor's version."""
+    data = Path(path).read_bytes()
+    if str(path).endswith(".gz"):
+        import gzip
+
+        data = gzip.decompress(data)
+    return hashlib.sha256(data).hexdigest()

@@ -5,7 +5,7 @@ Per study (every ``results/<id>/tables/provenance.json``):
 1. every archive the tables were built from exists, reads without error, holds as many solve
    records as its metadata promises, belongs to the study, and is the archive the tables recorded
    (study, solver, settings hash, problem-file hash, problem count);
-2. its problem set on disk (``problems/<set>/<robot>.csv``) has the hash the archive recorded;
+2. its problem set on disk (``problems/<set>/<robot>.csv.gz``) has the hash the archive recorded;
 3. every table is recomputed from those archives and compared byte for byte with the CSV on disk.
 
 For the report: the digest of its inputs (every study's tables and figures) recorded in
@@ -64,7 +64,7 @@ def _archive_path(results: Path, sid: str, recorded: str) -> Path:
 def verify_study(results: Path, data: Path, sid: str) -> list[str]:
     """What differs for study ``sid`` (empty list: everything matches)."""
     from pipeline.io.archive import read_archive
-    from pipeline.settings import load_study
+    from pipeline.settings import file_sha256, load_study
     from pipeline.studies import build_study_tables, write_tables
 
     folder = results / sid
@@ -90,8 +90,8 @@ def verify_study(results: Path, data: Path, sid: str) -> list[str]:
         diff = [k for k in _CHECKED if k in rec and k in m and str(rec[k]) != str(m[k])]
         if diff:
             problems.append(f"{path}: not the archive the tables were built from (differs in {', '.join(diff)})")
-        pfile = folder / "problems" / str(m.get("problem_set")) / f"{m.get('robot')}.csv"
-        if pfile.is_file() and m.get("problem_sha256", "-") != "-" and _sha(pfile)[:16] != m["problem_sha256"]:
+        pfile = folder / "problems" / str(m.get("problem_set")) / f"{m.get('robot')}.csv.gz"
+        if pfile.is_file() and m.get("problem_sha256", "-") != "-" and file_sha256(pfile)[:16] != m["problem_sha256"]:
             problems.append(f"{pfile}: hash differs from the one archive {path.name} recorded")
         archives.append(a)
     if problems:

@@ -1,7 +1,9 @@
 """Problem-set files: CSV with full-precision floats and a one-line header comment.
 
 Same seed and settings give a byte-identical file (floats written with 17 significant digits,
-no timestamps).
+no timestamps). A name ending in ``.gz`` is the same text gzip-compressed (no name or time in the
+gzip header, so still byte-identical): the workflow writes ``<robot>.csv.gz``, about half the
+size, since the archives read their goals from it.
 """
 
 from __future__ import annotations
@@ -39,7 +41,12 @@ def write_problems(path: str | Path, ps: ProblemSet, meta: dict[str, str]) -> No
     for pid, ch, row in zip(ps.problem_id, ps.chain, data):
         buf.write(f"{int(pid)},{int(ch)}," + ",".join(format(x, ".17g") for x in row) + "\n")
     tmp = path.with_name(path.name + ".partial")
-    tmp.write_text(buf.getvalue())
+    data = buf.getvalue().encode()
+    if path.name.endswith(".gz"):
+        import gzip
+
+        data = gzip.compress(data, compresslevel=6, mtime=0)
+    tmp.write_bytes(data)
     os.replace(tmp, path)
 
 
@@ -47,9 +54,16 @@ def read_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str]]:
     """Read a problem-set file; returns the set and its header fields."""
     path = Path(path)
     try:
-        lines = path.read_text().splitlines()
+        data = path.read_bytes()
+        if path.name.endswith(".gz"):
+            import gzip
+
+            data = gzip.decompress(data)
+        lines = data.decode().splitlines()
     except OSError as exc:
-        raise ProblemFileError(f"{path}: cannot read problem set ({exc.strerror})") from None
+        raise ProblemFileError(f"{path}: cannot read problem set ({exc.strerror or exc})") from None
+    except (EOFError, UnicodeDecodeError, ValueError) as exc:
+        raise ProblemFileError(f"{path}: not a readable problem set ({type(exc).__name__}: {exc})") from None
     if not lines or not lines[0].startswith(MAGIC):
         raise ProblemFileError(f"{path}: line 1: not an ik-pipeline problem set (missing '{MAGIC}')")
     meta = dict(kv.split("=", 1) for kv in lines[0][len(MAGIC):].split() if "=" in kv)

@@ -7,7 +7,7 @@ rule make_problems:
         robot=f"{DATA}/robots/{{robot}}.yaml",
         files=problem_set_files,
     output:
-        f"{RESULTS}/{{study}}/problems/{{pset}}/{{robot}}.csv",
+        f"{RESULTS}/{{study}}/problems/{{pset}}/{{robot}}.csv.gz",
     wildcard_constraints:
         study=GENERIC_STUDIES,
     params:
@@ -28,7 +28,7 @@ rule make_problems:
 
 rule solve_problems:
     input:
-        problems=f"{RESULTS}/{{study}}/problems/{{pset}}/{{robot}}.csv",
+        problems=f"{RESULTS}/{{study}}/problems/{{pset}}/{{robot}}.csv.gz",
         robot=f"{DATA}/robots/{{robot}}.yaml",
     output:
         f"{RESULTS}/{{study}}/runs/{{pset}}/{{robot}}__{{solver}}.mcap",
@@ -71,7 +71,7 @@ for _sid in PER_ROBOT_STUDIES:
             name:
                 f"solve_{_sid}__{_robot}"
             input:
-                problems=[f"{RESULTS}/{_sid}/problems/{_p}/{_robot}.csv" for _p in _sets],
+                problems=[f"{RESULTS}/{_sid}/problems/{_p}/{_robot}.csv.gz" for _p in _sets],
                 robot=f"{DATA}/robots/{_robot}.yaml",
             output:
                 [f"{RESULTS}/{_sid}/runs/{_p}/{_robot}__{lab}.mcap" for _p in _sets for lab in _labels],

@@ -12,7 +12,7 @@ if "cerbaro2019" in STUDIES:
 
     rule rerun_failures:
         input:
-            problems=f"{RESULTS}/cerbaro2019/problems/{{pset}}/{{robot}}.csv",
+            problems=f"{RESULTS}/cerbaro2019/problems/{{pset}}/{{robot}}.csv.gz",
             robot=f"{DATA}/robots/{{robot}}.yaml",
             archive=f"{RESULTS}/cerbaro2019/runs/{{pset}}/{{robot}}__{{solver}}.mcap",
         output:
