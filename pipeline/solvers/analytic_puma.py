@@ -56,7 +56,8 @@ from pipeline.kinematics.fkcheck import meets
 from pipeline.solvers._kin import now_ns
 from pipeline.solvers.analytic_ur import InfoRows, copy12, mul34, mul_link, pose_errors, rigid_rows
 from pipeline.solvers.base import (CRITERION_CODE, TRACE_COLS, BatchRaw, IKResult, Prepared, Raw, Settings,
-                                   SettingsError, StopReason, check_pack, check_packed)
+                                   SettingsError, StopReason, check_pack, check_packed,
+                                   closed_form_code)
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -124,8 +125,6 @@ CHUNK = 64  # poses per work item of the batch kernel
 
 SUCCESS = int(StopReason.SUCCESS)
 NO_SOLUTION = int(StopReason.NO_SOLUTION)
-FK_CHECK_FAILED = int(StopReason.FK_CHECK_FAILED)
-NON_FINITE = int(StopReason.NON_FINITE)
 
 
 def packed(prep: Prepared, s: AnalyticPumaSettings) -> np.ndarray:
@@ -388,14 +387,7 @@ def puma_call(PC, Tg, q_start, sols, q, iv, fv, trace):
     ns = puma_core(PC[:N_P], Tg, q_start, W, clk, sols, q, iv, fv)
     ok, dp, ang, inside = check_packed(PC[N_P:], q, Tg)
     claimed = iv[I_CHOSEN] >= 0
-    code = SUCCESS if claimed else NO_SOLUTION
-    if claimed and not ok:
-        code = FK_CHECK_FAILED
-    if dp != dp:  # a NaN error: a non-finite joint value (or goal)
-        for j in range(6):
-            if not math.isfinite(q[j]):
-                code = NON_FINITE
-                break
+    code = closed_form_code(claimed, ok, dp, q)
     for c in range(7):
         trace[0, c] = math.nan
     trace[0, 7] = dp

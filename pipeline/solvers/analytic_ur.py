@@ -52,7 +52,7 @@ import numpy as np
 
 from pipeline.solvers._kin import now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, SettingsError, StopReason, check_pack,
-                                   check_packed, setting)
+                                   check_packed, closed_form_code, setting)
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -107,8 +107,6 @@ CHUNK = 64  # poses per work item of the batch kernel (one workspace each)
 
 SUCCESS = int(StopReason.SUCCESS)
 NO_SOLUTION = int(StopReason.NO_SOLUTION)
-FK_CHECK_FAILED = int(StopReason.FK_CHECK_FAILED)
-NON_FINITE = int(StopReason.NON_FINITE)
 
 
 def rigid_rows(T: np.ndarray, inverse: bool = False) -> np.ndarray:
@@ -455,14 +453,7 @@ def ur_call(PC, Tg, q_start, S, q, trace):
     nv, best, ns = ur_core(PC[:N_P], Tg, q_start, W, clk, S, q, trace, True)
     ok, dp, ang, inside = check_packed(PC[N_P:], q, Tg)
     claimed = best >= 0
-    code = SUCCESS if claimed else NO_SOLUTION
-    if claimed and not ok:
-        code = FK_CHECK_FAILED
-    if dp != dp:  # a NaN error: a non-finite joint value (or goal)
-        for j in range(6):
-            if not math.isfinite(q[j]):
-                code = NON_FINITE
-                break
+    code = closed_form_code(claimed, ok, dp, q)
     return nv, best, ns, code, claimed, ok, dp, ang, inside, trace[1, 0]
 
 

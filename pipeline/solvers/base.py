@@ -686,6 +686,7 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
                     claimed, inside, call_ns * 1e-9, prep.unit, raw.solutions, raw.info)
 
 
+_NO_SOLUTION = int(StopReason.NO_SOLUTION)
 _SUCCESS, _FK_CHECK_FAILED, _NON_FINITE, _OUT_OF_LIMITS = (int(StopReason.SUCCESS), int(StopReason.FK_CHECK_FAILED),
                                                           int(StopReason.NON_FINITE), int(StopReason.OUT_OF_LIMITS))
 
@@ -747,3 +748,18 @@ def check_packed(C, q, Tg):
     nf = 14 * n + 16  # len(F): K 8 (n + 1), axis 3 n, offset n, limits 2 n, scratch 8
     return _check_within(C[C_F:C_F + nf], C[C_F + nf:C_F + nf + n], q, Tg, int(C[C_CRIT]), C[C_TOLP], C[C_TOLR],
                          C[C_TOLDQ])
+
+
+@numba.njit(cache=True, inline="always")
+def closed_form_code(claimed, ok, dp, q):
+    """The stop reason :func:`finish` gives a closed form's result (without ``require_limits``), for
+    the fused compiled calls: no solution, success, FK check failed, or non-finite."""
+    code = _SUCCESS if claimed else _NO_SOLUTION
+    if claimed and not ok:
+        code = _FK_CHECK_FAILED
+    if dp != dp:  # a NaN error: a non-finite joint value (or goal)
+        for j in range(q.shape[0]):
+            if not math.isfinite(q[j]):
+                code = _NON_FINITE
+                break
+    return code
