@@ -50,6 +50,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from zlib import crc32 as _crc32
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
@@ -271,9 +272,12 @@ def digest(a) -> int:
     """CRC-32 of an array's float64 values in C order: how a re-derived trace or solution set is
     checked against the archive. A check of a deterministic re-run, not a defence against forgery:
     32 bits miss a difference with probability 2**-32 and cost 4 bytes per solve."""
-    import zlib
+    if not (type(a) is np.ndarray and a.dtype == _F8 and a.flags.c_contiguous):
+        a = np.ascontiguousarray(a, dtype=_F8)
+    return _crc32(a)  # the array's buffer, no copy
 
-    return zlib.crc32(np.ascontiguousarray(a, dtype="<f8").tobytes())
+
+_F8 = np.dtype("<f8")
 
 
 class ArchiveError(ValueError):
@@ -502,13 +506,23 @@ def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, met
         out["goal_position"] = np.asarray(cols["goal_position"], dtype=float).reshape(count, 3)
         out["goal_orientation"] = np.asarray(cols["goal_orientation"], dtype=float).reshape(count, 4)
     sols = cols.get("solutions")
-    if sols is not None:
-        ns = np.array([0 if x is None else len(x) for x in sols], dtype="<i4")
-        out["n_solutions"] = ns
-        if derive:
-            out["solutions_digest"] = np.array([digest(np.asarray(x, dtype=float).reshape(-1, n)) if x is not None else 0
-                                                for x in sols], dtype="<u4")
+    if sols is not None and cols.get("n_solutions") is not None:  # batch form: (N, m, n) array and counts
+        ns = np.asarray(cols["n_solutions"], dtype="<i4")
+        S = np.ascontiguousarray(sols, dtype=_F8).reshape(count, -1)
+        if derive:  # CRC-32 of each solve's first k rows, straight from the array's buffer
+            buf, w = memoryview(S).cast("B"), S.shape[1] * 8
+            out["solutions_digest"] = np.array([_crc32(buf[i * w:i * w + int(k) * n * 8]) for i, k in enumerate(ns)],
+                                               dtype="<u4")
+            sols = None
         else:
+            sols = [S[i, : int(k) * n] for i, k in enumerate(ns)]
+    elif sols is not None:
+        ns = np.array([0 if x is None else len(x) for x in sols], dtype="<i4")
+    if sols is not None or "solutions_digest" in out:
+        out["n_solutions"] = ns
+        if derive and sols is not None:
+            out["solutions_digest"] = np.array([0 if x is None else digest(x) for x in sols], dtype="<u4")
+        elif sols is not None:
             rows = [np.asarray(x, dtype=float).reshape(-1, n) for x in sols if x is not None and len(x)]
             flags = flags | (ns > 0) * F_SOLUTIONS_STORED
             if rows:
@@ -572,7 +586,7 @@ def batch_columns(problem_id, repetition, chain, robot: str, solver: str, length
         "start_from_file": np.zeros(n, bool) if start_from_file is None else np.asarray(start_from_file, bool),
     }
     if res.solutions is not None:
-        cols["solutions"] = [res.solutions[i, : int(res.n_solutions[i])] for i in range(n)]
+        cols["solutions"], cols["n_solutions"] = res.solutions, res.n_solutions  # (N, m, n), counts (N,)
     traces = None
     if res.trace_rows is not None:
         off = res.trace_offsets
