@@ -268,6 +268,38 @@ def test_every_trace_is_available_for_every_solve(built):
     assert derived > 300
 
 
+@pytest.mark.parametrize("study, archive, how", [
+    ("cerbaro2019", "random/kuka_lwr__dls.mcap", "problem"),
+    ("nepomuceno2024", "pick_and_place/ur5_nepomuceno__bfgs.mcap", "all")])
+def test_a_replay_of_a_built_archive_is_a_3d_scene_ending_at_the_archived_solution(built, tmp_path, study, archive, how):
+    """One cerbaro2019 problem (iterate by iterate) and one nepomuceno2024 path (the arm following
+    it), from the quick build's own archives: Foxglove's schemas on every channel, and the last
+    frame's tool pose is the FK of the archived solution."""
+    from pipeline.cli import main
+    from pipeline.io.archive import read_archive
+    from pipeline.robots import load_robot
+    from tests.test_replay import TOPICS, _assert_pose, _decoder, _read, _tool_m
+
+    src, out = built / study / "runs" / archive, tmp_path / "replay.mcap"
+    arch = read_archive(src)
+    rec = next(r for r in arch.solves if r["success"]) if how == "problem" else max(arch.solves, key=lambda r: r["problem_id"])
+    args = ["--problem", str(rec["problem_id"])] if how == "problem" else ["--all"]
+    assert main(["replay", str(src), *args, "-o", str(out)]) == 0
+    chans, msgs, meta = _read(out)
+    assert {t: sch.name for t, (sch, _) in chans.items()} == TOPICS
+    assert meta["replay_check"]["mismatches"].startswith("none")
+    model = load_robot(ROOT / "data" / "robots" / f"{arch.metadata['robot']}.yaml")
+    T = _tool_m(model, rec["q_solution"])
+    FT, PF = _decoder(chans["/tf"][0]), _decoder(chans["/reached"][0])
+    tools = [FT.FromString(m.data) for t, m in msgs if t == "/tf" and FT.FromString(m.data).child_frame_id == "tool"]
+    _assert_pose(tools[-1].translation, tools[-1].rotation, T)
+    reached = PF.FromString([m.data for t, m in msgs if t == "/reached"][-1])
+    _assert_pose(reached.pose.position, reached.pose.orientation, T)
+    frames = [m for t, m in msgs if t == "/replay/frame"]
+    if how == "all":  # the path: one frame per point after the start
+        assert len(frames) == len({r["problem_id"] for r in arch.solves}) + 1
+
+
 def test_report_opens_with_the_answer(built):
     import pandas as pd
 
