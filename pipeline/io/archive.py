@@ -1,5 +1,8 @@
 """Result archives: one MCAP file per solve job, zstd-compressed chunks.
 
+Chunks use the mcap writer's zstd level 3. On format-4 batches it gives files 1.7 % smaller than
+level 1 for 2.4 ms more per 10 000 solves. Level 1 was used while the batches were JSON text.
+
 Channels (format version 4)
 ---------------------------
 ``/ik/solve``  one message per batch of up to :data:`BATCH` solves, protobuf
@@ -320,7 +323,6 @@ class ArchiveWriter:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.partial = self.path.with_name(self.path.name + ".partial")
         self._fh = open(self.partial, "wb")
-        _use_fast_zstd()
         self._w = Writer(self._fh, compression=CompressionType.ZSTD, enable_data_crcs=True)
         self._w.start(profile="", library=f"ik-pipeline {metadata['package_version']}")
         self._w.add_metadata("run", {k: str(v) for k, v in metadata.items()})
@@ -416,26 +418,6 @@ class ArchiveWriter:
             self.close()
         else:
             self.abort()
-
-
-class _Zstd1:
-    """``zstandard`` as the mcap writer calls it (``compress(data)``), at level 1 instead of 3: on
-    the solve batches it is 2-3x faster and no larger (measured on a 10 000-solve DLS archive)."""
-
-    def __init__(self):
-        import zstandard
-
-        self._c = zstandard.ZstdCompressor(level=1)
-
-    def compress(self, data: bytes) -> bytes:
-        return self._c.compress(data)
-
-
-def _use_fast_zstd() -> None:
-    import mcap.writer
-
-    if not isinstance(mcap.writer.zstandard, _Zstd1):
-        mcap.writer.zstandard = _Zstd1()
 
 
 def _dumps(obj) -> bytes:
