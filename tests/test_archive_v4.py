@@ -360,3 +360,26 @@ def test_every_damaged_copy_of_a_derived_archive_is_refused_or_reads_the_same(tm
             q.unlink()
         assert repr(got) == repr(want), name
     assert refused > 150
+
+
+def test_non_finite_starts_and_goals_are_flagged_not_written(tmp_path, lwr):
+    """An archive with inline goals (no problem file) given a NaN start and an infinite goal: no NaN
+    or Infinity in the file, NaN read back."""
+    from mcap.reader import make_reader
+
+    ps, res = _batch(lwr, 4)
+    q0, gp = ps.q_start.copy(), ps.goal_position.copy()
+    q0[1, 2], gp[2, 0] = np.nan, np.inf
+    cols, traces = batch_columns(ps.problem_id, np.zeros(4), ps.chain, "kuka_lwr", "dls", "m", q0, gp, ps.goal_quat, res)
+    p = tmp_path / "a.mcap"
+    with ArchiveWriter(p, {**META, "problems": "4"}) as w:
+        w.write_columns(cols, traces)
+    with open(p, "rb") as fh:
+        for schema, _, msg in make_reader(fh).iter_messages():
+            m = _protobuf_class(schema).FromString(msg.data)
+            for field, value in m.ListFields():
+                if field.type in (field.TYPE_DOUBLE, field.TYPE_FLOAT):
+                    assert np.isfinite(np.asarray(value, dtype=float)).all(), field.name
+    recs = read_archive(p).solves
+    assert np.isnan(recs[1]["q_start"]).all() and recs[0]["q_start"] == ps.q_start[0].tolist()
+    assert np.isnan(recs[2]["goal"]["position"]["x"]) and recs[3]["goal"]["position"]["x"] == ps.goal_position[3, 0]

@@ -121,7 +121,7 @@ TRACE_MESSAGE = "ik_pipeline.TraceBatch"
 # flags of a solve (SolveBatch.flags)
 F_SUCCESS, F_CLAIMED, F_WITHIN, F_START_FROM_FILE = 1, 2, 4, 8
 F_NO_INITIAL, F_NO_FINAL, F_NO_POSITION, F_NO_ORIENTATION, F_NO_Q = 16, 32, 64, 128, 256
-F_SOLUTIONS_STORED, F_DERIVABLE = 512, 1024
+F_SOLUTIONS_STORED, F_NO_START, F_NO_GOAL = 512, 1024, 2048
 _ABSENT = {"initial_error": F_NO_INITIAL, "final_error": F_NO_FINAL, "position_error": F_NO_POSITION,
            "orientation_error": F_NO_ORIENTATION}
 SOLVE_FIELDS = (
@@ -137,6 +137,7 @@ SOLVE_FIELDS = (
     (17, "goal_orientation", "<f8", 1),  # count x 4 (x, y, z, w), idem
     (18, "n_solutions", "<i4", 15),    # analytic methods: number of solutions (else absent)
     (19, "solutions", "<f8", 1),       # stored solutions (F_SOLUTIONS_STORED solves), rows of joints
+                                       # (a non-finite value, which no closed form here returns, is written 0)
     (20, "solutions_digest", "<u4", 7),  # CRC-32 of each solve's solutions (derived ones)
     (21, "joints", "<u4", 7),          # one value: joints per row
     (22, "info_json", None, 9),        # strict JSON array of the solves' info objects
@@ -478,15 +479,21 @@ def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, met
     from_file = np.zeros(count, bool) if inline_goals else np.asarray(cols.get("start_from_file", np.zeros(count, bool)), bool)
     flags = flags | from_file * F_START_FROM_FILE
     keep = q0[~from_file]
-    if not np.isfinite(keep).all():
-        raise ValueError("a start value is not finite")
+    bad0 = ~np.isfinite(keep).all(axis=1)
+    if bad0.any():  # a start with a non-finite value: flagged, written 0, read back NaN
+        flags[np.flatnonzero(~from_file)[bad0]] |= F_NO_START
+        keep = np.where(np.isfinite(keep), keep, 0.0)
     out.update(problem_id=cols["problem_id"], repetition=cols["repetition"], chain=cols["chain"],
                stop_reason=cols["stop_reason"], iterations=cols["iterations"], solve_time_ns=_ns(cols["solve_time_s"]),
                ik_time_ns=_ns(cols["ik_time_s"]), call_time_ns=_ns(cols["call_time_s"]), q_solution=q, q_start=keep,
                joints=np.array([n], dtype="<u4"))
     if inline_goals:
-        out["goal_position"] = np.asarray(cols["goal_position"], dtype=float).reshape(count, 3)
-        out["goal_orientation"] = np.asarray(cols["goal_orientation"], dtype=float).reshape(count, 4)
+        g = np.column_stack([np.asarray(cols["goal_position"], dtype=float).reshape(count, 3),
+                             np.asarray(cols["goal_orientation"], dtype=float).reshape(count, 4)])
+        badg = ~np.isfinite(g).all(axis=1)
+        flags = flags | badg * F_NO_GOAL
+        g = np.where(np.isfinite(g), g, 0.0)
+        out["goal_position"], out["goal_orientation"] = g[:, :3], g[:, 3:]
     sols = cols.get("solutions")
     if sols is not None and cols.get("n_solutions") is not None:  # batch form: (N, m, n) array and counts
         ns = np.asarray(cols["n_solutions"], dtype="<i4")
@@ -802,8 +809,9 @@ def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[
     if problems is None:
         if len(b["goal_position"]) != 3 * n or len(b["goal_orientation"]) != 4 * n:
             raise ArchiveError(f"{where}: no problem file named and no inline goals")
-        gp = b["goal_position"].reshape(n, 3).tolist()
-        go = b["goal_orientation"].reshape(n, 4).tolist()
+        nog = (flags & F_NO_GOAL) != 0
+        gp = np.where(nog[:, None], np.nan, b["goal_position"].reshape(n, 3)).tolist()
+        go = np.where(nog[:, None], np.nan, b["goal_orientation"].reshape(n, 4)).tolist()
         starts = iter(q0.reshape(-1, j).tolist())
         q_start = [next(starts) for _ in range(n)]
     else:
@@ -819,6 +827,8 @@ def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[
         file_q0 = ps.q_start[r]
         own = iter(q0.reshape(-1, j))
         q_start = [file_q0[i].tolist() if from_file[i] else next(own).tolist() for i in range(n)]
+    for i in np.flatnonzero((flags & F_NO_START) != 0):
+        q_start[i] = [math.nan] * j
     ns = b["n_solutions"]
     if len(ns) not in (0, n) or (len(ns) and len(b["solutions_digest"]) not in (0, n)):
         raise ArchiveError(f"{where}: fields 'n_solutions' / 'solutions_digest' do not hold one value per solve")
