@@ -51,8 +51,8 @@ import numba
 import numpy as np
 
 from pipeline.solvers._kin import now_ns
-from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, SettingsError, StopReason, check_pack,
-                                   check_packed, closed_form_code, setting)
+from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, StopReason, check_pack,
+                                   check_packed, closed_form_code, fused_inputs, setting)
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -517,17 +517,11 @@ def bind_call(prep: Prepared, s: AnalyticURSettings):
     if s.require_limits:
         return None
     PC = np.concatenate([packed(prep, s), check_pack(prep, s)])
-    scale, unit, working_goal = prep.goal_scale, prep.unit, prep.working_goal
-    pos_only = s.criterion == "position"
-    nan, empty, contiguous = math.nan, np.empty, np.ascontiguousarray
-    shape = (6,)
-    messages = _MESSAGES
+    inputs, unit, pos_only = fused_inputs(prep), prep.unit, s.criterion == "position"
+    nan, empty, messages = math.nan, np.empty, _MESSAGES
 
     def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
-        Tg = contiguous(T_goal, dtype=float) if scale == 1.0 else working_goal(T_goal)
-        q0 = contiguous(q_start, dtype=float)  # the kernel never writes into the start
-        if q0.shape != shape:
-            raise SettingsError(f"q_start: expected shape {shape}, got {q0.shape}")
+        Tg, q0 = inputs(T_goal, q_start)
         S = empty((8, 6))
         q = empty(6)
         trace = empty((2, 8))

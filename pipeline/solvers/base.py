@@ -726,6 +726,22 @@ def _check_within(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq):
 C_CRIT, C_TOLP, C_TOLR, C_TOLDQ, C_F = 0, 1, 2, 3, 4  # criterion code, tolerances, then F (:func:`_finish_args`)
 
 
+def fused_inputs(prep: Prepared):
+    """The input half of a fused closed-form call (``Solver.bind_call``): ``inputs(T_goal, q_start) ->
+    (goal in the working unit (4, 4), start (n,))``, both contiguous float64, the start's shape
+    checked (one-line SettingsError) as :meth:`pipeline.solvers.registry.Bound.solve` does."""
+    scale, working_goal, contiguous, shape = prep.goal_scale, prep.working_goal, np.ascontiguousarray, (prep.n,)
+
+    def inputs(T_goal, q_start):
+        Tg = contiguous(T_goal, dtype=float) if scale == 1.0 else working_goal(T_goal)
+        q0 = contiguous(q_start, dtype=float)  # the kernels never write into the start
+        if q0.shape != shape:
+            raise SettingsError(f"q_start: expected shape {shape}, got {q0.shape}")
+        return Tg, q0
+
+    return inputs
+
+
 def check_pack(prep: Prepared, settings: Settings) -> np.ndarray:
     """The success test, the FK check's model and the limits in one float array, for :func:`check_packed`.
 
