@@ -63,7 +63,7 @@ def _archive_path(results: Path, sid: str, recorded: str) -> Path:
 
 def verify_study(results: Path, data: Path, sid: str) -> list[str]:
     """What differs for study ``sid`` (empty list: everything matches)."""
-    from pipeline.io.archive import read_archive
+    from pipeline.io.archive import archive_metadata, read_archive
     from pipeline.settings import file_sha256, load_study
     from pipeline.studies import build_study_tables, write_tables
 
@@ -78,7 +78,9 @@ def verify_study(results: Path, data: Path, sid: str) -> list[str]:
         try:
             a = read_archive(path)
         except Exception as exc:  # noqa: BLE001  (every reader error is one line)
-            problems.append(f"{path}: unreadable archive ({str(exc).splitlines()[0]})")
+            other = archive_metadata(path).get("study")  # a foreign archive fails on its problem file first
+            problems.append(f"{path}: an archive of study {other!r}, not {sid!r}" if other not in (None, sid)
+                            else f"{path}: unreadable archive ({str(exc).splitlines()[0]})")
             continue
         m = a.metadata
         if str(m.get("problems", "")).isdigit():  # a measurement archive (mariano2019) holds no solves: "-"

@@ -1090,6 +1090,18 @@ def check_file_crcs(path: Path) -> bool:
     return data_crc != 0
 
 
+def archive_metadata(path: str | Path) -> dict[str, str]:
+    """The ``run`` metadata record of an MCAP file, unchecked ({} when there is none or the file
+    cannot be read): for naming what a file is after :func:`read_archive` refused it."""
+    from mcap.reader import make_reader
+
+    try:
+        with open(path, "rb") as fh:
+            return next((dict(r.metadata) for r in make_reader(fh).iter_metadata() if r.name == "run"), {})
+    except Exception:  # noqa: BLE001  (any damage: nothing to name)
+        return {}
+
+
 def read_archive(path: str | Path) -> Archive:
     """Read and check one archive (format 3, or 2 written before).
 
