@@ -369,20 +369,30 @@ class ArchiveWriter:
         self._flush()
         n = len(cols["problem_id"])
         starts = where = None
+        aligned = False
         if traces is not None:
             starts = np.concatenate([[0], np.cumsum(traces["rows"], dtype=np.int64)])
-            where = {(int(p), int(r)): k for k, (p, r) in enumerate(zip(traces["problem_id"], traces["repetition"]))}
+            aligned = (np.array_equal(traces["problem_id"], cols["problem_id"])
+                       and np.array_equal(traces["repetition"], cols["repetition"]))
+            if not aligned:  # e.g. repetitions: one trace per problem, for repetition 0
+                where = {(int(p), int(r)): k for k, (p, r) in enumerate(zip(traces["problem_id"].tolist(),
+                                                                            traces["repetition"].tolist()))}
         for lo in range(0, n, BATCH):
             hi = min(n, lo + BATCH)
             part = {k: (v[lo:hi] if isinstance(v, (list, np.ndarray)) else v) for k, v in cols.items()}
             tr = None
-            if traces is not None:
-                ks = [where[key] for key in zip(np.asarray(part["problem_id"]).tolist(),
-                                                 np.asarray(part["repetition"]).tolist()) if key in where]
-                if ks:
-                    rows = np.concatenate([np.arange(starts[k], starts[k + 1]) for k in ks])
+            if aligned:  # one trace per solve, in the same order: slices
+                tr = {"problem_id": traces["problem_id"][lo:hi], "repetition": traces["repetition"][lo:hi],
+                      "rows": traces["rows"][lo:hi], "full": traces["full"][starts[lo]:starts[hi]]}
+            elif traces is not None:
+                ks = np.array([where[key] for key in zip(np.asarray(part["problem_id"]).tolist(),
+                                                          np.asarray(part["repetition"]).tolist()) if key in where],
+                              dtype=np.int64)
+                if len(ks):
+                    lens = np.asarray(traces["rows"], dtype=np.int64)[ks]
+                    first = np.repeat(starts[ks] - (np.cumsum(lens) - lens), lens)
                     tr = {"problem_id": traces["problem_id"][ks], "repetition": traces["repetition"][ks],
-                          "rows": traces["rows"][ks], "full": traces["full"][rows]}
+                          "rows": traces["rows"][ks], "full": traces["full"][first + np.arange(int(lens.sum()))]}
             self._emit(part, hi - lo, tr)
 
     def _emit(self, cols: dict, count: int, traces: dict | None) -> None:
@@ -499,9 +509,9 @@ def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, met
         ns = np.asarray(cols["n_solutions"], dtype="<i4")
         S = np.ascontiguousarray(sols, dtype=_F8).reshape(count, -1)
         if derive:  # CRC-32 of each solve's first k rows, straight from the array's buffer
-            buf, w = memoryview(S).cast("B"), S.shape[1] * 8
-            out["solutions_digest"] = np.array([_crc32(buf[i * w:i * w + int(k) * n * 8]) for i, k in enumerate(ns)],
-                                               dtype="<u4")
+            buf, w, rb = memoryview(S).cast("B"), S.shape[1] * 8, n * 8
+            out["solutions_digest"] = np.array([_crc32(buf[o:o + k * rb]) for o, k in zip(range(0, count * w, w),
+                                                                                          ns.tolist())], dtype="<u4")
             sols = None
         else:
             sols = [S[i, : int(k) * n] for i, k in enumerate(ns)]
