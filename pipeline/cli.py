@@ -413,7 +413,8 @@ def cmd_inspect(args) -> None:
     from pipeline.io.archive import read_archive
     from pipeline.report.inspect import InspectError, describe
 
-    arch = read_archive(args.archive)
+    arch = read_archive(args.archive, problems=args.problems)
+    arch.robot_file = args.robot
     try:
         print(describe(arch, failed=args.failed, problem=args.problem, csv_out=args.csv, raw=args.json))
     except InspectError as exc:
@@ -426,7 +427,8 @@ def cmd_replay(args) -> None:
 
     try:
         s = replay(args.archive, args.out, problem=args.problem, failed=args.failed, data=args.data,
-                   robot=args.robot, frames=args.frames, max_frames=args.max_frames, dt=args.dt)
+                   robot=args.robot, frames=args.frames, max_frames=args.max_frames, dt=args.dt,
+                   problems=args.problems)
     except ReplayError as exc:
         raise CLIError(str(exc)) from None
     for line in s.mismatches:
@@ -606,6 +608,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--problem", type=int, help="a short summary of one problem (times, errors, joints, trace)")
     p.add_argument("--json", action="store_true", help="with --problem: print the raw record as JSON")
     p.add_argument("--csv", metavar="OUT", help="export the solve records as CSV (one column per joint and goal value)")
+    p.add_argument("--problems", metavar="FILE", help="the archive's problem set, if it is not where the archive's "
+                   "metadata says (an archive copied out of its results tree; its SHA-256 is still checked)")
+    p.add_argument("--robot", metavar="FILE", help="the robot file, to re-derive traces and analytic solutions, if "
+                   "not where the archive's metadata says")
     p.set_defaults(func=cmd_inspect)
 
     p = sub.add_parser("replay", help="re-run archived problems into a Foxglove-viewable MCAP (arm per iteration)")
@@ -617,6 +623,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--out", required=True, help="replay MCAP to write")
     p.add_argument("--data", default="data", help="data folder (robot file <data>/robots/<robot>.yaml)")
     p.add_argument("--robot", help="the robot file, if not <data>/robots/<robot>.yaml")
+    p.add_argument("--problems", metavar="FILE", help="the archive's problem set, if it is not where the archive's "
+                   "metadata says")
     p.add_argument("--frames", choices=["auto", "iterations", "solutions"], default="auto",
                    help="per-iteration frames, or one frame per problem (default: solutions for a chained path "
                         "under --all, else iterations)")

@@ -224,7 +224,7 @@ def _write_frame(w: _Writer, t_ns: int, model_m, q_m: np.ndarray, goal_m: np.nda
 
 def replay(archive: str | Path, out: str | Path, *, problem: int | None = None, failed: bool = False,
            data: str | Path = "data", robot: str | Path | None = None, frames: str = "auto",
-           max_frames: int = 200, dt: float = 0.05) -> ReplaySummary:
+           max_frames: int = 200, dt: float = 0.05, problems: str | Path | None = None) -> ReplaySummary:
     """Re-run archived solves and write them as a Foxglove-viewable MCAP (see the module docstring).
 
     Parameters
@@ -236,6 +236,7 @@ def replay(archive: str | Path, out: str | Path, *, problem: int | None = None, 
     frames : ``auto``, ``iterations`` or ``solutions`` (one frame per problem)
     max_frames : at most this many iterate frames per problem (evenly spaced iterations)
     dt : seconds between frames (log times)
+    problems : the archive's problem set, if it is not where its metadata says
 
     Raises
     ------
@@ -254,7 +255,7 @@ def replay(archive: str | Path, out: str | Path, *, problem: int | None = None, 
         raise ReplayError(f"max_frames: must be >= 2, got {max_frames}")
     if not (dt > 0 and math.isfinite(dt)):
         raise ReplayError(f"dt: must be a positive number of seconds, got {dt}")
-    arch = read_archive(archive)
+    arch = read_archive(archive, problems=problems)
     meta = arch.metadata
     method, settings = settings_from_archive(meta, str(arch.path))
     robot_path = Path(robot) if robot else Path(data) / "robots" / f"{meta['robot']}.yaml"

@@ -383,3 +383,28 @@ def test_non_finite_starts_and_goals_are_flagged_not_written(tmp_path, lwr):
     recs = read_archive(p).solves
     assert np.isnan(recs[1]["q_start"]).all() and recs[0]["q_start"] == ps.q_start[0].tolist()
     assert np.isnan(recs[2]["goal"]["position"]["x"]) and recs[3]["goal"]["position"]["x"] == ps.goal_position[3, 0]
+
+
+def test_an_archive_copied_out_of_its_tree_reads_with_problems_and_robot_given(tmp_path):
+    """Alone, one line saying what to give; with --problems and --robot, inspect shows everything."""
+    import shutil
+    import subprocess
+    import sys
+
+    from tests.conftest import DATA, ROOT
+
+    p, pf, _, _ = _derived_archive(tmp_path / "tree", method="analytic_ur", robot="ur5", n=6)
+    alone = tmp_path / "elsewhere" / "a.mcap"
+    alone.parent.mkdir()
+    shutil.copy(p, alone)
+    run = lambda *a: subprocess.run([sys.executable, "-m", "pipeline", "inspect", str(alone), *a],  # noqa: E731
+                                    capture_output=True, text=True, cwd=tmp_path)
+    bad = run("--problem", "2")
+    assert bad.returncode != 0 and "Traceback" not in bad.stderr
+    lines = [ln for ln in bad.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and str(alone) in lines[0] and "--problems FILE" in lines[0], bad.stderr
+    robot = DATA / "robots" / "ur5.yaml"
+    ok = run("--problem", "2", "--problems", str(pf), "--robot", str(robot))
+    assert ok.returncode == 0, ok.stderr
+    assert "analytic solutions:" in ok.stdout and "re-derived from the archive" in ok.stdout
+    assert ROOT.is_dir()

@@ -643,6 +643,7 @@ class Archive:
     _trace_index: dict | None = None
     _derived: dict | None = None
     robot_file: str | Path | None = None  # where to find the robot for re-derivation (default: metadata)
+    problem_file: str | Path | None = None  # the problem set, when not where the metadata says
 
     def frame(self):
         """Solve records as a pandas DataFrame (vectors kept as lists; private ``_`` keys left out)."""
@@ -894,8 +895,9 @@ def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[
 _PROBLEM_CACHE: dict = {}
 
 
-def _problems_of(path: Path, meta: dict):
-    """The problem file an archive names: (problem id -> row, ProblemSet, goal length scale), or None.
+def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
+    """The problem file an archive names (or ``given``): (problem id -> row, ProblemSet, goal length
+    scale), or None for an archive that stores its goals.
 
     Raises ArchiveError when it is named but missing, changed (SHA-256) or not the archive's robot's.
     """
@@ -906,10 +908,12 @@ def _problems_of(path: Path, meta: dict):
     from pipeline.robots import LENGTH_UNITS
     from pipeline.settings import file_sha256
 
-    pf = (path.parent / rel).resolve()
+    pf = Path(given).resolve() if given else (path.parent / rel).resolve()
     if not pf.is_file():
-        raise ArchiveError(f"{path}: metadata field 'problem_path': problem file {rel} not found next to the archive "
-                           f"(the archive stores no goals of its own; keep it in its results tree)")
+        where = f"--problems {given}: no such file" if given else f"problem file {rel} not found next to the archive"
+        raise ArchiveError(f"{path}: metadata field 'problem_path': {where} (the archive stores no goals of its own: "
+                           f"keep it in its results tree, or give its problem set {meta.get('problem_file', '')} "
+                           f"with --problems FILE)")
     st = pf.stat()
     key = (str(pf), st.st_mtime_ns, st.st_size)
     hit = _PROBLEM_CACHE.get(key)
@@ -958,7 +962,7 @@ def derive(arch: Archive, keys: list[tuple[int, int]]) -> dict:
     from pipeline.settings import file_sha256
 
     meta, path = arch.metadata, arch.path
-    probs = _problems_of(path, meta)
+    probs = _problems_of(path, meta, arch.problem_file)
     if probs is None:
         raise ArchiveError(f"{path}: traces not stored and no problem file to re-derive them from")
     rows, ps, _ = probs
@@ -977,7 +981,7 @@ def derive(arch: Archive, keys: list[tuple[int, int]]) -> dict:
     rf = next((t for t in tries if t.is_file()), tries[0])
     if not rf.is_file():
         raise ArchiveError(f"{path}: metadata field 'robot_file': {rf} not found (run from the project folder, "
-                           f"or give the robot file): needed to re-derive traces")
+                           f"or give the robot file with --robot FILE): needed to re-derive traces")
     if meta.get("robot_sha256") and not file_sha256(rf).startswith(meta["robot_sha256"]):
         raise ArchiveError(f"{path}: metadata field 'robot_sha256': {rf} changed since the archive was written")
     try:
@@ -1113,8 +1117,11 @@ def archive_metadata(path: str | Path) -> dict[str, str]:
         return {}
 
 
-def read_archive(path: str | Path) -> Archive:
-    """Read and check one archive (format 3, or 2 written before).
+def read_archive(path: str | Path, problems: str | Path | None = None) -> Archive:
+    """Read and check one archive (format 4, or 3 and 2 written before).
+
+    ``problems``: the archive's problem set when it is not where the metadata's ``problem_path``
+    says (an archive copied out of its results tree); its SHA-256 is checked all the same.
 
     Checks: the MCAP magic, the data-section and summary CRCs (:func:`check_file_crcs`), chunk
     CRCs, a summary section (the writer finished), the ``run``
@@ -1163,10 +1170,10 @@ def read_archive(path: str | Path) -> Archive:
         raise ArchiveError(f"{path}: no data-section CRC (every format-{meta['format_version']} archive has one): "
                            f"not written by this package")
     solves: list[dict] = []
-    problems = _problems_of(path, meta) if meta["format_version"] == "4" else None
+    problem_set = _problems_of(path, meta, problems) if meta["format_version"] == "4" else None
     for _, _, msg in _iter_messages(path, [SOLVE_TOPIC]):
         if meta["format_version"] == "4":
-            solves.extend(_expand_v4(msg.data, meta, path, msg.sequence, problems))
+            solves.extend(_expand_v4(msg.data, meta, path, msg.sequence, problem_set))
             continue
         data = _loads(msg.data, path, SOLVE_TOPIC, msg.sequence)
         if meta["format_version"] == "2":
@@ -1177,4 +1184,4 @@ def read_archive(path: str | Path) -> Archive:
     if probs.isdigit() and reps.isdigit() and len(solves) != int(probs) * int(reps):
         raise ArchiveError(f"{path}: {len(solves)} solve records, metadata field 'problems' promises "
                            f"{int(probs) * int(reps)}")
-    return Archive(path, meta, solves)
+    return Archive(path, meta, solves, problem_file=problems)
