@@ -29,6 +29,15 @@ def problem_seed(set_seed: int, problem_id: int, repetition: int = 0) -> int:
     return int(np.random.SeedSequence([int(set_seed), int(problem_id), int(repetition)]).generate_state(1)[0] >> 1)
 
 
+def model_goals(ps: ProblemSet, model: RobotModel) -> np.ndarray:
+    """The set's goal poses in the robot file's length unit, shape (m, 4, 4): what the solvers are
+    given (and what an archive's re-derivation must give them again, bit for bit)."""
+    T_goals = ps.goal_transforms()
+    if ps.length_unit != model.length_unit:
+        T_goals[:, :3, 3] *= LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[model.length_unit]
+    return T_goals
+
+
 def solve_set(method: str, settings: Settings, model: RobotModel, ps: ProblemSet, *, repetitions: int = 1,
               set_seed: int = 0, select=None, threads: int = 1) -> Iterator[tuple[int, int, np.ndarray, IKResult]]:
     """Yield ``(row index, repetition, q_start used, result)`` for every solve of the set.
@@ -63,9 +72,7 @@ def solve_set_batches(method: str, settings: Settings, model: RobotModel, ps: Pr
     """
     prep = prepare(method, model, settings)
     warm_up(method, prep, settings)  # compile / load cached kernels before the first timed solve
-    T_goals = ps.goal_transforms()
-    if ps.length_unit != model.length_unit:
-        T_goals[:, :3, 3] *= LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[model.length_unit]
+    T_goals = model_goals(ps, model)
     idx = np.arange(len(ps)) if select is None else np.flatnonzero(np.isin(ps.problem_id, list(select)))
     chains = ps.chain[idx]
     independent = repetitions == 1 and len(np.unique(chains[chains >= 0])) == int((chains >= 0).sum())

@@ -178,9 +178,9 @@ def _descriptor(message: str, fields, file: str) -> bytes:
     return _ld(1, _ld(1, file.encode()) + _ld(2, pkg.encode()) + _ld(4, msg) + _ld(12, b"proto3"))
 
 
-def trace_descriptor(fields=TRACE_FIELDS) -> bytes:
+def trace_descriptor() -> bytes:
     """The FileDescriptorSet of ``ik_pipeline.TraceBatch``."""
-    return _descriptor(TRACE_MESSAGE, fields, "ik_pipeline/trace_batch.proto")
+    return _descriptor(TRACE_MESSAGE, TRACE_FIELDS, "ik_pipeline/trace_batch.proto")
 
 
 def solve_descriptor() -> bytes:
@@ -272,6 +272,9 @@ def decode_trace_batch(data: bytes, version: str = FORMAT_VERSION) -> dict[str, 
     return out
 
 
+_F8 = np.dtype("<f8")
+
+
 def digest(a) -> int:
     """CRC-32 of an array's float64 values in C order: how a re-derived trace or solution set is
     checked against the archive. A check of a deterministic re-run, not a defence against forgery:
@@ -279,9 +282,6 @@ def digest(a) -> int:
     if not (type(a) is np.ndarray and a.dtype == _F8 and a.flags.c_contiguous):
         a = np.ascontiguousarray(a, dtype=_F8)
     return _crc32(a)  # the array's buffer, no copy
-
-
-_F8 = np.dtype("<f8")
 
 
 class ArchiveError(ValueError):
@@ -464,8 +464,8 @@ _RECORD_KEYS = ("problem_id", "repetition", "chain", "success", "claimed_success
 
 def _ns(x) -> np.ndarray:
     """Seconds -> integer nanoseconds (non-finite or negative -> 0)."""
-    x = np.asarray(x, dtype=float) * 1e9
-    return np.where(np.isfinite(x) & (x > 0), np.rint(np.where(np.isfinite(x), x, 0.0)), 0).astype("<u8")
+    x = np.nan_to_num(np.asarray(x, dtype=float) * 1e9, nan=0.0, posinf=0.0, neginf=0.0)
+    return np.rint(np.maximum(x, 0.0)).astype("<u8")
 
 
 def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, meta: dict | None = None) -> dict:
@@ -504,29 +504,18 @@ def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, met
         flags = flags | badg * F_NO_GOAL
         g = np.where(np.isfinite(g), g, 0.0)
         out["goal_position"], out["goal_orientation"] = g[:, :3], g[:, 3:]
-    sols = cols.get("solutions")
-    if sols is not None and cols.get("n_solutions") is not None:  # batch form: (N, m, n) array and counts
-        ns = np.asarray(cols["n_solutions"], dtype="<i4")
-        S = np.ascontiguousarray(sols, dtype=_F8).reshape(count, -1)
-        if derive:  # CRC-32 of each solve's first k rows, straight from the array's buffer
+    if cols.get("solutions") is not None:
+        S, ns = _solutions_block(cols, count, n)  # (count, m * n) float64, counts (count,)
+        out["n_solutions"] = ns
+        if derive:  # CRC-32 of each solve's first k rows, straight from the array's buffer (= digest())
             buf, w, rb = memoryview(S).cast("B"), S.shape[1] * 8, n * 8
             out["solutions_digest"] = np.array([_crc32(buf[o:o + k * rb]) for o, k in zip(range(0, count * w, w),
                                                                                           ns.tolist())], dtype="<u4")
-            sols = None
         else:
-            sols = [S[i, : int(k) * n] for i, k in enumerate(ns)]
-    elif sols is not None:
-        ns = np.array([0 if x is None else len(x) for x in sols], dtype="<i4")
-    if sols is not None or "solutions_digest" in out:
-        out["n_solutions"] = ns
-        if derive and sols is not None:
-            out["solutions_digest"] = np.array([0 if x is None else digest(x) for x in sols], dtype="<u4")
-        elif sols is not None:
-            rows = [np.asarray(x, dtype=float).reshape(-1, n) for x in sols if x is not None and len(x)]
             flags = flags | (ns > 0) * F_SOLUTIONS_STORED
-            if rows:
-                S = np.concatenate(rows)
-                out["solutions"] = np.where(np.isfinite(S), S, 0.0)
+            rows = np.concatenate([S[i, : k * n] for i, k in enumerate(ns.tolist())]).reshape(-1, n)
+            if len(rows):
+                out["solutions"] = np.where(np.isfinite(rows), rows, 0.0)
     out["flags"] = flags.astype("<u4")
     out["info_json"] = orjson.dumps(list(cols["info"]), option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
     labels = {k: [cols[k]] * count if isinstance(cols[k], str) else [str(v) for v in cols[k]]
@@ -537,6 +526,21 @@ def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, met
 
 
 _LABELS = ("robot", "solver", "method", "length_unit")
+
+
+def _solutions_block(cols: dict, count: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A batch's analytic solutions as one C-contiguous (count, m * n) float64 array and the counts:
+    the batch form of :func:`batch_columns` as it is, per-record lists (None = none) padded into it."""
+    sols = cols["solutions"]
+    if cols.get("n_solutions") is not None:
+        ns = np.asarray(cols["n_solutions"], dtype="<i4")
+        return np.ascontiguousarray(sols, dtype=_F8).reshape(count, -1), ns
+    ns = np.array([0 if x is None else len(x) for x in sols], dtype="<i4")
+    S = np.zeros((count, max(1, int(ns.max(initial=0))), n))
+    for i, x in enumerate(sols):
+        if ns[i]:
+            S[i, : ns[i]] = np.asarray(x, dtype=float).reshape(-1, n)
+    return S.reshape(count, -1), ns
 
 
 def _trace_message(tr: dict, derive: bool) -> dict:
@@ -642,6 +646,7 @@ class Archive:
     solves: list[dict]
     _trace_index: dict | None = None
     _derived: dict | None = None
+    _by_key: dict | None = None
     robot_file: str | Path | None = None  # where to find the robot for re-derivation (default: metadata)
     problem_file: str | Path | None = None  # the problem set, when not where the metadata says
 
@@ -689,8 +694,15 @@ class Archive:
         self._trace_index = idx
         return idx
 
-    def _derive(self, keys: list[tuple[int, int]]) -> dict:
-        """Re-derive (and check) the traces and solutions of ``keys`` not derived yet."""
+    def records(self) -> dict:
+        """``(problem_id, repetition) -> solve record``."""
+        if self._by_key is None:
+            self._by_key = {(r["problem_id"], r.get("repetition", 0)): r for r in self.solves}
+        return self._by_key
+
+    def derived(self, keys: list[tuple[int, int]]) -> dict:
+        """``(problem_id, repetition) -> (trace rows, solutions)`` for ``keys``, re-derived (and checked)
+        in one re-run of those not derived yet (:func:`derive`); kept for later calls."""
         if self._derived is None:
             self._derived = {}
         todo = [k for k in keys if k not in self._derived]
@@ -705,7 +717,7 @@ class Archive:
         idx = self._index()
         keys = [k for k in idx if wanted is None or k[0] in wanted]
         need = [k for k in keys if idx[k][2] is None]
-        got = self._derive(need) if need else {}
+        got = self.derived(need) if need else {}
         for k in keys:
             full = idx[k][2] if idx[k][2] is not None else got[k][0]
             yield {"problem_id": k[0], "repetition": k[1], "error": full[:, 0].tolist(),
@@ -713,15 +725,14 @@ class Archive:
 
     def solutions(self, problem_id: int, repetition: int = 0) -> list | None:
         """Every solution an analytic method returned for one solve (stored or re-derived); None for other methods."""
-        rec = next((r for r in self.solves if r["problem_id"] == int(problem_id)
-                    and r.get("repetition", 0) == int(repetition)), None)
+        rec = self.records().get((int(problem_id), int(repetition)))
         if rec is None:
             raise ArchiveError(f"{self.path}: problem {problem_id} (repetition {repetition}) is not in the archive")
         if rec.get("solutions") is not None:
             return rec["solutions"]
         if rec.get("_n_solutions") is None:
             return None
-        return self._derive([(int(problem_id), 0)])[(int(problem_id), 0)][1]
+        return self.derived([(int(problem_id), 0)])[(int(problem_id), 0)][1]
 
 
 def _loads(data: bytes, path, topic: str, seq: int):
@@ -927,7 +938,7 @@ def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
     sha, ps, rows = hit
     want = meta.get("problem_sha256", "")
     if not want or not sha.startswith(want):
-        raise ArchiveError(f"{path}: metadata field 'problem_sha256': {want!r}, but {rel} has {sha[:16]} "
+        raise ArchiveError(f"{path}: metadata field 'problem_sha256': {want!r}, but {given or rel} has {sha[:16]} "
                            f"(the problem file changed after the archive was written)")
     unit = meta.get("length_unit") or ps.length_unit
     if unit not in LENGTH_UNITS:
@@ -988,7 +999,7 @@ def derive(arch: Archive, keys: list[tuple[int, int]]) -> dict:
         model = load_robot(rf)
     except RobotFileError as exc:
         raise ArchiveError(f"{path}: cannot re-derive: {exc}") from None
-    by_key = {(r["problem_id"], r.get("repetition", 0)): r for r in arch.solves}
+    by_key = arch.records()
     idx = arch._index()
     keys = sorted(set(keys))
     missing = [k for k in keys if k not in by_key]
@@ -999,7 +1010,7 @@ def derive(arch: Archive, keys: list[tuple[int, int]]) -> dict:
     sub = replace(sub, q_start=np.array([by_key[k]["q_start"] for k in keys], dtype=float).reshape(len(keys), -1),
                   chain=np.full(len(keys), -1))
     if meta.get("derive") == "fk":
-        return _derive_by_fk(arch, keys, by_key, idx, model, settings, sub)
+        return _derive_by_fk(arch, keys, by_key, idx, model, method, settings, sub)
     seed = int(meta["seed"]) if str(meta.get("seed", "")).lstrip("-").isdigit() else 0
     out = {}
     i = 0
@@ -1028,22 +1039,15 @@ def derive(arch: Archive, keys: list[tuple[int, int]]) -> dict:
     return out
 
 
-def settings_method(arch: Archive) -> str:
-    """The registered method an archive's solves ran (metadata ``method``, else the settings' ``method``)."""
-    return arch.metadata.get("method") or json.loads(arch.metadata.get("settings", "{}")).get("method", "")
-
-
-def _derive_by_fk(arch: Archive, keys, by_key, idx, model, settings, sub) -> dict:
+def _derive_by_fk(arch: Archive, keys, by_key, idx, model, method: str, settings, sub) -> dict:
     """:func:`derive` for peer solves (``derive: fk``): each trace recomputed from the record by this
     package's FK (:func:`pipeline.solvers.peers.trace_from_record`), units as the solve job had them."""
-    from pipeline.robots import LENGTH_UNITS
+    from pipeline.runner import model_goals
     from pipeline.solvers.base import Prepared
     from pipeline.solvers.peers import trace_from_record
 
     prep = Prepared(model, settings.length_unit)
-    T = sub.goal_transforms()
-    if sub.length_unit != model.length_unit:
-        T[:, :3, 3] *= LENGTH_UNITS[sub.length_unit] / LENGTH_UNITS[model.length_unit]
+    T = model_goals(sub, model)
     prism = np.asarray(prep.prismatic, dtype=bool)
     out = {}
     for i, key in enumerate(keys):
@@ -1054,7 +1058,7 @@ def _derive_by_fk(arch: Archive, keys, by_key, idx, model, settings, sub) -> dic
             q0[prism] *= prep.goal_scale
             q[prism] *= prep.goal_scale
         n_rows, dig, _ = idx.get(key, (0, 0, None))
-        full = trace_from_record(settings_method(arch), prep, prep.working_goal(T[i]), q0, q, rec["iterations"],
+        full = trace_from_record(method, prep, prep.working_goal(T[i]), q0, q, rec["iterations"],
                                  rec["position_error"])
         if key in idx and (len(full) != n_rows or digest(full) != dig):
             raise ArchiveError(f"{arch.path}: problem {key[0]}: the trace recomputed from the record differs from the "

@@ -256,7 +256,7 @@ def write_csv(arch: Archive, out: str) -> int:
                         if v is None or isinstance(v, (bool, int, float, str))})
     any_sol = any(r.get("solutions") is not None or r.get("_n_solutions") is not None for r in recs)
     if any_sol:  # re-derive every analytic solution set in one batch (checked against the digests)
-        arch._derive([(r["problem_id"], 0) for r in recs if r.get("_n_solutions") is not None
+        arch.derived([(r["problem_id"], 0) for r in recs if r.get("_n_solutions") is not None
                       and r.get("solutions") is None])
     header = ([k + (f"_{unit}" if u == "L" else u) for k, u in _SCALARS] + ["length_unit"]
               + [f"q_start_{j}" for j in range(1, n + 1)] + [f"q_solution_{j}" for j in range(1, n + 1)]
