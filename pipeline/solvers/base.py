@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import MISSING, asdict, dataclass, field, fields, replace
-from enum import IntEnum
 
 import numpy as np
 
@@ -37,6 +36,7 @@ import numba
 
 from pipeline.kinematics import fk_htm
 from pipeline.kinematics.fkcheck import check_model, check_one
+from pipeline.io.layout import STOP_REASONS, TRACE_COLS, StopReason  # noqa: F401  (re-exported)
 from pipeline.robots import LENGTH_UNITS, RobotModel
 
 
@@ -48,39 +48,10 @@ class NotApplicableError(ValueError):
     """A solver does not apply to a robot (one line: the robot file, the solver, why)."""
 
 
-class StopReason(IntEnum):
-    """Why a solve stopped; one enum for every method (values are archived, never renumber)."""
-
-    SUCCESS = 1
-    STALLED = 2          # the method's own stop test fired (step, pose change or optimiser tolerance) above tolerance
-    DIVERGING = 3        # the error grew on consecutive iterations
-    ITERATION_CAP = 4
-    NON_FINITE = 5
-    FK_CHECK_FAILED = 6  # the method claimed success; an independent FK contradicts it
-    NO_SOLUTION = 7      # analytic: no real solution (goal out of reach) or none passes the FK check
-    OUT_OF_LIMITS = 8    # the pose was reached, outside the joint limits (only with require_limits)
-
-    @property
-    def text(self) -> str:
-        return _STOP_TEXT[self]
-
-
-_STOP_TEXT = {
-    StopReason.SUCCESS: "success",
-    StopReason.STALLED: "stalled (the method's own stop test fired above the tolerance)",
-    StopReason.DIVERGING: "error grew on consecutive iterations",
-    StopReason.ITERATION_CAP: "iteration cap",
-    StopReason.NON_FINITE: "non-finite value (numerical failure)",
-    StopReason.FK_CHECK_FAILED: "claimed success contradicted by forward kinematics",
-    StopReason.NO_SOLUTION: "no solution (analytic: goal out of reach)",
-    StopReason.OUT_OF_LIMITS: "pose reached outside the joint limits (require_limits)",
-}
-STOP_REASONS = {int(r): r.text for r in StopReason}
 
 CRITERIA = ("pos_orient", "position", "dq_norm", "dq_norm_body")
 CRITERION_CODE = {c: i for i, c in enumerate(CRITERIA)}  # what compiled kernels take (pipeline.solvers._kin.meets)
 POSITION_CRITERIA = ("position", "dq_norm_body")  # success tests that ignore the goal orientation
-TRACE_COLS = 8  # per iterate: the method's scalar error, e = (v, omega) (6), |dp| [length_unit]
 
 
 def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, above=None, maximum=None,
