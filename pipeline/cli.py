@@ -13,6 +13,7 @@ plot_figures      render a study's figures from its archives
 render_report     assemble results/report.html
 inspect           summarise an archive per solver (counts, success, times with units), one problem, CSV
 replay            re-run archived problems into a Foxglove-viewable MCAP (arm, goal, joints per iteration)
+reproduce         re-run an archive's solves, report bit-identical and differing ones with both environments
 verify            recompute every table from the archives, check archives and report (exit 1 on a difference)
 import_urdf       write a robot file (general joint form) from a URDF chain (also: import-urdf)
 export_urdf       write a robot file as a URDF, base_link ... tool0, metres (also: export-urdf)
@@ -21,23 +22,14 @@ export_urdf       write a robot file as a URDF, base_link ... tool0, metres (als
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import sys
-import time
 from pathlib import Path
 
-import yaml
 
 # numpy and the pipeline's modules are imported inside the commands: `--help` stays fast
 
 
-class CLIError(Exception):
-    """A usage problem found after parsing (one line, printed as ``error: ...``)."""
-
-
-def _progress(done: int, total: int, t0: float, extra: str = "") -> None:
-    print(f"[{time.monotonic() - t0:7.1f} s] {done}/{total} {extra}", file=sys.stderr, flush=True)
+from pipeline.errors import UsageError as CLIError  # noqa: E402  (the one usage error, printed as ``error: ...``)
 
 
 def _load_config(args) -> dict:
@@ -68,325 +60,68 @@ def cmd_check_inputs(args) -> None:
     print(f"ok: {len(studies)} studies, scale={config['scale']}: " + ", ".join(s.id for s in studies))
 
 
-def _problem_set(study, args) -> dict:
-    if args.problem_set not in study.problem_sets:
-        raise CLIError(f"{args.study}: field 'problem_sets/{args.problem_set}': no such problem set "
-                       f"(have: {', '.join(study.problem_sets) or 'none'})")
-    return study.problem_sets[args.problem_set]
-
-
 def cmd_make_problems(args) -> None:
-    from pipeline.io.problems import write_problems
-    from pipeline.problems import ProblemSpecError, make_problem_set
-    from pipeline.robots import load_robot
-    from pipeline.settings import ConfigError, file_sha256, load_study
+    from pipeline.jobs.solve import make_problems
 
-    study = load_study(args.study)
-    spec = _problem_set(study, args)
-    model = load_robot(args.robot)
-    if model.name not in study.set_robots(args.problem_set):
-        raise CLIError(f"{args.study}: field 'problem_sets/{args.problem_set}/robots': {model.name!r} is not one "
-                       f"of {study.set_robots(args.problem_set)}")
-    count = study.count(args.problem_set, args.scale)
-    import numpy as np
-
-    # one independent stream per robot, derived from the set's seed
-    rng = np.random.default_rng([spec["seed"], sum(model.name.encode())])
-    try:
-        ps = make_problem_set(spec, model, count, rng, Path(args.data), args.scale)
-    except ProblemSpecError as exc:
-        raise ConfigError(f"{args.study}: problem_sets/{args.problem_set}: {exc}") from None
-    if ps.robot != model.name or ps.q_start.shape[1:] != (model.n,):
-        raise CLIError(f"problem set {args.problem_set}: the generator returned problems for {ps.robot!r} "
-                       f"with {ps.q_start.shape[1]} joints, not {model.name!r} with {model.n}")
-    write_problems(args.out, ps, {"study": study.id, "problem_set": args.problem_set, "kind": spec["kind"],
-                                  "seed": spec["seed"], "scale": args.scale, "count": len(ps),
-                                  "robot_sha256": file_sha256(args.robot)[:16]})
-    print(f"wrote {len(ps)} problems of set {args.problem_set} for {model.name} to {args.out}")
-
-
-def _solve_to_archive(args, entry, out, limit=0, select=None, extra_meta=None) -> None:
-    """Solve the problems of ``args.problems`` (the first ``limit`` or all, or the ids in ``select``) into ``out``."""
-    import pipeline
-    from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter, batch_columns
-    from pipeline.io.problems import read_problems
-    from pipeline.robots import LENGTH_UNITS, load_robot
-    from pipeline.runner import solve_set_batches
-    from pipeline.provenance import environment
-    from pipeline.settings import file_sha256, git_commit, load_study
-
-    study = load_study(args.study)
-    spec = _problem_set(study, args)
-    model = load_robot(args.robot)
-    ps, _ = read_problems(args.problems)
-    if ps.robot != model.name:
-        raise CLIError(f"{args.problems}: header field 'robot': {ps.robot!r} but the robot file is {model.name!r}")
-    if limit and limit < len(ps):
-        ps = ps.head(limit)
-    reps = study.repetitions(args.problem_set, args.scale)
-    settings = entry.settings
-    unit = settings.length_unit
-    to_unit = LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[unit]
-    import numpy as np
-
-    n_sel = len(ps) if select is None else int(np.isin(ps.problem_id, list(select)).sum())
-    meta = {
-        "format_version": FORMAT_VERSION, "study": study.id, "problem_set": args.problem_set, "robot": model.name,
-        "solver": entry.label, "method": entry.method, "reading": entry.reading,
-        "settings": json.dumps(entry.as_dict(), sort_keys=True),
-        "settings_hash": study.solver_hash(args.problem_set, entry.label, args.scale),
-        "seed": str(spec["seed"]), "scale": args.scale, "problems": str(n_sel), "repetitions": str(reps),
-        "problem_file": Path(args.problems).name, "problem_sha256": file_sha256(args.problems)[:16],
-        "problem_path": os.path.relpath(Path(args.problems).resolve(), Path(out).resolve().parent),
-        "robot_file": str(args.robot), "robot_sha256": file_sha256(args.robot)[:16],
-        "robot_path": os.path.relpath(Path(args.robot).resolve(), Path(out).resolve().parent),
-        **({"robot_repairs": "; ".join(model.repairs)} if model.repairs else {}),
-        "length_unit": unit, "package_version": pipeline.__version__, "git_commit": git_commit(),
-        "timing": "solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "
-                  "solve() call (pipeline/solvers/timing.py)",
-        "environment": json.dumps(environment(), sort_keys=True),
-        **(extra_meta or {}),
-    }
-    keep_traces = bool(study.doc.get("archive_traces", True))
-    derive = _derivable(entry.method, settings)
-    meta["derive"] = derive
-    meta["traces"] = ((f"derived ({derive}): digests stored, re-derived on demand (pipeline.io.archive.derive)"
-                       if derive else "stored per problem") if keep_traces else "none (study setting archive_traces: false)")
-    t0 = time.monotonic()
-    n_ok = done = 0
-    total = n_sel * reps
-    shown = 0
-    threads = max(1, int(getattr(args, "threads", 1) or 1))
-    t_solve = t_write = 0.0
-    with ArchiveWriter(out, meta, derive=bool(derive)) as w:
-        for rows, rep, q0, res in solve_set_batches(entry.method, settings, model, ps, repetitions=reps,
-                                                    set_seed=spec["seed"], select=select, threads=threads):
-            t_solve += res.call_time_s
-            tw = time.perf_counter()
-            cols, traces = batch_columns(ps.problem_id[rows], rep, ps.chain[rows], model.name, entry.label, unit, q0,
-                                         ps.goal_position[rows] * to_unit, ps.goal_quat[rows], res, method=entry.method,
-                                         start_from_file=np.all(q0 == ps.q_start[rows], axis=1))
-            # repetitions repeat the same iterates: one trace per problem (none when the study says so)
-            if traces is not None and (not keep_traces or reps > 1):
-                traces = None if not keep_traces else _first_repetition(traces)
-            w.write_columns(cols, traces)
-            t_write += time.perf_counter() - tw
-            n_ok += int(res.success.sum())
-            done += len(rows)
-            if done * 10 // max(1, total) > shown or done == total:
-                shown = done * 10 // max(1, total)
-                _progress(done, total, t0, f"solved, {n_ok} FK-verified successes")
-        tw = time.perf_counter()
-    t_write += time.perf_counter() - tw  # the last chunks and the summary, written on closing
-    print(f"wrote {out}: {total} solves, {n_ok} FK-verified successes; solving {t_solve:.3f} s, "
-          f"archiving {t_write:.3f} s ({t_write / max(t_solve, 1e-9):.2f} of the solving time)")
-
-
-def _first_repetition(traces: dict) -> dict:
-    """The traces of repetition 0 only."""
-    import numpy as np
-
-    keep = traces["repetition"] == 0
-    rows = np.repeat(keep, traces["rows"])
-    return {"problem_id": traces["problem_id"][keep], "repetition": traces["repetition"][keep],
-            "rows": traces["rows"][keep], "full": traces["full"][rows]}
-
-
-def _derivable(method: str, settings) -> str:
-    """How the traces and analytic solutions of a job can be re-derived from its archive, which then
-    stores their digests only (``pipeline.io.archive.derive``):
-
-    ``"rerun"``  re-run the solve bit for bit: this package's own methods and the closed forms of
-                 ur_analytic_ik (deterministic), without a wall-time budget;
-    ``"fk"``     recompute the trace from the record by this package's FK
-                 (:func:`pipeline.solvers.peers.trace_from_record`): the other peers (racing threads,
-                 C ``rand()`` state) run once from the archived start (no restarts, no time budget);
-    ``""``       neither: traces and solutions stored in full.
-    """
-    from pipeline.solvers import get
-
-    spec = get(method)
-    budget = float(getattr(settings, "time_budget", 0.0) or 0.0) > 0.0
-    peer = spec.run.__module__.startswith("pipeline.solvers.peers")
-    if budget:
-        return ""
-    if not peer or method == "ur_analytic_ik":
-        return "rerun"
-    return "" if int(getattr(settings, "restarts", 0) or 0) else "fk"
-
-
-def _study_solver(args):
-    from pipeline.settings import load_study
-
-    study = load_study(args.study)
-    if args.solver not in study.solvers:
-        raise CLIError(f"{args.study}: field 'solvers/{args.solver}': no such solver (have: {', '.join(study.solvers)})")
-    return study, study.solvers[args.solver]
+    print(make_problems(args.study, args.problem_set, args.robot, args.scale, args.data, args.out))
 
 
 def cmd_solve_problems(args) -> None:
-    """One archive per (problem set, solver label) given: several run in turn in one process.
+    from pipeline.jobs.solve import solve_problems
 
-    ``--problem-set`` and ``--problems`` pair up; ``--out`` holds one archive per set and label,
-    set-major (all labels of the first set, then of the second...).
-    """
-    from argparse import Namespace
-
-    from pipeline.settings import load_study
-
-    if len(args.problem_set) != len(args.problems):
-        raise CLIError(f"--problem-set names {len(args.problem_set)} sets but --problems {len(args.problems)} files")
-    jobs = [(ps, pf, label) for ps, pf in zip(args.problem_set, args.problems) for label in args.solver]
-    if len(jobs) != len(args.out):
-        raise CLIError(f"{len(args.problem_set)} problem set(s) x {len(args.solver)} solver(s) need {len(jobs)} "
-                       f"--out archives, got {len(args.out)}")
-    study = load_study(args.study)
-    for k, ((pset, pfile, label), out) in enumerate(zip(jobs, args.out)):
-        one = Namespace(**{**vars(args), "problem_set": pset, "problems": pfile})
-        _problem_set(study, one)
-        if label not in study.solvers:
-            raise CLIError(f"{args.study}: field 'solvers/{label}': no such solver (have: {', '.join(study.solvers)})")
-        if label not in study.set_solvers(pset):
-            raise CLIError(f"{args.study}: field 'problem_sets/{pset}/solvers': {label!r} does not run on this set")
-        if len(jobs) > 1:
-            print(f"[{k + 1}/{len(jobs)}] {pset}: {label}", flush=True)
-        limit = min(x for x in (study.solver_cap(pset, label, args.scale), args.limit or None, 10**12)
-                    if x is not None)
-        _solve_to_archive(one, study.solvers[label], out, limit=limit)
+    solve_problems(args.study, args.problem_set, args.problems, args.solver, args.robot, args.scale, args.out,
+                   limit=args.limit, threads=args.threads)
 
 
 def cmd_rerun_failures(args) -> None:
-    from dataclasses import replace
+    from pipeline.jobs.solve import rerun_failures
 
-    from pipeline.io.archive import read_archive
-    from pipeline.solvers import SettingsError
-
-    study, entry = _study_solver(args)
-    overrides = study.settings.get("rerun")
-    if not overrides:
-        raise CLIError(f"{args.study}: field 'study_settings/rerun': missing (the rerun's setting overrides)")
-    try:
-        rerun = replace(entry.settings, **overrides)
-    except TypeError as exc:
-        raise SettingsError(f"{args.study}: field 'study_settings/rerun': {exc}") from None
-    rerun.validate(f"{args.study}: study_settings/rerun")
-    original = read_archive(args.archive)
-    if original.metadata["solver"] != args.solver:
-        raise CLIError(f"{args.archive}: metadata field 'solver' is {original.metadata['solver']!r}, expected {args.solver!r}")
-    failed = [r["problem_id"] for r in original.solves if not r["success"]]
-    _solve_to_archive(args, replace(entry, settings=rerun), args.out, select=failed, extra_meta={
-        "rerun_of": Path(args.archive).name, "rerun_of_settings_hash": original.metadata["settings_hash"]})
+    rerun_failures(args.study, args.solver, args.problem_set, args.robot, args.problems, args.scale, args.archive,
+                   args.out)
 
 
 def cmd_new_study(args) -> None:
-    """Write ``data/studies/<id>.yaml``: a warm-start problem set on the given robots and solvers."""
-    from pipeline.robots import load_robot
-    from pipeline.settings import ConfigError, load_study
-    from pipeline.solvers import NotApplicableError, get, make_settings, names, prepare
+    from pipeline.jobs.build import new_study
 
-    if not args.id.replace("_", "a").isalnum() or not args.id.islower() or "__" in args.id:
-        raise CLIError(f"study id {args.id!r}: use lowercase letters, digits and single underscores")
-    out = Path(args.data) / "studies" / f"{args.id}.yaml"
-    if out.exists() and not args.force:
-        raise CLIError(f"{out}: exists (use --force to overwrite)")
-    models = [load_robot(Path(args.data) / "robots" / f"{r}.yaml") for r in args.robots]
-    wanted = args.solvers or names()
-    for name in wanted:
-        get(name)
-    solvers, skipped = [], []
-    for name in wanted:
-        fits = []
-        for m in models:
-            try:
-                prepare(name, m, make_settings(name))
-                fits.append(m.name)
-            except NotApplicableError as exc:
-                skipped.append(str(exc))
-        if len(fits) == len(models):
-            solvers.append(name)
-    if not solvers:
-        raise CLIError("no solver applies to every robot given: " + "; ".join(skipped[:3]))
-    lines = [
-        f"# Written by `python -m pipeline new_study {args.id}`; edit freely (schema: workflow/schemas/study.schema.yaml).",
-        "# Settings of each solver: `python -m pipeline solvers NAME` (SI units; registry defaults where not written).",
-        f"study: {args.id}",
-        f"title: {json.dumps(args.title or 'IK methods on ' + ', '.join(args.robots))}",
-        "document: \"none\"",
-        f"robots: [{', '.join(args.robots)}]",
-        "problem_sets:",
-        "  warm:  # goals within the joint limits, starts within `spread` rad of the goal angles",
-        f"    kind: warm_start\n    seed: {args.seed}\n    count: {{full: {args.count}, quick: 20}}\n    params: {{spread: {args.spread}}}",
-        "solvers:",
-        *[f"  {n}: {{method: {n}}}" for n in solvers],
-        "interpretations: []",
-    ]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text("\n".join(lines) + "\n")
-    try:
-        load_study(out)
-    except ConfigError:
-        out.unlink()
-        raise
-    for why in skipped:
-        print(f"skipped: {why}")
-    print(f"wrote {out} ({len(solvers)} solvers); build it with: snakemake --cores 2 --config studies='[{args.id}]'")
+    print(new_study(args.id, args.robots, args.solvers, count=args.count, spread=args.spread, seed=args.seed,
+                    title=args.title, data=args.data, force=args.force))
 
 
 def cmd_solvers(args) -> None:
-    """Print every registered solver with its settings, defaults and units (or one, or as JSON)."""
-    from pipeline.solvers import catalogue, get
+    from pipeline.jobs.build import solver_listing
 
-    cat = catalogue()
-    if args.name:
-        get(args.name)  # one-line error for an unknown name
-        cat = [c for c in cat if c["name"] == args.name]
-    if args.json:
-        print(json.dumps(cat, indent=1, default=str))
-        return
-    for c in cat:
-        print(f"{c['name']}  [{c['kind']}]  {c['title']}")
-        if c["source"]:
-            print(f"    source: {c['source']}")
-        for row in c["settings"]:
-            unit = f" [{row['unit']}]" if row["unit"] else ""
-            rng = f" ({row['range']})" if row["range"] else ""
-            print(f"    {row['name']} = {row['default']!r}{unit}{rng}: {row['doc']}")
-        print()
-
-
-def _results_relative(path, sid: str) -> str:
-    """An archive's path from the results folder on (``<study>/runs/...``), so a copied build stays valid."""
-    parts = Path(path).parts
-    return "/".join(parts[len(parts) - 1 - parts[::-1].index(sid):]) if sid in parts else Path(path).as_posix()
+    print(solver_listing(args.name, as_json=args.json))
 
 
 def cmd_aggregate_tables(args) -> None:
-    from pipeline.io.archive import read_archive
-    from pipeline.settings import load_study
-    from pipeline.studies import build_study_tables, write_tables
+    from pipeline.jobs.build import aggregate_tables
 
-    study = load_study(args.study)
-    archives = [read_archive(p) for p in args.archives]
-    tables = build_study_tables(study, archives, Path(args.published))
-    write_tables(tables, Path(args.out_dir))
-    prov = [{"archive": _results_relative(a.path, study.id), "problems": len(a.solves), **a.metadata}
-            for a in archives]
-    (Path(args.out_dir) / "provenance.json").write_text(json.dumps(prov, indent=1))
-    print(f"wrote {len(tables)} tables to {args.out_dir}")
+    print(aggregate_tables(args.study, args.archives, args.published, args.out_dir))
 
 
 def cmd_plot_figures(args) -> None:
-    from pipeline.io.archive import read_archive
-    from pipeline.settings import load_study
-    from pipeline.studies import get_study_module, write_figure_index
+    from pipeline.jobs.build import plot_figures
 
-    study = load_study(args.study)
-    archives = [read_archive(p) for p in args.archives]
-    out = Path(args.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    figs = get_study_module(study.id).build_figures(study, archives, out)
-    write_figure_index(figs, out)
-    print(f"wrote {len(figs)} figures to {args.out_dir}")
+    print(plot_figures(args.study, args.archives, args.out_dir))
+
+
+def cmd_import_urdf(args) -> None:
+    from pipeline.jobs.robot_files import import_urdf
+
+    print(import_urdf(args.urdf, args.base, args.tip, args.out, name=args.name, length_unit=args.length_unit))
+
+
+def cmd_export_urdf(args) -> None:
+    from pipeline.jobs.robot_files import export_urdf
+
+    print(export_urdf(args.robot, args.out, name=args.name))
+
+
+def cmd_reproduce(args) -> None:
+    from pipeline.jobs.reproduce import reproduce
+
+    print(reproduce(args.target, sample=args.sample, problem=args.problem, problems=args.problems, robot=args.robot,
+                    data=args.data))
 
 
 def cmd_render_report(args) -> None:
@@ -401,7 +136,7 @@ def cmd_render_report(args) -> None:
 
 def cmd_verify(args) -> None:
     """Recompute every table from its archives, check the archives and the report; exit 1 on any difference."""
-    from pipeline.verify import verify
+    from pipeline.jobs.verify import verify
 
     ok, lines = verify(Path(args.results), Path(args.data))
     print("\n".join(lines))
@@ -414,7 +149,6 @@ def cmd_inspect(args) -> None:
     from pipeline.report.inspect import InspectError, describe
 
     arch = read_archive(args.archive, problems=args.problems)
-    arch.robot_file = args.robot
     try:
         print(describe(arch, failed=args.failed, problem=args.problem, csv_out=args.csv, raw=args.json))
     except InspectError as exc:
@@ -423,7 +157,7 @@ def cmd_inspect(args) -> None:
 
 def cmd_replay(args) -> None:
     """Re-run archived problems and write them as a Foxglove-viewable MCAP (pipeline/replay.py)."""
-    from pipeline.replay import ReplayError, replay
+    from pipeline.jobs.replay import ReplayError, replay
 
     try:
         s = replay(args.archive, args.out, problem=args.problem, failed=args.failed, data=args.data,
@@ -437,74 +171,6 @@ def cmd_replay(args) -> None:
     more = " ..." if len(s.frames_per_problem) > 5 else ""
     print(f"wrote {s.out}: {len(s.problems)} problem(s), {s.frames} frames ({s.mode}; frames per problem {per}{more}); "
           f"topics {', '.join(s.topics)}")
-
-
-def _write_checked(out: Path, text: str, check) -> None:
-    """Write ``text`` to ``out`` only after ``check(tmp_path)`` accepted it (temp file, then rename)."""
-    import os
-    import shutil
-    import tempfile
-
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmpdir = Path(tempfile.mkdtemp(prefix=".tmp-", dir=out.parent))
-    try:
-        tmp = tmpdir / out.name  # same file name: a robot file's name must equal its stem
-        tmp.write_text(text)
-        check(tmp)
-        os.replace(tmp, out)
-    finally:
-        shutil.rmtree(tmpdir, ignore_errors=True)
-
-
-def cmd_import_urdf(args) -> None:
-    """Write ``--out`` (a robot file, general joint form) from the URDF chain ``--base`` ... ``--tip``."""
-    from pipeline.robots import load_robot
-    from pipeline.urdf import URDFImportError, imported_yaml
-
-    out = Path(args.out)
-    name = args.name or out.stem
-    if name != out.stem:
-        raise CLIError(f"--name {name!r}: a robot file's name must equal its file name; use --out "
-                       f"{out.with_name(name + (out.suffix or '.yaml'))}")
-    try:
-        text = imported_yaml(args.urdf, args.base, args.tip, name=name, length_unit=args.length_unit)
-    except URDFImportError as exc:
-        raise CLIError(f"URDFImportError: {exc}") from None
-    _write_checked(out, text, load_robot)
-    model = load_robot(out)
-    print(f"wrote {out}: {model.n} joints ({''.join('P' if p else 'R' for p in model.chain.prismatic)}), "
-          f"links {args.base} -> {args.tip}, lengths in {model.length_unit}")
-
-
-def cmd_export_urdf(args) -> None:
-    """Write ``--out`` (URDF, metres, links base_link ... tool0) from a robot file; re-imported and checked first."""
-    import numpy as np
-
-    from pipeline.kinematics import fk_htm
-    from pipeline.robots import load_robot, parse_robot
-    from pipeline.urdf import URDFImportError, import_urdf, to_urdf
-
-    model = load_robot(args.robot)
-    text = to_urdf(model, name=args.name)
-
-    def check(tmp: Path) -> None:
-        try:
-            back = parse_robot(import_urdf(tmp, "base_link", "tool0", name=model.name, length_unit=model.length_unit),
-                               str(tmp))
-        except URDFImportError as exc:
-            raise CLIError(f"the written URDF does not import back ({exc})") from None
-        rng = np.random.default_rng(0)
-        lo = np.where(np.isfinite(model.limits[:, 0]), model.limits[:, 0], -np.pi)
-        hi = np.where(np.isfinite(model.limits[:, 1]), model.limits[:, 1], np.pi)
-        q = rng.uniform(lo, hi, (20, model.n))
-        T0, T1 = fk_htm(model.chain, q), fk_htm(back.chain, q)
-        tol = 1e-9 * (1.0 + np.abs(T0[..., :3, 3]).max())
-        if back.n != model.n or not np.allclose(T0, T1, rtol=0, atol=tol):
-            raise CLIError(f"{model.path}: the written URDF's forward kinematics differs from the robot file's "
-                           f"(max {np.abs(T0 - T1).max():.3g}); not written")
-
-    _write_checked(Path(args.out), text, check)
-    print(f"wrote {args.out}: {model.n} joints, links base_link -> tool0, lengths in m")
 
 
 class _VerbHelp(argparse.HelpFormatter):
@@ -610,9 +276,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--csv", metavar="OUT", help="export the solve records as CSV (one column per joint and goal value)")
     p.add_argument("--problems", metavar="FILE", help="the archive's problem set, if it is not where the archive's "
                    "metadata says (an archive copied out of its results tree; its SHA-256 is still checked)")
-    p.add_argument("--robot", metavar="FILE", help="the robot file, to re-derive traces and analytic solutions, if "
-                   "not where the archive's metadata says")
     p.set_defaults(func=cmd_inspect)
+
+    p = sub.add_parser("reproduce", help="re-run an archive's solves and report how far the re-runs are from it")
+    p.add_argument("target", metavar="ARCHIVE|RESULTS_DIR", help="one archive, or a results folder (every */runs/**/*.mcap)")
+    p.add_argument("--sample", type=int, help="solves re-run per archive, evenly spaced over its problems (default: "
+                   "all of one archive, 20 per archive of a folder)")
+    p.add_argument("--problem", type=int, help="re-run only this problem id")
+    p.add_argument("--problems", metavar="FILE", help="the archive's problem set, if not where its metadata says")
+    p.add_argument("--robot", metavar="FILE", help="the robot file, if not where the archive's metadata says")
+    p.add_argument("--data", default="data", help="data folder (robot files <data>/robots/<robot>.yaml)")
+    p.set_defaults(func=cmd_reproduce)
 
     p = sub.add_parser("replay", help="re-run archived problems into a Foxglove-viewable MCAP (arm per iteration)")
     p.add_argument("archive")

@@ -6,10 +6,15 @@ or BLAS that cannot be identified as ``unknown``.
 
 from __future__ import annotations
 
+import hashlib
+import os
 import platform
+import subprocess
 from functools import lru_cache
 from importlib import metadata as _md
 from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent  # the checkout (for git_commit)
 
 # every library that touches the numbers (solvers, tables, figures, archives, the workflow),
 # and the peer libraries the benchmark runs as baselines
@@ -68,4 +73,32 @@ def environment() -> dict:
     """Python, platform, CPU, BLAS and library versions (cached: the same for a whole process)."""
     return {"python": platform.python_version(), "platform": platform.platform(), "host": platform.node(),
             "cpu": cpu_model(),
-            "blas": blas(), "libraries": library_versions()}
+            "blas": blas(), "libraries": library_versions(),
+            # settings that change which CPU kernels run (and so, possibly, the last bits of a result)
+            "kernel_overrides": {k: os.environ[k] for k in KERNEL_VARIABLES if os.environ.get(k)}}
+
+
+KERNEL_VARIABLES = ("OPENBLAS_CORETYPE", "NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES", "MKL_CBWR", "MKL_DEBUG_CPU_TYPE")
+
+
+def git_commit(root: Path = ROOT) -> str:
+    """The checkout's commit (``+dirty`` when tracked files differ), or ``unknown``."""
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
+                              timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return (head + ("+dirty" if dirty else "")) if head else "unknown"
+
+
+def file_sha256(path: str | Path) -> str:
+    """SHA-256 of a file's content: of the decompressed text for a ``.gz`` file (a problem set), so
+    the hash does not depend on the compressor's version."""
+    data = Path(path).read_bytes()
+    if str(path).endswith(".gz"):
+        import gzip
+
+        data = gzip.decompress(data)
+    return hashlib.sha256(data).hexdigest()

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +19,7 @@ import math
 
 import jsonschema
 
+from pipeline.provenance import file_sha256, git_commit  # noqa: F401  (re-exported)
 from pipeline.robots import load_robot
 from pipeline.solvers import Settings
 from pipeline.yamlio import YAMLInputError, load_yaml
@@ -371,24 +371,3 @@ def check_inputs(config: dict, root: Path = Path("."), config_path: str = DEFAUL
     return studies
 
 
-def git_commit(root: Path = ROOT) -> str:
-    """The checkout's commit (``+dirty`` when tracked files differ), or ``unknown``."""
-    try:
-        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
-                              timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, timeout=10).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-    return (head + ("+dirty" if dirty else "")) if head else "unknown"
-
-
-def file_sha256(path: str | Path) -> str:
-    """SHA-256 of a file's content: of the decompressed text for a ``.gz`` file (a problem set), so
-    the hash does not depend on the compressor's version."""
-    data = Path(path).read_bytes()
-    if str(path).endswith(".gz"):
-        import gzip
-
-        data = gzip.decompress(data)
-    return hashlib.sha256(data).hexdigest()

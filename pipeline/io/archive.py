@@ -1,48 +1,60 @@
-"""Result archives: one MCAP file per solve job, zstd-compressed chunks.
+"""Result archives: one MCAP file per solve job, zstd-compressed chunks (format version 5).
 
-Chunks use the mcap writer's zstd level 3. On format-4 batches it gives files 1.7 % smaller than
-level 1 for 2.4 ms more per 10 000 solves. Level 1 was used while the batches were JSON text.
+An archive stands on its own: everything a table, a figure, ``inspect`` or the report shows is read
+from its bytes, the problem-set file it names and nothing else. Reading never imports or runs a
+solver (this module imports nothing above :mod:`pipeline.robots`), so an archive reads the same on
+any machine, whatever its CPU or BLAS. Re-running the solves of an archive is a separate act,
+``python -m pipeline reproduce`` (:mod:`pipeline.jobs.reproduce`), whose differences are findings,
+never read errors.
 
-Channels (format version 4)
----------------------------
-``/ik/solve``  one message per batch of up to :data:`BATCH` solves, protobuf
-               ``ik_pipeline.SolveBatch`` (schema written into the file as a FileDescriptorSet,
-               fields in :data:`SOLVE_FIELDS`): per solve its problem id, repetition, chain, stop
-               reason, iterations, a ``flags`` word (success, claimed success, within limits, start
-               taken from the problem file, which numbers are absent), the three times as integer
-               nanoseconds, the four errors (float64), ``q_solution`` and, for analytic methods, the
-               number of solutions and their digest; ``info`` (method-specific counters) is one
-               strict-JSON string per batch.
-``/ik/trace``  one message per batch, protobuf ``ik_pipeline.TraceBatch``: per problem its id,
-               repetition, row count, a CRC-32 of the full-precision trace and whether the
-               rows are stored; stored rows hold the stop-test error and |dp| (float64) and the
-               error 6-vector (v, omega) (float32).
+Channels (all protobuf, schemas written into the file as FileDescriptorSets, so any MCAP reader
+with ``protobuf`` decodes them without this package; the README shows how)
+------------------------------------------------------------------------------------------------
+``/ik/solve``      ``ik_pipeline.SolveBatch``, up to :data:`BATCH` solves a message, fields in
+                   :data:`SOLVE_FIELDS`: per solve its problem id, repetition, chain, stop reason
+                   (:class:`pipeline.io.layout.StopReason`), iterations, a ``flags`` word (success,
+                   claimed success, within limits, start taken from the problem file, which numbers
+                   are absent), the three times as integer nanoseconds, the four errors (float64),
+                   ``q_solution``, and for analytic methods the number of solutions; ``info_json``
+                   (method-specific counters) is one strict-JSON array per batch.
+``/ik/trace``      ``ik_pipeline.TraceBatch``: per solve with a trace its row count, the CRC-32 of
+                   its full-precision float64 rows (what ``reproduce`` compares a re-run with) and
+                   whether the rows are stored; stored rows hold the stop-test error and |dp|
+                   (float64) and the error 6-vector (v, omega) (float32), columns as
+                   :data:`pipeline.io.layout.TRACE_COLUMNS`.
+``/ik/solutions``  ``ik_pipeline.SolutionBatch``: every solution an analytic method returned, per
+                   solve its count and the rows (float64), all of them stored.
 
-What is not repeated. The goals and the starts are the problem file's (``problem_path``, relative to
-the archive, checked against ``problem_sha256`` on every read); only a start that is not the
-problem file's (a chained problem warm-started from the previous solution) is stored. The
-per-iteration traces and the analytic solutions of this package's deterministic methods are not
-stored either: they are *derived* on demand by re-running the solve from the archive (method,
-settings, robot file, problem, start, seed: :func:`derive`) and checked bit for bit against the
-stored digests, so every trace of every solve is available and a re-run that does not reproduce
-the archived one is an error, not a silent difference. Solves that cannot be re-run exactly (the
-peer libraries, time budgets) store their traces and solutions in full. An archive written
+Trace policy (:class:`TracePolicy`; a study's ``trace_policy`` setting): every trace's row count
+and digest are stored; its rows are stored for every solve of a deterministic sample of the set
+(``sample`` problems, evenly spaced over the set's problem ids, repetition 0) and for failed
+solves, in solve order, while their rows fit a per-archive budget (``failed_rows``). ``all``
+stores every trace, ``none`` none. The ``run`` metadata names the policy (``trace_policy``); a
+second metadata record, ``traces``, written when the archive is closed, counts what was stored.
+Asking for a trace an archive does not hold is a one-line :class:`TraceNotStored` error naming
+``reproduce``, never a silent re-run.
+
+What is not repeated. Goals and starts are the problem file's (``problem_path``, relative to the
+archive, checked against ``problem_sha256`` on every read); only a start that is not the problem
+file's (a chained problem warm-started from the previous solution) is stored. An archive written
 without a problem file (``problem_path`` absent) stores goals and starts inline.
 
 No NaN or Infinity anywhere: an absent number (an orientation error not checked, a non-finite
-result) is flagged in ``flags`` (or a trace row's ``absent`` mask) and written as 0; readers give
-NaN back. Metadata record ``run``: study, robot, robot file and its SHA-256, solver, settings
-(JSON), settings hash, seed, scale, package version, git commit, problem file, its path and
-SHA-256, problem count, environment.
-
-A reader turns the batches back into one record per solve (:attr:`Archive.solves`), the same dicts
-as versions 2 and 3 (one JSON message per solve; JSON columns), which it still reads.
+result) is flagged in ``flags`` (a trace row's or a solution row's ``absent`` mask) and written as
+0; readers give NaN back. Metadata record ``run`` (:func:`run_metadata`): study, robot, robot file
+and its SHA-256, solver, method, settings (JSON), settings hash, seed, scale, package version, git
+commit, problem file, its path and SHA-256, problem count, trace policy, environment (CPU, BLAS
+and its core type, library versions).
 
 Log times: a batch's log time is the cumulative ``solve_time_s`` of the job up to its last solve
 [ns], so a timeline shows where the solving time went. Nothing else in the file depends on the
 clock: the same settings and seed give the same file except for the timing fields.
 An archive is written to ``<name>.partial`` and renamed only after the MCAP summary is written:
-an interrupted job never leaves a file that looks complete.
+an interrupted job never leaves a file that looks complete. Chunks use the mcap writer's zstd level
+3 (1.7 % smaller than level 1 on these batches for 2.4 ms more per 10 000 solves).
+
+Only format 5 is read; an archive of an earlier format is refused in one line naming its format
+and the package version that wrote it (rebuild it with the workflow).
 
 Quaternions are w-first everywhere in the library; in records, and only there, the goal
 orientation is x, y, z, w (Foxglove ``Pose`` style).
@@ -53,75 +65,49 @@ from __future__ import annotations
 import json
 import math
 import os
-from zlib import crc32 as _crc32
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
+from zlib import crc32 as _crc32
 
 import numpy as np
 
-FORMAT_VERSION = "4"
-READABLE_VERSIONS = ("2", "3", "4")
-BATCH = 1000  # solves per /ik/solve and /ik/trace message
+from pipeline.io.layout import TRACE_COLS
+
+FORMAT_VERSION = "5"
+BATCH = 1000  # solves per /ik/solve, /ik/trace and /ik/solutions message
 SOLVE_TOPIC = "/ik/solve"
 TRACE_TOPIC = "/ik/trace"
+SOLUTIONS_TOPIC = "/ik/solutions"
 REQUIRED_META = ("format_version", "study", "robot", "solver", "settings", "settings_hash", "seed",
                  "package_version", "git_commit")
 
-# ---- format 3 (read only): /ik/solve as strict-JSON columns ------------------------------------
-_NUMS = {"type": "array", "items": {"type": ["number", "null"]}}
-_ROWS = {"type": "array", "items": _NUMS}
-_INTS = {"type": "array", "items": {"type": "integer"}}
-_BOOLS = {"type": "array", "items": {"type": "boolean"}}
-_STRS = {"type": "array", "items": {"type": "string"}}
-# column -> (JSON schema, kind): kind f = float, i = int, b = bool, s = string, r = rows of floats, o = objects
-SOLVE_COLUMNS = {
-    "problem_id": (_INTS, "i"), "repetition": (_INTS, "i"), "chain": (_INTS, "i"),
-    "robot": (_STRS, "s"), "solver": (_STRS, "s"), "method": (_STRS, "s"),
-    "success": ({**_BOOLS, "description": "FK-verified success"}, "b"),
-    "claimed_success": ({**_BOOLS, "description": "the method's own stop test said success"}, "b"),
-    "stop_reason": ({**_INTS, "description": "pipeline.solvers.StopReason: 1 success, 2 stalled, 3 error grew, "
-                     "4 cap, 5 non-finite, 6 FK contradicts, 7 no solution, 8 outside the joint limits"}, "i"),
-    "iterations": (_INTS, "i"),
-    "solve_time_s": ({**_NUMS, "description": "the method's own computation, monotonic clock [s]"}, "f"),
-    "ik_time_s": ({**_NUMS, "description": "IK-block (step) time [s], 0 where not measured"}, "f"),
-    "call_time_s": ({**_NUMS, "description": "the whole solve() call [s]; in a batch, the batch call / its size"}, "f"),
-    "within_limits": ({**_BOOLS, "description": "q_solution within the joint limits (revolute wrapped by 2 pi)"}, "b"),
-    "initial_error": (_NUMS, "f"), "final_error": (_NUMS, "f"),
-    "position_error": ({**_NUMS, "description": "|p_goal - p| by independent FK [length_unit]"}, "f"),
-    "orientation_error": ({**_NUMS, "description": "rotation angle goal vs reached [rad]; null = not checked"}, "f"),
-    "length_unit": (_STRS, "s"),
-    "q_start": ({**_ROWS, "description": "start joint values [rad | length_unit]"}, "r"),
-    "q_solution": ({**_ROWS, "description": "returned joint values [rad | length_unit]"}, "r"),
-    "goal_position": ({**_ROWS, "description": "x, y, z [length_unit]"}, "r"),
-    "goal_orientation": ({**_ROWS, "description": "unit quaternion x, y, z, w"}, "r"),
-    "info": ({"type": "array", "items": {"type": "object"}, "description": "method-specific counters"}, "o"),
-    "solutions": ({"type": "array", "items": {"type": ["array", "null"]},
-                   "description": "analytic methods: every solution (null for other methods)"}, "o"),
-}
-SOLVE_SCHEMA = {
-    "title": "ik_pipeline.SolveBatch",
-    "description": "a batch of IK solves as columns of equal length `count` (format_version 3)",
-    "type": "object",
-    "required": ["count"] + [k for k in SOLVE_COLUMNS if k != "solutions"],
-    "properties": {"count": {"type": "integer"}, **{k: v for k, (v, _) in SOLVE_COLUMNS.items()}},
-}
-
-# ---- protobuf, written by hand (packed fixed-width fields: numpy bytes; one string field) -------
+# ---- protobuf, written by hand (packed fixed-width fields: numpy bytes; string fields) ---------
 # (field number, name, numpy dtype, protobuf type: 15 sfixed32, 7 fixed32, 6 fixed64, 1 double, 2 float,
 # 9 string). Every repeated field is packed (proto3); a string field is singular.
-TRACE_FIELDS_V3 = ((1, "problem_id", "<i4", 15), (2, "repetition", "<i4", 15), (3, "rows", "<u4", 7),
-                   (4, "error", "<f8", 1), (5, "position_error", "<f8", 1), (6, "error_vector", "<f4", 2))
-TRACE_FIELDS = TRACE_FIELDS_V3 + (
-    (7, "digest", "<u4", 7),   # per problem: CRC-32 of the trace's float64 rows (:func:`digest`)
-    (8, "stored", "<u4", 7),   # per problem: 1 = its rows are in this message, 0 = derived on demand
-    (9, "absent", "<u4", 7))   # per stored row: bit k = column k (error, v, omega, |dp|) absent (written 0)
+TRACE_FIELDS = (
+    (1, "problem_id", "<i4", 15), (2, "repetition", "<i4", 15),
+    (3, "rows", "<u4", 7),       # per trace: its row count
+    (4, "error", "<f8", 1),      # per stored row: the method's own (stop-test) error
+    (5, "position_error", "<f8", 1),  # per stored row: |dp| [length_unit]
+    (6, "error_vector", "<f4", 2),    # per stored row: e = (v, omega), 6 values
+    (7, "digest", "<u4", 7),     # per trace: CRC-32 of its float64 rows (:func:`digest`), stored or not
+    (8, "stored", "<u4", 7),     # per trace: 1 = its rows are in this message
+    (9, "absent", "<u4", 7))     # per stored row: bit k = column k of TRACE_COLUMNS absent (written 0)
 TRACE_MESSAGE = "ik_pipeline.TraceBatch"
+
+SOLUTION_FIELDS = (
+    (1, "problem_id", "<i4", 15), (2, "repetition", "<i4", 15),
+    (3, "count", "<u4", 7),      # per solve: number of solutions
+    (4, "joints", "<u4", 7),     # one value: joints per row
+    (5, "solutions", "<f8", 1),  # rows of joint values, count rows per solve
+    (6, "absent", "<u8", 6))     # per row (only when a value was non-finite): bit k = joint k absent
+SOLUTION_MESSAGE = "ik_pipeline.SolutionBatch"
 
 # flags of a solve (SolveBatch.flags)
 F_SUCCESS, F_CLAIMED, F_WITHIN, F_START_FROM_FILE = 1, 2, 4, 8
 F_NO_INITIAL, F_NO_FINAL, F_NO_POSITION, F_NO_ORIENTATION, F_NO_Q = 16, 32, 64, 128, 256
-F_SOLUTIONS_STORED, F_NO_START, F_NO_GOAL = 512, 1024, 2048
+F_NO_START, F_NO_GOAL = 1024, 2048  # (512 was format 4's "solutions stored here")
 _ABSENT = {"initial_error": F_NO_INITIAL, "final_error": F_NO_FINAL, "position_error": F_NO_POSITION,
            "orientation_error": F_NO_ORIENTATION}
 SOLVE_FIELDS = (
@@ -135,15 +121,15 @@ SOLVE_FIELDS = (
     (15, "q_start", "<f8", 1),         # joints values of each solve whose start is not the problem file's
     (16, "goal_position", "<f8", 1),   # count x 3, only in archives without a problem file
     (17, "goal_orientation", "<f8", 1),  # count x 4 (x, y, z, w), idem
-    (18, "n_solutions", "<i4", 15),    # analytic methods: number of solutions (else absent)
-    (19, "solutions", "<f8", 1),       # stored solutions (F_SOLUTIONS_STORED solves), rows of joints
-                                       # (a non-finite value, which no closed form here returns, is written 0)
-    (20, "solutions_digest", "<u4", 7),  # CRC-32 of each solve's solutions (derived ones)
+    (18, "n_solutions", "<i4", 15),    # analytic methods: number of solutions (on /ik/solutions)
     (21, "joints", "<u4", 7),          # one value: joints per row
     (22, "info_json", None, 9),        # strict JSON array of the solves' info objects
     (23, "labels_json", None, 9))      # only when a solve's robot/solver/method/length_unit is not the
                                        # metadata's: strict JSON object of per-solve string columns
 SOLVE_MESSAGE = "ik_pipeline.SolveBatch"
+MESSAGES = {SOLVE_TOPIC: (SOLVE_MESSAGE, SOLVE_FIELDS, "ik_pipeline/solve_batch.proto"),
+            TRACE_TOPIC: (TRACE_MESSAGE, TRACE_FIELDS, "ik_pipeline/trace_batch.proto"),
+            SOLUTIONS_TOPIC: (SOLUTION_MESSAGE, SOLUTION_FIELDS, "ik_pipeline/solution_batch.proto")}
 
 
 def _varint(n: int) -> bytes:
@@ -178,14 +164,10 @@ def _descriptor(message: str, fields, file: str) -> bytes:
     return _ld(1, _ld(1, file.encode()) + _ld(2, pkg.encode()) + _ld(4, msg) + _ld(12, b"proto3"))
 
 
-def trace_descriptor() -> bytes:
-    """The FileDescriptorSet of ``ik_pipeline.TraceBatch``."""
-    return _descriptor(TRACE_MESSAGE, TRACE_FIELDS, "ik_pipeline/trace_batch.proto")
-
-
-def solve_descriptor() -> bytes:
-    """The FileDescriptorSet of ``ik_pipeline.SolveBatch`` (format 4)."""
-    return _descriptor(SOLVE_MESSAGE, SOLVE_FIELDS, "ik_pipeline/solve_batch.proto")
+def descriptor(topic: str) -> bytes:
+    """The FileDescriptorSet of the message on ``topic`` (:data:`MESSAGES`)."""
+    message, fields, file = MESSAGES[topic]
+    return _descriptor(message, fields, file)
 
 
 def _encode(fields, values: dict) -> bytes:
@@ -225,14 +207,6 @@ def _decode(fields, data: bytes) -> dict:
     return out
 
 
-def encode_trace_batch(problem_id, repetition, rows, error, position_error, error_vector, digest=None,
-                       stored=None, absent=None) -> bytes:
-    """One ``TraceBatch`` message: per problem (id, repetition, row count, digest, stored), per stored row the errors."""
-    return _encode(TRACE_FIELDS, {"problem_id": problem_id, "repetition": repetition, "rows": rows, "error": error,
-                                  "position_error": position_error, "error_vector": error_vector,
-                                  "digest": digest, "stored": stored, "absent": absent})
-
-
 def _read_varint(buf: bytes, pos: int) -> tuple[int, int]:
     n = shift = 0
     while True:
@@ -246,39 +220,15 @@ def _read_varint(buf: bytes, pos: int) -> tuple[int, int]:
             return n, pos
 
 
-def decode_trace_batch(data: bytes, version: str = FORMAT_VERSION) -> dict[str, np.ndarray]:
-    """Inverse of :func:`encode_trace_batch`; raises ValueError on anything it did not write.
-
-    Returns the per-problem columns and, for the stored problems only, the row columns
-    (``error_vector`` shape (m, 6)); ``stored`` is all ones for format 3.
-    """
-    out = _decode(TRACE_FIELDS if version == "4" else TRACE_FIELDS_V3, data)
-    n = len(out["problem_id"])
-    if len(out["repetition"]) != n or len(out["rows"]) != n:
-        raise ValueError("problem_id, repetition and rows differ in length")
-    if version != "4":
-        out["stored"] = np.ones(n, dtype="<u4")
-        out["digest"] = np.zeros(n, dtype="<u4")
-    if len(out["stored"]) != n or len(out["digest"]) != n:
-        raise ValueError("digest and stored do not hold one value per problem")
-    if np.any(out["stored"] > 1):
-        raise ValueError("stored holds a value other than 0 and 1")
-    m = int(out["rows"][out["stored"] == 1].sum())
-    if len(out["error"]) != m or len(out["position_error"]) != m or len(out["error_vector"]) != 6 * m:
-        raise ValueError(f"row columns do not hold the {m} rows the problems promise")
-    if version == "4" and len(out["absent"]) not in (0, m):
-        raise ValueError(f"absent holds {len(out['absent'])} values for {m} rows")
-    out["error_vector"] = out["error_vector"].reshape(m, 6)
-    return out
 
 
 _F8 = np.dtype("<f8")
 
 
 def digest(a) -> int:
-    """CRC-32 of an array's float64 values in C order: how a re-derived trace or solution set is
-    checked against the archive. A check of a deterministic re-run, not a defence against forgery:
-    32 bits miss a difference with probability 2**-32 and cost 4 bytes per solve."""
+    """CRC-32 of an array's float64 values in C order: how ``reproduce`` compares a re-run trace with
+    the archived one. A check of a deterministic re-run, not a defence against forgery: 32 bits miss
+    a difference with probability 2**-32 and cost 4 bytes per solve."""
     if not (type(a) is np.ndarray and a.dtype == _F8 and a.flags.c_contiguous):
         a = np.ascontiguousarray(a, dtype=_F8)
     return _crc32(a)  # the array's buffer, no copy
@@ -288,55 +238,142 @@ class ArchiveError(ValueError):
     """An archive is missing, corrupt, truncated or not ours (one-line message naming the file)."""
 
 
-def _goal(position: np.ndarray, quat_wxyz: np.ndarray) -> dict:
-    w, x, y, z = (float(v) for v in quat_wxyz)
-    px, py, pz = (float(v) for v in position)
-    return {"position": {"x": px, "y": py, "z": pz}, "orientation": {"x": x, "y": y, "z": z, "w": w}}
+class TraceNotStored(ArchiveError):
+    """The archive holds the digest of a trace but not its rows (its trace policy left them out)."""
 
 
-def goal_from_record(goal: dict) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse of the goal encoding: (position (3,), quaternion w-first (4,))."""
-    p, o = goal["position"], goal["orientation"]
-    return np.array([p["x"], p["y"], p["z"]]), np.array([o["w"], o["x"], o["y"], o["z"]])
+@dataclass(frozen=True)
+class TracePolicy:
+    """Which per-iteration traces an archive stores in full (every trace's digest is always stored).
+
+    Attributes
+    ----------
+    mode : {"sample", "all", "none"}
+    sample : int
+        ``sample`` mode: problems of a deterministic sample, evenly spaced over the set's problem
+        ids (:meth:`sample_ids`); their repetition-0 traces are stored.
+    failed_rows : int
+        ``sample`` mode: the traces of failed solves are stored too, in solve order, while their
+        rows fit this per-archive budget [rows] (a trace that does not fit is skipped).
+    """
+
+    mode: str = "sample"
+    sample: int = 200
+    failed_rows: int = 20_000
+
+    MODES = ("sample", "all", "none")
+
+    @classmethod
+    def from_setting(cls, value, where: str = "trace_policy") -> "TracePolicy":
+        """``"all"``, ``"none"``, or a mapping ``{sample: int, failed_rows: int}`` (missing keys: defaults)."""
+        if value is None:
+            return cls()
+        if isinstance(value, str):
+            if value not in ("all", "none"):
+                raise ValueError(f"{where}: {value!r} is not all, none or a mapping of sample and failed_rows")
+            return cls(mode=value)
+        if not isinstance(value, dict) or set(value) - {"sample", "failed_rows"}:
+            raise ValueError(f"{where}: expected all, none or a mapping with keys sample and failed_rows")
+        kw = {}
+        for k, v in value.items():
+            if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 10_000_000:
+                raise ValueError(f"{where}/{k}: {v!r} is not an integer from 0 to 10000000")
+            kw[k] = v
+        return cls(**kw)
+
+    def as_json(self) -> str:
+        return json.dumps({"mode": self.mode, "sample": self.sample, "failed_rows": self.failed_rows}, sort_keys=True)
+
+    @classmethod
+    def from_json(cls, text: str) -> "TracePolicy":
+        d = json.loads(text)
+        return cls(mode=d["mode"], sample=int(d["sample"]), failed_rows=int(d["failed_rows"]))
+
+    def describe(self) -> str:
+        if self.mode != "sample":
+            return {"all": "every trace stored", "none": "no trace stored (digests only)"}[self.mode]
+        return (f"the traces of {self.sample} problems evenly spaced over the set, and of failed solves up to "
+                f"{self.failed_rows} rows per archive; digests of all")
+
+    def sample_ids(self, problem_ids) -> set[int]:
+        """The sample: ``sample`` ids evenly spaced over the sorted ``problem_ids`` (all when fewer)."""
+        ids = np.unique(np.asarray(problem_ids, dtype=np.int64))
+        if self.mode == "all" or len(ids) <= self.sample:
+            return set(ids.tolist())
+        if self.mode == "none" or self.sample == 0:
+            return set()
+        pick = np.unique(np.round(np.linspace(0, len(ids) - 1, self.sample)).astype(np.int64))
+        return set(ids[pick].tolist())
+
+
+def run_metadata(*, study: str, robot: str, solver: str, settings: dict, seed="-", **fields) -> dict[str, str]:
+    """The ``run`` metadata record of an archive, built in one place for every writer.
+
+    ``settings`` (a JSON-able dict) is stored as sorted JSON with its SHA-256 prefix as
+    ``settings_hash`` unless ``fields`` gives one; ``fields`` adds any other string fields (problem
+    file, robot file, scale, ...). Format version, package version, git commit and the environment
+    (:func:`pipeline.provenance.environment`) are filled in here.
+    """
+    import hashlib
+
+    import pipeline
+    from pipeline.provenance import environment, git_commit
+
+    blob = json.dumps(settings, sort_keys=True)
+    meta = {"format_version": FORMAT_VERSION, "study": study, "robot": robot, "solver": solver, "settings": blob,
+            "settings_hash": hashlib.sha256(blob.encode()).hexdigest()[:16], "seed": str(seed),
+            "package_version": pipeline.__version__, "git_commit": git_commit(),
+            "environment": json.dumps(environment(), sort_keys=True)}
+    meta.update({k: str(v) for k, v in fields.items() if v is not None})
+    return meta
 
 
 class ArchiveWriter:
     """Context manager writing one archive atomically.
 
-    Solves are buffered and written as batches of :data:`BATCH` (:meth:`write` for one record at a
-    time, :meth:`write_columns` for a whole batch of columns at once, the fast path of solve jobs).
+    Solves are given as columns (:meth:`write_columns`, from :func:`batch_columns`) and written as
+    messages of :data:`BATCH`; :meth:`write_message` appends JSON records on an extra channel.
 
     Parameters
     ----------
     path : str or Path
         Final file name; data go to ``<path>.partial`` until :meth:`close`.
     metadata : dict[str, str]
-        The ``run`` record (must hold :data:`REQUIRED_META`).
+        The ``run`` record (must hold :data:`REQUIRED_META`; :func:`run_metadata` builds it).
+    policy : TracePolicy, optional
+        Which traces to store in full (default: all).
+    problem_ids : array of int, optional
+        Every problem id the job solves: the population :meth:`TracePolicy.sample_ids` samples
+        (default: the ids written, which the writer sees only batch by batch, so give it).
     """
 
-    def __init__(self, path: str | Path, metadata: dict[str, str], derive: bool = False):
+    def __init__(self, path: str | Path, metadata: dict[str, str], policy: TracePolicy | None = None,
+                 problem_ids=None):
         from mcap.writer import CompressionType, Writer
 
         missing = [k for k in REQUIRED_META if k not in metadata]
         if missing:
             raise ValueError(f"archive metadata lacks {missing}")
+        self.policy = policy or TracePolicy(mode="all")
+        self.meta = {k: str(v) for k, v in metadata.items()}
+        self.meta["trace_policy"] = self.policy.as_json()
+        self._sample = None if problem_ids is None else self.policy.sample_ids(problem_ids)
+        self._budget = self.policy.failed_rows
+        self._count = {"traces": 0, "stored": 0, "rows": 0, "rows_stored": 0, "failed_stored": 0}
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.partial = self.path.with_name(self.path.name + ".partial")
         self._fh = open(self.partial, "wb")
         self._w = Writer(self._fh, compression=CompressionType.ZSTD, enable_data_crcs=True)
         self._w.start(profile="", library=f"ik-pipeline {metadata['package_version']}")
-        self._w.add_metadata("run", {k: str(v) for k, v in metadata.items()})
-        sid = self._w.register_schema(SOLVE_MESSAGE, "protobuf", solve_descriptor())
-        tid = self._w.register_schema(TRACE_MESSAGE, "protobuf", trace_descriptor())
-        self._solve = self._w.register_channel(SOLVE_TOPIC, "protobuf", sid)
-        self._trace = self._w.register_channel(TRACE_TOPIC, "protobuf", tid)
+        self._w.add_metadata("run", self.meta)
+        self._ch = {}
+        for topic, (message, _, _) in MESSAGES.items():
+            sid = self._w.register_schema(message, "protobuf", descriptor(topic))
+            self._ch[topic] = self._w.register_channel(topic, "protobuf", sid)
         self._seq = 0
         self._clock = 0  # cumulative solve time of the job so far [ns]: the log time
-        self._pending: list[tuple[dict, dict | None]] = []
         self._extra: dict[str, int] = {}
-        self.derive = bool(derive)  # traces and analytic solutions: digests only (re-derived on read)
-        self.meta = {k: str(v) for k, v in metadata.items()}
         self.inline_goals = "problem_path" not in metadata
 
     def add_channel(self, topic: str, schema: dict) -> None:
@@ -351,24 +388,16 @@ class ArchiveWriter:
 
     def write_message(self, topic: str, record: dict) -> None:
         """Append one JSON record on a channel registered with :meth:`add_channel` (NaN -> null)."""
-        self._flush()
         self._add(self._extra[topic], _dumps(record))
-
-    def write(self, solve: dict, trace: dict | None) -> None:
-        """Append one problem's solve record and its trace (dicts of :func:`solve_record`; no trace if None)."""
-        self._pending.append((solve, trace))
-        if len(self._pending) >= BATCH:
-            self._flush()
 
     def write_columns(self, cols: dict, traces: dict | None = None) -> None:
         """Append a batch of solves given as columns (:func:`batch_columns`), in messages of :data:`BATCH`.
 
-        ``traces``: ``problem_id``, ``repetition``, ``rows`` (per problem with a trace) and ``full``
-        (per row: error, v (3), omega (3), |dp|, float64, shape (m, 8)), or None.
+        ``traces``: ``problem_id``, ``repetition``, ``rows`` (per solve with a trace) and ``full``
+        (per row the :data:`~pipeline.io.layout.TRACE_COLUMNS`, float64, shape (m, 8)), or None.
         """
-        self._flush()
         n = len(cols["problem_id"])
-        starts = where = None
+        starts = None
         aligned = False
         if traces is not None:
             starts = np.concatenate([[0], np.cumsum(traces["rows"], dtype=np.int64)])
@@ -383,36 +412,59 @@ class ArchiveWriter:
             tr = None
             if aligned:  # one trace per solve, in the same order: slices
                 tr = {"problem_id": traces["problem_id"][lo:hi], "repetition": traces["repetition"][lo:hi],
-                      "rows": traces["rows"][lo:hi], "full": traces["full"][starts[lo]:starts[hi]]}
+                      "rows": traces["rows"][lo:hi], "full": traces["full"][starts[lo]:starts[hi]],
+                      "success": np.asarray(part["success"], dtype=bool)}
             elif traces is not None:
-                ks = np.array([where[key] for key in zip(np.asarray(part["problem_id"]).tolist(),
-                                                          np.asarray(part["repetition"]).tolist()) if key in where],
-                              dtype=np.int64)
-                if len(ks):
+                keys = list(zip(np.asarray(part["problem_id"]).tolist(), np.asarray(part["repetition"]).tolist()))
+                have = [(i, where[key]) for i, key in enumerate(keys) if key in where]
+                if have:
+                    pos = np.array([i for i, _ in have], dtype=np.int64)
+                    ks = np.array([k for _, k in have], dtype=np.int64)
                     lens = np.asarray(traces["rows"], dtype=np.int64)[ks]
                     first = np.repeat(starts[ks] - (np.cumsum(lens) - lens), lens)
                     tr = {"problem_id": traces["problem_id"][ks], "repetition": traces["repetition"][ks],
-                          "rows": traces["rows"][ks], "full": traces["full"][first + np.arange(int(lens.sum()))]}
+                          "rows": traces["rows"][ks], "full": traces["full"][first + np.arange(int(lens.sum()))],
+                          "success": np.asarray(part["success"], dtype=bool)[pos]}
             self._emit(part, hi - lo, tr)
+
+    def _keep(self, tr: dict) -> np.ndarray:
+        """Which traces of a batch the policy stores (updates the failed-rows budget, in order)."""
+        n = len(tr["problem_id"])
+        if self.policy.mode != "sample":
+            return np.full(n, self.policy.mode == "all")
+        sample = self._sample if self._sample is not None else set()
+        pid, rep = tr["problem_id"].tolist(), tr["repetition"].tolist()
+        rows, ok = np.asarray(tr["rows"]).tolist(), tr["success"].tolist()
+        keep = np.zeros(n, bool)
+        for k in range(n):
+            if rep[k] == 0 and pid[k] in sample:
+                keep[k] = True
+            elif not ok[k] and rows[k] <= self._budget:
+                keep[k] = True
+                self._budget -= rows[k]
+                self._count["failed_stored"] += 1
+        return keep
 
     def _emit(self, cols: dict, count: int, traces: dict | None) -> None:
         t = np.asarray(cols["solve_time_s"], dtype=float)
         self._clock += int(round(float(np.nansum(t)) * 1e9))
-        self._add(self._solve, _encode(SOLVE_FIELDS, _solve_message(cols, count, self.derive, self.inline_goals,
-                                                                    self.meta)))
+        self._add(self._ch[SOLVE_TOPIC], _encode(SOLVE_FIELDS, _solve_message(cols, count, self.inline_goals,
+                                                                              self.meta)))
+        if cols.get("solutions") is not None:
+            self._add(self._ch[SOLUTIONS_TOPIC], _encode(SOLUTION_FIELDS, _solution_message(cols, count)))
         if traces is not None and len(traces["problem_id"]):
-            self._add(self._trace, _encode(TRACE_FIELDS, _trace_message(traces, self.derive)))
-
-    def _flush(self) -> None:
-        if not self._pending:
-            return
-        recs = [s for s, _ in self._pending]
-        trs = [t for _, t in self._pending if t is not None]
-        self._pending = []
-        self._emit(_columns(recs), len(recs), _trace_columns(trs) if trs else None)
+            keep = self._keep(traces)
+            rows = np.asarray(traces["rows"], dtype=np.int64)
+            c = self._count
+            c["traces"] += len(rows)
+            c["stored"] += int(keep.sum())
+            c["rows"] += int(rows.sum())
+            c["rows_stored"] += int(rows[keep].sum())
+            self._add(self._ch[TRACE_TOPIC], _encode(TRACE_FIELDS, _trace_message(traces, keep)))
 
     def close(self) -> None:
-        self._flush()
+        c = self._count
+        self._w.add_metadata("traces", {"policy": self.policy.describe(), **{k: str(v) for k, v in c.items()}})
         self._w.finish()
         self._fh.close()
         os.replace(self.partial, self.path)
@@ -438,37 +490,16 @@ def _dumps(obj) -> bytes:
     return orjson.dumps(obj, option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
 
 
-def _columns(recs: list[dict]) -> dict:
-    """Per-solve records (:func:`solve_record`) -> the columns of one batch (as :func:`batch_columns`)."""
-    cols = {k: [r.get(k) for r in recs] for k in _RECORD_KEYS + _LABELS}
-    cols["goal_position"] = [[r["goal"]["position"][a] for a in "xyz"] for r in recs]
-    cols["goal_orientation"] = [[r["goal"]["orientation"][a] for a in "xyzw"] for r in recs]
-    cols["info"] = [r.get("info", {}) for r in recs]
-    if any("solutions" in r for r in recs):
-        cols["solutions"] = [r.get("solutions") for r in recs]
-    return cols
-
-
-def _trace_columns(trs: list[dict]) -> dict:
-    full = [np.column_stack([np.asarray(t["error"], dtype=float), np.asarray(t["error_vector"], dtype=float).reshape(-1, 6),
-                             np.asarray(t["position_error"], dtype=float)]) for t in trs]
-    return {"problem_id": np.array([t["problem_id"] for t in trs], dtype=np.int32),
-            "repetition": np.array([t.get("repetition", 0) for t in trs], dtype=np.int32),
-            "rows": np.array([len(f) for f in full], dtype=np.uint32), "full": np.concatenate(full)}
-
-
-_RECORD_KEYS = ("problem_id", "repetition", "chain", "success", "claimed_success", "stop_reason", "iterations",
-                "solve_time_s", "ik_time_s", "call_time_s", "within_limits", "initial_error", "final_error",
-                "position_error", "orientation_error", "q_start", "q_solution")
-
-
 def _ns(x) -> np.ndarray:
     """Seconds -> integer nanoseconds (non-finite or negative -> 0)."""
     x = np.nan_to_num(np.asarray(x, dtype=float) * 1e9, nan=0.0, posinf=0.0, neginf=0.0)
     return np.rint(np.maximum(x, 0.0)).astype("<u8")
 
 
-def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, meta: dict | None = None) -> dict:
+_LABELS = ("robot", "solver", "method", "length_unit")
+
+
+def _solve_message(cols: dict, count: int, inline_goals: bool, meta: dict | None = None) -> dict:
     """The fields of one ``SolveBatch`` from the columns of ``count`` solves."""
     import orjson
 
@@ -504,18 +535,8 @@ def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, met
         flags = flags | badg * F_NO_GOAL
         g = np.where(np.isfinite(g), g, 0.0)
         out["goal_position"], out["goal_orientation"] = g[:, :3], g[:, 3:]
-    if cols.get("solutions") is not None:
-        S, ns = _solutions_block(cols, count, n)  # (count, m * n) float64, counts (count,)
-        out["n_solutions"] = ns
-        if derive:  # CRC-32 of each solve's first k rows, straight from the array's buffer (= digest())
-            buf, w, rb = memoryview(S).cast("B"), S.shape[1] * 8, n * 8
-            out["solutions_digest"] = np.array([_crc32(buf[o:o + k * rb]) for o, k in zip(range(0, count * w, w),
-                                                                                          ns.tolist())], dtype="<u4")
-        else:
-            flags = flags | (ns > 0) * F_SOLUTIONS_STORED
-            rows = np.concatenate([S[i, : k * n] for i, k in enumerate(ns.tolist())]).reshape(-1, n)
-            if len(rows):
-                out["solutions"] = np.where(np.isfinite(rows), rows, 0.0)
+    if cols.get("n_solutions") is not None:
+        out["n_solutions"] = np.asarray(cols["n_solutions"], dtype="<i4")
     out["flags"] = flags.astype("<u4")
     out["info_json"] = orjson.dumps(list(cols["info"]), option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
     labels = {k: [cols[k]] * count if isinstance(cols[k], str) else [str(v) for v in cols[k]]
@@ -525,52 +546,50 @@ def _solve_message(cols: dict, count: int, derive: bool, inline_goals: bool, met
     return out
 
 
-_LABELS = ("robot", "solver", "method", "length_unit")
+def _solution_message(cols: dict, count: int) -> dict:
+    """The fields of one ``SolutionBatch``: every returned solution of ``count`` solves."""
+    S = np.asarray(cols["solutions"], dtype=float)
+    ns = np.asarray(cols["n_solutions"], dtype=np.int64)
+    n = S.shape[-1]
+    S = S.reshape(count, -1, n)
+    rows = S[np.arange(S.shape[1])[None, :] < ns[:, None]]  # (sum ns, n), solve by solve
+    bad = ~np.isfinite(rows)
+    out = {"problem_id": cols["problem_id"], "repetition": cols["repetition"], "count": ns.astype("<u4"),
+           "joints": np.array([n], dtype="<u4"), "solutions": np.where(bad, 0.0, rows)}
+    if bad.any():
+        out["absent"] = (bad * (1 << np.arange(n, dtype=np.uint64))).sum(axis=1).astype("<u8")
+    return out
 
 
-def _solutions_block(cols: dict, count: int, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """A batch's analytic solutions as one C-contiguous (count, m * n) float64 array and the counts:
-    the batch form of :func:`batch_columns` as it is, per-record lists (None = none) padded into it."""
-    sols = cols["solutions"]
-    if cols.get("n_solutions") is not None:
-        ns = np.asarray(cols["n_solutions"], dtype="<i4")
-        return np.ascontiguousarray(sols, dtype=_F8).reshape(count, -1), ns
-    ns = np.array([0 if x is None else len(x) for x in sols], dtype="<i4")
-    S = np.zeros((count, max(1, int(ns.max(initial=0))), n))
-    for i, x in enumerate(sols):
-        if ns[i]:
-            S[i, : ns[i]] = np.asarray(x, dtype=float).reshape(-1, n)
-    return S.reshape(count, -1), ns
-
-
-def _trace_message(tr: dict, derive: bool) -> dict:
-    """The fields of one ``TraceBatch``: digests only when ``derive``, else the stored rows."""
+def _trace_message(tr: dict, keep: np.ndarray) -> dict:
+    """The fields of one ``TraceBatch``: every trace's row count and digest, the kept traces' rows."""
     rows = np.asarray(tr["rows"], dtype=np.int64)
-    full = np.asarray(tr["full"], dtype=float).reshape(-1, 8)
-    n = len(rows)
-    out = {"problem_id": tr["problem_id"], "repetition": tr["repetition"], "rows": rows.astype("<u4")}
-    if derive:  # CRC-32 of each problem's rows, straight from the array's buffer (as digest() computes it)
-        off = (np.concatenate([[0], np.cumsum(rows)]) * 64).tolist()
-        buf = memoryview(np.ascontiguousarray(full, dtype=_F8)).cast("B")
-        out["digest"] = np.array([_crc32(buf[off[k]:off[k + 1]]) for k in range(n)], dtype="<u4")
-        out["stored"] = np.zeros(n, dtype="<u4")
-        return out
-    bad = ~np.isfinite(full)
-    clean = np.where(bad, 0.0, full)
-    out.update(digest=np.zeros(n, dtype="<u4"), stored=np.ones(n, dtype="<u4"), error=clean[:, 0],
-               position_error=clean[:, 7], error_vector=clean[:, 1:7].astype("<f4"),
-               absent=(bad * (1 << np.arange(8))).sum(axis=1).astype("<u4"))
+    full = np.ascontiguousarray(np.asarray(tr["full"], dtype=float).reshape(-1, TRACE_COLS), dtype=_F8)
+    off = np.concatenate([[0], np.cumsum(rows)])
+    b = (off * TRACE_COLS * 8).tolist()
+    buf = memoryview(full).cast("B")  # CRC-32 of each trace's rows, straight from the buffer (= digest())
+    out = {"problem_id": tr["problem_id"], "repetition": tr["repetition"], "rows": rows.astype("<u4"),
+           "digest": np.array([_crc32(buf[b[k]:b[k + 1]]) for k in range(len(rows))], dtype="<u4"),
+           "stored": keep.astype("<u4")}
+    if keep.any():
+        sel = full[np.repeat(keep, rows)]
+        bad = ~np.isfinite(sel)
+        clean = np.where(bad, 0.0, sel)
+        out.update(error=clean[:, 0], position_error=clean[:, 7], error_vector=clean[:, 1:7].astype("<f4"))
+        if bad.any():
+            out["absent"] = (bad * (1 << np.arange(TRACE_COLS))).sum(axis=1).astype("<u4")
     return out
 
 
 def batch_columns(problem_id, repetition, chain, robot: str, solver: str, length_unit: str, q_start,
                   goal_position, goal_quat_wxyz, res, *, method: str = "", start_from_file=None) -> tuple[dict, dict | None]:
-    """Columns and traces of N solves from a :class:`pipeline.solvers.BatchResult` (for :meth:`ArchiveWriter.write_columns`).
+    """Columns and traces of N solves from a batch result (for :meth:`ArchiveWriter.write_columns`).
 
-    ``goal_position`` (N, 3) must be in ``length_unit``; ``goal_quat_wxyz`` (N, 4).
+    ``res`` is a :class:`pipeline.solvers.BatchResult` (read by its fields only: this module does not
+    import the solvers). ``goal_position`` (N, 3) must be in ``length_unit``; ``goal_quat_wxyz`` (N, 4).
     ``start_from_file`` (N,) bool: the start is the problem file's (not stored when the archive
-    names its problem file). ``robot``, ``solver`` and ``method`` are the metadata's (kept for the
-    caller's convenience; format 4 stores them once, in the metadata).
+    names its problem file). ``robot``, ``solver`` and ``method`` are the metadata's (stored per
+    solve only where they differ from it).
     """
     n = len(res)
     problem_id = np.asarray(problem_id, dtype=np.int64)
@@ -597,58 +616,42 @@ def batch_columns(problem_id, repetition, chain, robot: str, solver: str, length
         cols["initial_error"] = res.trace_rows[off[:-1], 0]
         cols["final_error"] = res.trace_rows[off[1:] - 1, 0]
         traces = {"problem_id": problem_id.astype(np.int32), "repetition": cols["repetition"].astype(np.int32),
-                  "rows": np.diff(off).astype(np.uint32), "full": res.trace_rows[:, :8]}
+                  "rows": np.diff(off).astype(np.uint32), "full": res.trace_rows[:, :TRACE_COLS]}
     return cols, traces
 
 
-def solve_record(problem_id: int, robot: str, solver: str, length_unit: str, q_start, goal_position, goal_quat,
-                 result, *, method: str = "", repetition: int = 0, chain: int = -1) -> tuple[dict, dict]:
-    """Encode one :class:`pipeline.solvers.IKResult` as (solve record, trace record).
+def goal_from_record(goal: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of the goal encoding of a record: (position (3,), quaternion w-first (4,))."""
+    p, o = goal["position"], goal["orientation"]
+    return np.array([p["x"], p["y"], p["z"]]), np.array([o["w"], o["x"], o["y"], o["z"]])
 
-    ``goal_position`` must be in ``length_unit`` (the result's unit).
-    """
-    tr = result.trace
-    solve = {
-        "problem_id": int(problem_id), "repetition": int(repetition), "chain": int(chain), "robot": robot,
-        "solver": solver, "method": method,
-        "success": bool(result.success), "claimed_success": bool(result.claimed_success),
-        "stop_reason": int(result.stop_reason), "iterations": int(result.iterations),
-        "solve_time_s": float(result.solve_time_s), "ik_time_s": float(result.ik_time_s),
-        "call_time_s": float(getattr(result, "call_time_s", float("nan"))),
-        "within_limits": bool(getattr(result, "within_limits", True)),
-        "initial_error": float(tr[0, 0]), "final_error": float(tr[-1, 0]),
-        "position_error": float(result.position_error), "orientation_error": float(result.orientation_error),
-        "length_unit": length_unit,
-        "q_start": [float(v) for v in q_start], "q_solution": [float(v) for v in result.q],
-        "goal": _goal(goal_position, goal_quat),
-        "info": {k: (v if isinstance(v, (bool, int, str)) or v is None else float(v))
-                 for k, v in (getattr(result, "info", None) or {}).items()},
-    }
-    sols = getattr(result, "solutions", None)
-    if sols is not None:
-        solve["solutions"] = np.asarray(sols, dtype=float).tolist()
-    trace = {"problem_id": int(problem_id), "repetition": int(repetition), "error": tr[:, 0].tolist(),
-             "error_vector": tr[:, 1:7].tolist(), "position_error": tr[:, 7].tolist()}
-    return solve, trace
+
+def decode(topic: str, data: bytes) -> dict[str, np.ndarray]:
+    """One protobuf message of ``topic`` as its fields (numpy arrays; string fields as bytes)."""
+    return _decode(MESSAGES[topic][1], data)
 
 
 @dataclass
 class Archive:
-    """An archive read back: metadata and the per-problem solve records (traces on demand).
+    """An archive read back: metadata and one record per solve; traces and solutions read on demand.
 
-    Format 4 records carry the goal and start from the problem file; traces and analytic solutions
-    that were not stored are re-derived by :func:`derive` when asked for (:meth:`traces`,
-    :meth:`solutions`) and checked against the archived digests.
+    Attributes
+    ----------
+    metadata : dict[str, str]
+        The ``run`` record.
+    solves : list[dict]
+        One record per solve (goal and start from the problem file).
+    trace_summary : dict[str, str]
+        The ``traces`` record: policy and counts of traces and stored traces.
     """
 
     path: Path
     metadata: dict[str, str]
     solves: list[dict]
+    trace_summary: dict = field(default_factory=dict)
     _trace_index: dict | None = None
-    _derived: dict | None = None
+    _solutions: dict | None = None
     _by_key: dict | None = None
-    robot_file: str | Path | None = None  # where to find the robot for re-derivation (default: metadata)
-    problem_file: str | Path | None = None  # the problem set, when not where the metadata says
 
     def frame(self):
         """Solve records as a pandas DataFrame (vectors kept as lists; private ``_`` keys left out)."""
@@ -662,21 +665,14 @@ class Archive:
         for _, _, msg in _iter_messages(self.path, [topic]):
             yield _loads(msg.data, self.path, topic, msg.sequence)
 
-    def _index(self) -> dict:
-        """(problem_id, repetition) -> (rows, digest, stored rows as a (m, 8) array or None)."""
+    def trace_index(self) -> dict:
+        """``(problem_id, repetition) -> (rows, digest, stored rows as a (rows, 8) float64 array or None)``."""
         if self._trace_index is not None:
             return self._trace_index
         idx = {}
-        version = self.metadata.get("format_version")
         for _, _, msg in _iter_messages(self.path, [TRACE_TOPIC]):
-            if version == "2":
-                rec = _loads(msg.data, self.path, TRACE_TOPIC, msg.sequence)
-                full = np.column_stack([np.asarray(rec["error"], float), np.asarray(rec["error_vector"], float).reshape(-1, 6),
-                                        np.asarray(rec["position_error"], float)])
-                idx[(int(rec["problem_id"]), int(rec.get("repetition", 0)))] = (len(full), 0, full)
-                continue
             try:
-                bt = decode_trace_batch(msg.data, version)
+                bt = _trace_batch(msg.data)
             except ValueError as exc:
                 raise ArchiveError(f"{self.path}: message {msg.sequence} on {TRACE_TOPIC}: {exc}") from None
             lo = 0
@@ -687,12 +683,16 @@ class Archive:
                     full = np.column_stack([bt["error"][lo:lo + rows], bt["error_vector"][lo:lo + rows].astype(float),
                                             bt["position_error"][lo:lo + rows]])
                     if len(bt["absent"]):
-                        mask = (bt["absent"][lo:lo + rows, None] >> np.arange(8)) & 1
+                        mask = (bt["absent"][lo:lo + rows, None] >> np.arange(TRACE_COLS)) & 1
                         full[mask.astype(bool)] = np.nan
                     lo += rows
                 idx[(pid, int(bt["repetition"][k]))] = (rows, int(bt["digest"][k]), full)
         self._trace_index = idx
         return idx
+
+    def stored_traces(self) -> set[tuple[int, int]]:
+        """The ``(problem_id, repetition)`` keys whose trace rows this archive holds."""
+        return {k for k, v in self.trace_index().items() if v[2] is not None}
 
     def records(self) -> dict:
         """``(problem_id, repetition) -> solve record``."""
@@ -700,39 +700,87 @@ class Archive:
             self._by_key = {(r["problem_id"], r.get("repetition", 0)): r for r in self.solves}
         return self._by_key
 
-    def derived(self, keys: list[tuple[int, int]]) -> dict:
-        """``(problem_id, repetition) -> (trace rows, solutions)`` for ``keys``, re-derived (and checked)
-        in one re-run of those not derived yet (:func:`derive`); kept for later calls."""
-        if self._derived is None:
-            self._derived = {}
-        todo = [k for k in keys if k not in self._derived]
-        if todo:
-            self._derived.update(derive(self, todo))
-        return self._derived
-
     def traces(self, problem_ids=None) -> Iterator[dict]:
-        """Yield trace records ``{problem_id, repetition, error, error_vector, position_error}`` (lists),
-        optionally only for ``problem_ids``; traces that were not stored are re-derived (:func:`derive`)."""
-        wanted = None if problem_ids is None else {int(p) for p in np.atleast_1d(problem_ids)}
-        idx = self._index()
-        keys = [k for k in idx if wanted is None or k[0] in wanted]
-        need = [k for k in keys if idx[k][2] is None]
-        got = self.derived(need) if need else {}
+        """Yield stored trace records ``{problem_id, repetition, error, error_vector, position_error}`` (lists).
+
+        Without ``problem_ids``: every stored trace. With them: the traces of those problems, and a
+        :class:`TraceNotStored` error for one whose trace the archive does not hold (never a re-run).
+        """
+        idx = self.trace_index()
+        if problem_ids is None:
+            keys = [k for k, v in idx.items() if v[2] is not None]
+        else:
+            wanted = {int(p) for p in np.atleast_1d(problem_ids)}
+            keys = [k for k in idx if k[0] in wanted]
+            for k in keys:
+                if idx[k][2] is None:
+                    raise self.not_stored(k[0], k[1])
         for k in keys:
-            full = idx[k][2] if idx[k][2] is not None else got[k][0]
+            full = idx[k][2]
             yield {"problem_id": k[0], "repetition": k[1], "error": full[:, 0].tolist(),
                    "error_vector": full[:, 1:7].tolist(), "position_error": full[:, 7].tolist()}
 
+    def not_stored(self, problem_id: int, repetition: int = 0) -> TraceNotStored:
+        """The one-line answer for a trace this archive does not hold."""
+        s = self.trace_summary
+        held = f"it holds {s.get('stored', '?')} of {s.get('traces', '?')} traces: {s.get('policy', 'unknown policy')}"
+        return TraceNotStored(f"{self.path}: problem {problem_id} (repetition {repetition}): trace not stored ({held}); "
+                              f"`python -m pipeline reproduce {self.path} --problem {problem_id}` re-runs it")
+
     def solutions(self, problem_id: int, repetition: int = 0) -> list | None:
-        """Every solution an analytic method returned for one solve (stored or re-derived); None for other methods."""
-        rec = self.records().get((int(problem_id), int(repetition)))
-        if rec is None:
+        """Every solution an analytic method returned for one solve (rows of joint values); None for other methods."""
+        key = (int(problem_id), int(repetition))
+        if key not in self.records():
             raise ArchiveError(f"{self.path}: problem {problem_id} (repetition {repetition}) is not in the archive")
-        if rec.get("solutions") is not None:
-            return rec["solutions"]
-        if rec.get("_n_solutions") is None:
-            return None
-        return self.derived([(int(problem_id), 0)])[(int(problem_id), 0)][1]
+        if self._solutions is None:
+            out = {}
+            for _, _, msg in _iter_messages(self.path, [SOLUTIONS_TOPIC]):
+                try:
+                    b = _solution_batch(msg.data)
+                except ValueError as exc:
+                    raise ArchiveError(f"{self.path}: message {msg.sequence} on {SOLUTIONS_TOPIC}: {exc}") from None
+                lo = 0
+                for p, r, c in zip(b["problem_id"].tolist(), b["repetition"].tolist(), b["count"].tolist()):
+                    out[(p, r)] = b["rows"][lo:lo + c].tolist()
+                    lo += c
+            self._solutions = out
+        return self._solutions.get(key)
+
+
+def _trace_batch(data: bytes) -> dict[str, np.ndarray]:
+    """One ``TraceBatch`` decoded and checked; ``error_vector`` shaped (m, 6)."""
+    out = _decode(TRACE_FIELDS, data)
+    n = len(out["problem_id"])
+    for k in ("repetition", "rows", "digest", "stored"):
+        if len(out[k]) != n:
+            raise ValueError(f"field '{k}' holds {len(out[k])} values for {n} traces")
+    if np.any(out["stored"] > 1):
+        raise ValueError("field 'stored' holds a value other than 0 and 1")
+    m = int(out["rows"][out["stored"] == 1].sum())
+    if len(out["error"]) != m or len(out["position_error"]) != m or len(out["error_vector"]) != 6 * m:
+        raise ValueError(f"row fields do not hold the {m} rows the stored traces promise")
+    if len(out["absent"]) not in (0, m):
+        raise ValueError(f"field 'absent' holds {len(out['absent'])} values for {m} rows")
+    out["error_vector"] = out["error_vector"].reshape(m, 6)
+    return out
+
+
+def _solution_batch(data: bytes) -> dict[str, np.ndarray]:
+    """One ``SolutionBatch`` decoded and checked; ``rows`` (sum of counts, joints), NaN where absent."""
+    b = _decode(SOLUTION_FIELDS, data)
+    n = len(b["problem_id"])
+    if len(b["repetition"]) != n or len(b["count"]) != n:
+        raise ValueError("fields 'problem_id', 'repetition' and 'count' differ in length")
+    if len(b["joints"]) != 1 or b["joints"][0] < 1:
+        raise ValueError("field 'joints' is not one positive value")
+    j, m = int(b["joints"][0]), int(b["count"].sum())
+    if len(b["solutions"]) != m * j or len(b["absent"]) not in (0, m):
+        raise ValueError(f"field 'solutions' holds {len(b['solutions'])} values, the counts promise {m * j}")
+    rows = b["solutions"].reshape(m, j).astype(float)
+    if len(b["absent"]):
+        rows[((b["absent"][:, None] >> np.arange(j, dtype=np.uint64)) & 1).astype(bool)] = np.nan
+    b["rows"] = rows
+    return b
 
 
 def _loads(data: bytes, path, topic: str, seq: int):
@@ -758,45 +806,8 @@ def _iter_messages(path: Path, topics):
         raise ArchiveError(f"{path}: corrupt archive ({type(exc).__name__}: {exc})") from None
 
 
-_FLOAT_COLS = [k for k, (_, kind) in SOLVE_COLUMNS.items() if kind == "f"]
-
-
-def _expand(batch, path: Path, seq: int) -> list[dict]:
-    """One ``SolveBatch`` message -> per-solve records (the version-2 record layout)."""
-    where = f"{path}: message {seq} on {SOLVE_TOPIC}"
-    if not isinstance(batch, dict) or not isinstance(batch.get("count"), int) or batch["count"] < 0:
-        raise ArchiveError(f"{where}: not a SolveBatch (no 'count')")
-    n = batch["count"]
-    for k in SOLVE_SCHEMA["required"][1:] + (["solutions"] if "solutions" in batch else []):
-        v = batch.get(k)
-        if not isinstance(v, list) or len(v) != n:
-            got = "missing" if v is None else f"{len(v) if isinstance(v, list) else type(v).__name__} values"
-            raise ArchiveError(f"{where}: column '{k}' {got}, count is {n}")
-    nan = math.nan
-    for k in _FLOAT_COLS:
-        col = batch[k]
-        if None in col:
-            batch[k] = [nan if v is None else v for v in col]
-    for k in ("q_start", "q_solution"):
-        batch[k] = [[nan if v is None else v for v in row] if None in row else row for row in batch[k]]
-    gp, go = batch["goal_position"], batch["goal_orientation"]
-    sols = batch.get("solutions")
-    keys = [k for k in SOLVE_COLUMNS if k not in ("goal_position", "goal_orientation", "solutions")]
-    cols = [batch[k] for k in keys]
-    out = []
-    for i in range(n):
-        rec = {k: c[i] for k, c in zip(keys, cols)}
-        p, o = gp[i], go[i]
-        rec["goal"] = {"position": {"x": p[0], "y": p[1], "z": p[2]},
-                       "orientation": {"x": o[0], "y": o[1], "z": o[2], "w": o[3]}}
-        if sols is not None and sols[i] is not None:
-            rec["solutions"] = sols[i]
-        out.append(rec)
-    return out
-
-
-def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[dict]:
-    """One format-4 ``SolveBatch`` message -> per-solve records (the version-2 record layout)."""
+def _expand(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[dict]:
+    """One ``SolveBatch`` message -> per-solve records."""
     import orjson
 
     where = f"{path}: message {seq} on {SOLVE_TOPIC}"
@@ -853,16 +864,8 @@ def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[
     for i in np.flatnonzero((flags & F_NO_START) != 0):
         q_start[i] = [math.nan] * j
     ns = b["n_solutions"]
-    if len(ns) not in (0, n) or (len(ns) and len(b["solutions_digest"]) not in (0, n)):
-        raise ArchiveError(f"{where}: fields 'n_solutions' / 'solutions_digest' do not hold one value per solve")
-    stored = (flags & F_SOLUTIONS_STORED) != 0
-    sols = None
-    if len(ns):
-        want = int(ns[stored].sum()) * j
-        if len(b["solutions"]) != want:
-            raise ArchiveError(f"{where}: field 'solutions' holds {len(b['solutions'])} values, n_solutions promises {want}")
-        S = iter(np.split(b["solutions"].reshape(-1, j), np.cumsum(ns[stored])[:-1]) if stored.any() else [])
-        sols = [next(S).tolist() if stored[i] else None for i in range(n)]
+    if len(ns) not in (0, n):
+        raise ArchiveError(f"{where}: field 'n_solutions' does not hold one value per solve")
     fixed = {k: meta.get(k, "") for k in _LABELS}
     labels = None
     if b["labels_json"]:
@@ -879,6 +882,7 @@ def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[
     rep, ch, sr, it = b["repetition"].tolist(), b["chain"].tolist(), b["stop_reason"].tolist(), b["iterations"].tolist()
     fl = flags.tolist()
     ql = q.tolist()
+    nsl = ns.tolist() if len(ns) else None
     out = []
     for i in range(n):
         f = fl[i]
@@ -893,12 +897,8 @@ def _expand_v4(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[
                "goal": {"position": {"x": g[0], "y": g[1], "z": g[2]},
                         "orientation": {"x": o[0], "y": o[1], "z": o[2], "w": o[3]}},
                "info": info[i]}
-        if sols is not None:
-            rec["_n_solutions"] = int(ns[i])  # private keys (not in frame()): what derive() checks
-            if sols[i] is not None:
-                rec["solutions"] = sols[i]
-            else:
-                rec["_solutions_digest"] = int(b["solutions_digest"][i]) if len(b["solutions_digest"]) else 0
+        if nsl is not None:
+            rec["_n_solutions"] = nsl[i]  # private key (not in frame()): solutions on /ik/solutions
         out.append(rec)
     return out
 
@@ -916,8 +916,8 @@ def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
     if not rel:
         return None
     from pipeline.io.problems import ProblemFileError, read_problems
+    from pipeline.provenance import file_sha256
     from pipeline.robots import LENGTH_UNITS
-    from pipeline.settings import file_sha256
 
     pf = Path(given).resolve() if given else (path.parent / rel).resolve()
     if not pf.is_file():
@@ -929,11 +929,12 @@ def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
     key = (str(pf), st.st_mtime_ns, st.st_size)
     hit = _PROBLEM_CACHE.get(key)
     if hit is None:
-        sha = file_sha256(pf)
         try:
+            sha = file_sha256(pf)
             ps, _ = read_problems(pf)
-        except ProblemFileError as exc:
-            raise ArchiveError(f"{path}: metadata field 'problem_path': {exc}") from None
+        except (ProblemFileError, OSError, EOFError, ValueError) as exc:  # gzip errors are OSError / EOFError
+            raise ArchiveError(f"{path}: metadata field 'problem_path': {pf}: unreadable problem file "
+                               f"({type(exc).__name__}: {exc})") from None
         hit = _PROBLEM_CACHE[key] = (sha, ps, {int(p): i for i, p in enumerate(ps.problem_id.tolist())})
     sha, ps, rows = hit
     want = meta.get("problem_sha256", "")
@@ -946,125 +947,9 @@ def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
     return rows, ps, LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[unit]
 
 
-def derive(arch: Archive, keys: list[tuple[int, int]]) -> dict:
-    """Re-run solves of an archive and check them against its digests.
-
-    The solves are re-run exactly as the job ran them (registered method and settings from the
-    metadata, the robot file, the problem file's goal, the archived start, the problem's seed),
-    through :func:`pipeline.runner.solve_set_batches`; each re-run trace (float64 rows) and
-    analytic solution set must have the archived CRC-32 and the re-run ``q_solution``
-    must equal the archived one bit for bit.
-
-    Returns
-    -------
-    dict
-        ``(problem_id, repetition) -> (trace rows (m, 8) float64, solutions list or None)``.
-
-    Raises
-    ------
-    ArchiveError
-        One line: what is missing (robot file, problem file, method) or which problem's re-run
-        differs from the archive (written by another version of the code).
-    """
-    from dataclasses import replace
-
-    from pipeline.robots import RobotFileError, load_robot
-    from pipeline.runner import solve_set_batches
-    from pipeline.settings import file_sha256
-
-    meta, path = arch.metadata, arch.path
-    probs = _problems_of(path, meta, arch.problem_file)
-    if probs is None:
-        raise ArchiveError(f"{path}: traces not stored and no problem file to re-derive them from")
-    rows, ps, _ = probs
-    from pipeline.replay import ReplayError, settings_from_archive
-
-    try:
-        method, settings = settings_from_archive(meta, str(path))
-    except ReplayError as exc:
-        raise ArchiveError(str(exc)) from None
-    if arch.robot_file:  # given by the caller
-        tries = [Path(arch.robot_file)]
-    else:  # next to the archive as written, as named (from the project folder), the project's catalogue
-        tries = [path.parent / meta.get("robot_path", ""), Path(meta.get("robot_file", "")),
-                 Path("data") / "robots" / f"{meta['robot']}.yaml"]
-        tries = [t for t in tries if t.suffix in (".yaml", ".yml")]
-    rf = next((t for t in tries if t.is_file()), tries[0])
-    if not rf.is_file():
-        raise ArchiveError(f"{path}: metadata field 'robot_file': {rf} not found (run from the project folder, "
-                           f"or give the robot file with --robot FILE): needed to re-derive traces")
-    if meta.get("robot_sha256") and not file_sha256(rf).startswith(meta["robot_sha256"]):
-        raise ArchiveError(f"{path}: metadata field 'robot_sha256': {rf} changed since the archive was written")
-    try:
-        model = load_robot(rf)
-    except RobotFileError as exc:
-        raise ArchiveError(f"{path}: cannot re-derive: {exc}") from None
-    by_key = arch.records()
-    idx = arch._index()
-    keys = sorted(set(keys))
-    missing = [k for k in keys if k not in by_key]
-    if missing:
-        raise ArchiveError(f"{path}: problem {missing[0][0]} (repetition {missing[0][1]}) is not in the archive")
-    sel = [rows[k[0]] for k in keys]
-    sub = ps.take(sel)
-    sub = replace(sub, q_start=np.array([by_key[k]["q_start"] for k in keys], dtype=float).reshape(len(keys), -1),
-                  chain=np.full(len(keys), -1))
-    if meta.get("derive") == "fk":
-        return _derive_by_fk(arch, keys, by_key, idx, model, method, settings, sub)
-    seed = int(meta["seed"]) if str(meta.get("seed", "")).lstrip("-").isdigit() else 0
-    out = {}
-    i = 0
-    for _, _, _, res in solve_set_batches(method, settings, model, sub, set_seed=seed):
-        for k in range(len(res)):
-            key, rec = keys[i], by_key[keys[i]]
-            i += 1
-            full = res.trace(k)[:, :8] if res.trace_rows is not None else None
-            n_rows, dig, _ = idx.get(key, (0, 0, None))
-            sols = None
-            if res.solutions is not None:
-                sols = res.solutions[k, : int(res.n_solutions[k])]
-            why = None
-            q_arch = np.asarray(rec["q_solution"], dtype=float)
-            if not np.array_equal(res.q[k], q_arch, equal_nan=True):
-                why = "the re-run returns other joint values"
-            elif key in idx and (full is None or len(full) != n_rows or digest(full) != dig):
-                why = "the re-run trace differs from the archived digest"
-            elif "_solutions_digest" in rec and (sols is None or digest(sols) != rec["_solutions_digest"]):
-                why = "the re-run solutions differ from the archived digest"
-            if why:
-                raise ArchiveError(f"{path}: problem {key[0]}: {why} (archive written by commit "
-                                   f"{meta.get('git_commit', '?')[:12]}, package {meta.get('package_version', '?')}); "
-                                   f"its traces cannot be re-derived by this version")
-            out[key] = (full, None if sols is None else sols.tolist())
-    return out
-
-
-def _derive_by_fk(arch: Archive, keys, by_key, idx, model, method: str, settings, sub) -> dict:
-    """:func:`derive` for peer solves (``derive: fk``): each trace recomputed from the record by this
-    package's FK (:func:`pipeline.solvers.peers.trace_from_record`), units as the solve job had them."""
-    from pipeline.runner import model_goals
-    from pipeline.solvers.base import Prepared
-    from pipeline.solvers.peers import trace_from_record
-
-    prep = Prepared(model, settings.length_unit)
-    T = model_goals(sub, model)
-    prism = np.asarray(prep.prismatic, dtype=bool)
-    out = {}
-    for i, key in enumerate(keys):
-        rec = by_key[key]
-        q0 = np.array(rec["q_start"], dtype=float)
-        q = np.array(rec["q_solution"], dtype=float)
-        if prep.goal_scale != 1.0 and prism.any():
-            q0[prism] *= prep.goal_scale
-            q[prism] *= prep.goal_scale
-        n_rows, dig, _ = idx.get(key, (0, 0, None))
-        full = trace_from_record(method, prep, prep.working_goal(T[i]), q0, q, rec["iterations"],
-                                 rec["position_error"])
-        if key in idx and (len(full) != n_rows or digest(full) != dig):
-            raise ArchiveError(f"{arch.path}: problem {key[0]}: the trace recomputed from the record differs from the "
-                               f"archived digest (archive written by commit {arch.metadata.get('git_commit', '?')[:12]})")
-        out[key] = (full, None)
-    return out
+def problems_of(arch: "Archive", given: str | Path | None = None):
+    """The problem set an archive names, checked: ``(problem id -> row, ProblemSet, goal length scale)`` or None."""
+    return _problems_of(arch.path, arch.metadata, given)
 
 
 _MAGIC = b"\x89MCAP0\r\n"
@@ -1122,16 +1007,16 @@ def archive_metadata(path: str | Path) -> dict[str, str]:
 
 
 def read_archive(path: str | Path, problems: str | Path | None = None) -> Archive:
-    """Read and check one archive (format 4, or 3 and 2 written before).
+    """Read and check one archive (format 5).
 
     ``problems``: the archive's problem set when it is not where the metadata's ``problem_path``
     says (an archive copied out of its results tree); its SHA-256 is checked all the same.
 
     Checks: the MCAP magic, the data-section and summary CRCs (:func:`check_file_crcs`), chunk
-    CRCs, a summary section (the writer finished), the ``run``
-    metadata and its required fields, every ``/ik/solve`` message against its schema (columns of
-    ``count`` values), and the number of solve records against the metadata's problem count
-    (``problems`` x ``repetitions``), so that a damaged file never reads as fewer solves.
+    CRCs, a summary section (the writer finished), the ``run`` metadata and its required fields,
+    the format version, every ``/ik/solve`` message against its schema, and the number of solve
+    records against the metadata's problem count (``problems`` x ``repetitions``), so that a
+    damaged file never reads as fewer solves. Traces and solutions are checked when first read.
 
     Raises
     ------
@@ -1149,43 +1034,39 @@ def read_archive(path: str | Path, problems: str | Path | None = None) -> Archiv
                 raise ArchiveError(f"{path}: not an MCAP file (bad magic)")
         has_data_crc = check_file_crcs(path)
         with open(path, "rb") as fh:
-            fh.seek(0)
             reader = make_reader(fh, validate_crcs=True)  # chunk CRCs checked on every read
             summary = reader.get_summary()
             if summary is None:
                 raise ArchiveError(f"{path}: truncated archive (no summary section; the job did not finish)")
-            meta = None
+            meta, traces = None, {}
             for rec in reader.iter_metadata():
                 if rec.name == "run":
                     meta = dict(rec.metadata)
+                elif rec.name == "traces":
+                    traces = dict(rec.metadata)
     except ArchiveError:
         raise
     except Exception as exc:
         raise ArchiveError(f"{path}: corrupt or truncated archive ({type(exc).__name__}: {exc})") from None
     if meta is None:
         raise ArchiveError(f"{path}: not an ik-pipeline archive (no 'run' metadata record)")
+    version = meta.get("format_version")
+    if version is not None and version != FORMAT_VERSION:
+        raise ArchiveError(f"{path}: metadata field 'format_version' is {version!r} (written by ik-pipeline "
+                           f"{meta.get('package_version', '?')}, commit {meta.get('git_commit', '?')[:12]}); this version "
+                           f"reads format {FORMAT_VERSION} only: rebuild it (snakemake) or read it with that version")
     for key in REQUIRED_META:
         if key not in meta:
             raise ArchiveError(f"{path}: metadata field '{key}' missing")
-    if meta["format_version"] not in READABLE_VERSIONS:
-        raise ArchiveError(f"{path}: metadata field 'format_version' is {meta['format_version']!r}, this version "
-                           f"reads {', '.join(READABLE_VERSIONS[:-1])} and {READABLE_VERSIONS[-1]}")
-    if meta["format_version"] in ("3", "4") and not has_data_crc:
-        raise ArchiveError(f"{path}: no data-section CRC (every format-{meta['format_version']} archive has one): "
+    if not has_data_crc:
+        raise ArchiveError(f"{path}: no data-section CRC (every format-{FORMAT_VERSION} archive has one): "
                            f"not written by this package")
     solves: list[dict] = []
-    problem_set = _problems_of(path, meta, problems) if meta["format_version"] == "4" else None
+    problem_set = _problems_of(path, meta, problems)
     for _, _, msg in _iter_messages(path, [SOLVE_TOPIC]):
-        if meta["format_version"] == "4":
-            solves.extend(_expand_v4(msg.data, meta, path, msg.sequence, problem_set))
-            continue
-        data = _loads(msg.data, path, SOLVE_TOPIC, msg.sequence)
-        if meta["format_version"] == "2":
-            solves.append(data)
-        else:
-            solves.extend(_expand(data, path, msg.sequence))
+        solves.extend(_expand(msg.data, meta, path, msg.sequence, problem_set))
     probs, reps = str(meta.get("problems", "")), str(meta.get("repetitions", "1") or "1")
     if probs.isdigit() and reps.isdigit() and len(solves) != int(probs) * int(reps):
         raise ArchiveError(f"{path}: {len(solves)} solve records, metadata field 'problems' promises "
                            f"{int(probs) * int(reps)}")
-    return Archive(path, meta, solves, problem_file=problems)
+    return Archive(path, meta, solves, traces)

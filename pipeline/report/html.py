@@ -27,7 +27,7 @@ import yaml
 import pipeline
 from pipeline.provenance import environment
 from pipeline.settings import Study, git_commit
-from pipeline.verify import INPUTS_DIGEST, REPORT_DIGEST, inputs_digest, seal_report
+from pipeline.report.seal import INPUTS_DIGEST, REPORT_DIGEST, inputs_digest, seal_report
 
 TEMPLATES = Path(__file__).parent / "templates"
 

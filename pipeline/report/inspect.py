@@ -36,7 +36,7 @@ class InspectError(ValueError):
 
 
 def _stop_texts() -> dict[int, str]:
-    from pipeline.solvers import STOP_REASONS
+    from pipeline.io.layout import STOP_REASONS
 
     return STOP_REASONS
 
@@ -196,20 +196,24 @@ def problem_view(arch: Archive, problem: int) -> list[str]:
     if info:
         lines.append("  info: " + ", ".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
                                             for k, v in info.items()))
-    sols = arch.solutions(problem, r.get("repetition", 0))  # stored, or re-derived and checked
+    sols = arch.solutions(problem, r.get("repetition", 0))
     if sols is not None:
-        how = "stored" if r.get("solutions") is not None else "re-derived from the archive, checked against its digest"
-        lines.append(f"  analytic solutions: {len(sols)} [count] ({how}):")
+        lines.append(f"  analytic solutions: {len(sols)} [count]:")
         lines += [f"    {k + 1}: {_joints(q)}" for k, q in enumerate(sols)]
     if len(recs) > 1:
         t = np.array([x.get("solve_time_s", math.nan) for x in recs]) * 1e3
         lines.append(f"  repetitions: {len(recs)} [count], solve time p50 {_g(_pct(t, [50])[0])} ms, "
                      f"successes {sum(bool(x['success']) for x in recs)} [count] "
                      f"(shown: repetition {r.get('repetition', 0)})")
-    tr = next(arch.traces([problem]), None)
-    if tr is None:
+    key = (int(problem), int(r.get("repetition", 0)))
+    held = arch.trace_index().get(key) or arch.trace_index().get((key[0], 0))
+    if held is None:
         lines.append("  trace: none archived")
         return lines
+    if held[2] is None:
+        lines.append(f"  trace: {held[0]} rows, not stored ({str(arch.not_stored(*key)).split(': ', 1)[1]})")
+        return lines
+    tr = next(arch.traces([problem]))
     e, dp = tr["error"], tr["position_error"]
     ev = np.asarray(tr["error_vector"], dtype=float).reshape(-1, 6)
     m = len(e)
@@ -254,10 +258,7 @@ def write_csv(arch: Archive, out: str) -> int:
     n = max((len(r["q_start"]) for r in recs), default=0)
     info_keys = sorted({k for r in recs for k, v in (r.get("info") or {}).items()
                         if v is None or isinstance(v, (bool, int, float, str))})
-    any_sol = any(r.get("solutions") is not None or r.get("_n_solutions") is not None for r in recs)
-    if any_sol:  # re-derive every analytic solution set in one batch (checked against the digests)
-        arch.derived([(r["problem_id"], 0) for r in recs if r.get("_n_solutions") is not None
-                      and r.get("solutions") is None])
+    any_sol = any(r.get("_n_solutions") is not None for r in recs)
     header = ([k + (f"_{unit}" if u == "L" else u) for k, u in _SCALARS] + ["length_unit"]
               + [f"q_start_{j}" for j in range(1, n + 1)] + [f"q_solution_{j}" for j in range(1, n + 1)]
               + [f"goal_{a}_{unit}" for a in "xyz"] + [f"goal_q{a}" for a in "xyzw"]

@@ -205,8 +205,12 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
 
     want = study.settings.get("fig19_solver", "sdls")
     g = ok[ok["solver"] == want]
+    med = g["iterations"].median()
+    # among the problems whose traces the archives store (their trace policy: an evenly spaced sample)
+    held = {str(a.path): {k[0] for k in a.stored_traces()} for a in archives if str(a.path) in set(g["archive"])}
+    g = g[[int(p) in held.get(a, ()) for a, p in zip(g["archive"], g["problem_id"])]]
     if len(g):
-        pick = g.iloc[(g["iterations"] - g["iterations"].median()).abs().argsort().iloc[0]]
+        pick = g.iloc[(g["iterations"] - med).abs().argsort().iloc[0]]
         arch = next(a for a in archives if str(a.path) == pick["archive"])
         e = np.asarray(next(arch.traces([pick["problem_id"]]))["error_vector"])
         fig, ax = plt.subplots(figsize=(7, 3.8))
@@ -220,7 +224,8 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
         figs.append(FigureSpec(save(fig, out_dir, "fig19_error_trace"),
                                f"Figure 19 — error components vs iteration ({LABEL.get(want, want)}, problem {int(pick['problem_id'])})",
                                "The six components of the error vector for the successful problem whose iteration "
-                               "count is closest to the method's median."))
+                               "count is closest to the method's median, among the problems whose traces the archive "
+                               "stores (an evenly spaced sample of the set; trace_policy)."))
 
     bars = [("fig20_mean_iterations", "Figure 20 — mean iterations per method", ok.groupby("method")["iterations"].mean(), "iterations", 1.0),
             ("fig21_mean_ik_time", "Figure 21 — mean IK-block time per iteration", (ok["ik_time_s"] / ok["iterations"].clip(lower=1)).groupby(ok["method"]).mean(), "IK-block time [µs]", 1e6),

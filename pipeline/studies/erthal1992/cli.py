@@ -15,7 +15,7 @@ from pathlib import Path
 
 
 def _cli_error(exc):
-    from pipeline.cli import CLIError
+    from pipeline.errors import UsageError as CLIError
 
     return CLIError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
 

@@ -15,18 +15,14 @@ Settings angles are degrees (revolute joints) and lengths mm, converted here.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
-import pipeline
-from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter
+from pipeline.io.archive import ArchiveWriter, run_metadata
 from pipeline.kinematics import fk_htm
 from pipeline.robots import RobotModel, load_robot
-from pipeline.settings import git_commit
 
 from pipeline.studies.erthal1992.tasks import frame
 from pipeline.yamlio import load_yaml
@@ -81,10 +77,7 @@ def goal_frame(g: dict) -> np.ndarray:
 
 
 def _meta(study_id: str, robot: str, solver: str, block: dict, seed="-") -> dict:
-    blob = json.dumps(block, sort_keys=True)
-    return {"format_version": FORMAT_VERSION, "study": study_id, "robot": robot, "solver": solver,
-            "settings": blob, "settings_hash": hashlib.sha256(blob.encode()).hexdigest()[:16],
-            "seed": str(seed), "package_version": pipeline.__version__, "git_commit": git_commit()}
+    return run_metadata(study=study_id, robot=robot, solver=solver, settings=block, seed=seed)
 
 
 def write_path_rows(study, pset: str, robot: str, archive: Path, data_dir: Path, out: Path, res_out: Path | None) -> int:

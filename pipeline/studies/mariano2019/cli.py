@@ -22,17 +22,14 @@ def _meta(study, robot: str, block: str, scale: str, seed) -> dict:
     import hashlib
     import json
 
-    import pipeline
-    from pipeline.io.archive import FORMAT_VERSION
-    from pipeline.settings import git_commit
+    from pipeline.io.archive import run_metadata
 
     settings = {k: scaled(v, scale) if not isinstance(v, dict) else {kk: scaled(vv, scale) for kk, vv in v.items()}
                 for k, v in study.settings.get(block, {}).items()}
     blob = json.dumps({"block": block, "settings": settings, "scale": scale}, sort_keys=True)
-    return {"format_version": FORMAT_VERSION, "study": study.id, "robot": robot, "solver": "-",
-            "settings": json.dumps(settings, sort_keys=True),
-            "settings_hash": hashlib.sha256(blob.encode()).hexdigest()[:16], "seed": str(seed), "scale": scale,
-            "measurement": block, "problems": "-", "problem_file": "-", "problem_sha256": "-", "package_version": pipeline.__version__, "git_commit": git_commit()}
+    return run_metadata(study=study.id, robot=robot, solver="-", settings=settings, seed=seed,
+                        settings_hash=hashlib.sha256(blob.encode()).hexdigest()[:16], scale=scale, measurement=block,
+                        problems="-", problem_file="-", problem_sha256="-")
 
 
 def _schema(title: str, desc: str) -> dict:
@@ -40,7 +37,7 @@ def _schema(title: str, desc: str) -> dict:
 
 
 def _load(args):
-    from pipeline.cli import CLIError
+    from pipeline.errors import UsageError as CLIError
     from pipeline.robots import load_robot
     from pipeline.settings import load_study
 
@@ -51,7 +48,7 @@ def _load(args):
 
 
 def cmd_count_ops(args) -> None:
-    from pipeline.cli import CLIError
+    from pipeline.errors import UsageError as CLIError
     from pipeline.io.archive import ArchiveWriter
     from pipeline.studies.mariano2019.measure import count_records
 
@@ -94,7 +91,7 @@ def cmd_measure_mcu(args) -> None:
 
     import numpy as np
 
-    from pipeline.cli import CLIError
+    from pipeline.errors import UsageError as CLIError
     from pipeline.io.archive import ArchiveWriter
     from pipeline.studies.mariano2019.avr import AvrError
     from pipeline.studies.mariano2019.measure import mcu_records

@@ -13,7 +13,7 @@ def cmd_plan_motion(args) -> None:
     import numpy as np
     import pandas as pd
 
-    from pipeline.cli import CLIError
+    from pipeline.errors import UsageError as CLIError
     from pipeline.kinematics import quat_from_matrix
     from pipeline.problems import ProblemSpecError
     from pipeline.settings import load_study

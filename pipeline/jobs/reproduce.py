@@ -1,0 +1,201 @@
+"""``python -m pipeline reproduce``: re-run an archive's solves and say how far the re-run is from it.
+
+Reading an archive never re-runs anything; this is the one place that does, on purpose. For every
+archive (one file, or every ``runs/**/*.mcap`` under a results folder) it re-runs a deterministic
+sample of its solves exactly as the job ran them — the registered method and settings from the
+metadata, the robot file (checked against ``robot_sha256``), the problem file's goal, the archived
+start, the problem's seed — and compares field by field: ``q_solution`` bit for bit (and max
+|Δq|), iterations and stop reason, the trace's CRC-32 (``digest`` on ``/ik/trace``) and the
+analytic solutions. A difference is a finding printed in the table, never an error: a solver that
+is deterministic on one machine may round differently on another CPU or BLAS kernel, and the
+table says which environment wrote the archive and which re-ran it.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.errors import UsageError
+
+
+@dataclass
+class Finding:
+    """The comparison of one archive with its re-run."""
+
+    archive: str
+    label: str = ""
+    method: str = ""
+    deterministic: bool = True
+    rerun: int = 0
+    identical: int = 0
+    q_differ: int = 0
+    max_dq: float = 0.0
+    iterations_differ: int = 0
+    max_diterations: int = 0
+    traces_differ: int = 0
+    solutions_differ: int = 0
+    environment: str = ""
+    note: str = ""
+
+
+def _robot_file(path: Path, meta: dict, robot: str | None, data: str | Path):
+    """The archive's robot file: given, next to the archive as written, as named, or in the data folder."""
+    from pipeline.provenance import file_sha256
+
+    tries = [Path(robot)] if robot else [path.parent / meta.get("robot_path", ""), Path(meta.get("robot_file", "")),
+                                         Path(data) / "robots" / f"{meta.get('robot', '')}.yaml"]
+    tries = [t for t in tries if t.suffix in (".yaml", ".yml")]
+    rf = next((t for t in tries if t.is_file()), None)
+    if rf is None:
+        raise UsageError(f"{path}: metadata field 'robot_file': {meta.get('robot_file', '?')} not found "
+                         f"(give it with --robot FILE)")
+    if meta.get("robot_sha256") and not file_sha256(rf).startswith(meta["robot_sha256"]):
+        raise UsageError(f"{path}: metadata field 'robot_sha256': {rf} changed since the archive was written")
+    return rf
+
+
+def _env_line(env: dict) -> str:
+    libs = env.get("libraries", {})
+    over = env.get("kernel_overrides") or {}
+    return (f"{env.get('cpu', '?')}; BLAS {env.get('blas', '?')}"
+            + (f" [{', '.join(f'{k}={v}' for k, v in over.items())}]" if over else "")
+            + f"; numpy {libs.get('numpy', '?')}, numba {libs.get('numba', '?')}, scipy {libs.get('scipy', '?')}")
+
+
+def reproduce_archive(path, *, sample: int | None = None, problem: int | None = None, problems=None,
+                      robot: str | None = None, data="data") -> Finding:
+    """Re-run (a sample of) one archive's solves and compare them with the archive."""
+    from pipeline.io.archive import TracePolicy, digest, problems_of, read_archive
+    from pipeline.jobs.replay import ReplayError, settings_from_archive
+    from pipeline.jobs.solve import deterministic
+    from pipeline.robots import load_robot
+    from pipeline.runner import solve_set_batches
+
+    arch = read_archive(path, problems=problems)
+    meta = arch.metadata
+    f = Finding(archive=str(path), label=meta.get("solver", ""), method=meta.get("method", ""))
+    try:
+        f.environment = _env_line(json.loads(meta.get("environment", "{}")))
+    except ValueError:
+        f.environment = "unknown"
+    if not arch.solves:
+        f.note = "no solves (a measurement archive)"
+        return f
+    try:
+        method, settings = settings_from_archive(meta, str(path))
+    except ReplayError as exc:
+        raise UsageError(str(exc)) from None
+    f.method = method
+    f.deterministic = meta.get("deterministic", str(deterministic(method, settings)).lower()) == "true"
+    rows, ps, _ = problems_of(arch, problems) or (None, None, None)
+    if ps is None:
+        raise UsageError(f"{path}: metadata field 'problem_path': the archive names no problem file to re-run from")
+    model = load_robot(_robot_file(Path(path), meta, robot, data))
+    recs = arch.records()
+    keys = sorted(k for k in recs if k[1] == 0)
+    if problem is not None:
+        keys = [k for k in keys if k[0] == int(problem)]
+        if not keys:
+            raise UsageError(f"{path}: problem {problem} is not in the archive")
+    elif sample is not None:
+        pick = TracePolicy(sample=sample).sample_ids([k[0] for k in keys])
+        keys = [k for k in keys if k[0] in pick]
+    sub = ps.take([rows[k[0]] for k in keys])
+    sub = replace(sub, q_start=np.array([recs[k]["q_start"] for k in keys], dtype=float).reshape(len(keys), -1),
+                  chain=np.full(len(keys), -1))
+    seed = int(meta["seed"]) if str(meta.get("seed", "")).lstrip("-").isdigit() else 0
+    idx = arch.trace_index()
+    i = 0
+    for _, _, _, res in solve_set_batches(method, settings, model, sub, set_seed=seed):
+        for k in range(len(res)):
+            key, rec = keys[i], recs[keys[i]]
+            i += 1
+            same = True
+            qa, qb = np.asarray(rec["q_solution"], dtype=float), np.asarray(res.q[k], dtype=float)
+            if not np.array_equal(qa, qb, equal_nan=True):
+                same = False
+                f.q_differ += 1
+                d = np.abs(qa - qb)
+                f.max_dq = max(f.max_dq, float(np.nanmax(d)) if np.isfinite(d).any() else float("inf"))
+            dit = abs(int(rec["iterations"]) - int(res.iterations[k]))
+            if dit or int(rec["stop_reason"]) != int(res.stop_reason[k]):
+                same = False
+                f.iterations_differ += 1
+                f.max_diterations = max(f.max_diterations, dit)
+            if key in idx and res.trace_rows is not None:
+                tr = res.trace(k)[:, :8]
+                if len(tr) != idx[key][0] or digest(tr) != idx[key][1]:
+                    same = False
+                    f.traces_differ += 1
+            if rec.get("_n_solutions") is not None and res.solutions is not None:
+                want = arch.solutions(*key)
+                got = res.solutions[k, : int(res.n_solutions[k])]
+                if want is None or not np.array_equal(np.asarray(want, dtype=float).reshape(got.shape), got,
+                                                      equal_nan=True):
+                    same = False
+                    f.solutions_differ += 1
+            f.rerun += 1
+            f.identical += same
+    return f
+
+
+def archives_under(target: Path) -> list[Path]:
+    """The solve archives of a results folder (``<study>/runs/**/*.mcap``), or the one file given."""
+    if target.is_file():
+        return [target]
+    if not target.is_dir():
+        raise UsageError(f"{target}: no such archive or results folder")
+    found = sorted(target.glob("*/runs/**/*.mcap")) or sorted(target.glob("**/*.mcap"))
+    if not found:
+        raise UsageError(f"{target}: no archives (*/runs/**/*.mcap) under this folder")
+    return found
+
+
+def reproduce(target, *, sample: int | None = None, problem: int | None = None, problems=None,
+              robot: str | None = None, data="data", progress=True) -> str:
+    """The table of :class:`Finding` rows for every archive of ``target``, and both environments.
+
+    ``sample``: solves re-run per archive (evenly spaced over its problem ids); default every solve
+    of a single archive, 20 per archive for a results folder.
+    """
+    import sys
+
+    from pipeline.provenance import environment
+
+    paths = archives_under(Path(target))
+    if sample is None and len(paths) > 1:
+        sample = 20
+    if sample is not None and sample < 1:
+        raise UsageError(f"--sample: must be at least 1, got {sample}")
+    rows: list[Finding] = []
+    for n, p in enumerate(paths, 1):
+        if progress:
+            print(f"[{n}/{len(paths)}] {p}", file=sys.stderr, flush=True)
+        rows.append(reproduce_archive(p, sample=sample, problem=problem, problems=problems, robot=robot, data=data))
+    base = Path(target) if Path(target).is_dir() else Path(target).parent
+    head = ("archive", "label", "deterministic", "re-run", "bit-identical", "q differs", "max |Δq| [rad | length]",
+            "iterations or stop differ", "max |Δiterations|", "trace digest differs", "solutions differ")
+    table = [head]
+    for f in rows:
+        rel = Path(f.archive).relative_to(base).as_posix() if Path(f.archive).is_relative_to(base) else f.archive
+        if f.note:
+            table.append((rel, f.label, "-", "0", "-", "-", "-", "-", "-", "-", f.note))
+            continue
+        table.append((rel, f.label, "yes" if f.deterministic else "no", str(f.rerun), str(f.identical),
+                      str(f.q_differ), f"{f.max_dq:.3g}", str(f.iterations_differ), str(f.max_diterations),
+                      str(f.traces_differ), str(f.solutions_differ)))
+    width = [max(len(r[c]) for r in table) for c in range(len(head))]
+    out = ["  ".join(c.ljust(w) for c, w in zip(r, width)).rstrip() for r in table]
+    det = [f for f in rows if not f.note and f.deterministic]
+    differ = [f for f in det if f.identical < f.rerun]
+    out.append("")
+    out.append(f"{len(det)} deterministic archive(s): {len(det) - len(differ)} bit-identical on every re-run solve, "
+               f"{len(differ)} with differences" + (f" ({', '.join(sorted({f.label for f in differ}))})" if differ else ""))
+    envs = sorted({f.environment for f in rows if f.environment})
+    out.append("written on: " + (" | ".join(envs) if envs else "unknown"))
+    out.append("re-run on:  " + _env_line(environment()))
+    return "\n".join(out)
