@@ -53,6 +53,13 @@ def lwr():
     return load_robot(DATA / "robots" / "kuka_lwr.yaml")
 
 
+@pytest.fixture(scope="session")
+def ur5():
+    from pipeline.robots import load_robot
+
+    return load_robot(DATA / "robots" / "ur5.yaml")
+
+
 def rodrigues(axis, angle) -> np.ndarray:
     """Rotation (3, 3) about ``axis`` by ``angle`` [rad], written out (not from pipeline.kinematics)."""
     k = np.asarray(axis, float) / np.linalg.norm(axis)

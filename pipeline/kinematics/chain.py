@@ -113,8 +113,6 @@ class Chain:
         """
         if self.general:
             return self.origins.copy(), self.axes.copy(), self.tool.copy()
-        from pipeline.kinematics.htm import dh_transform  # local: htm imports this module
-
         fixed = dh_transform(self.a, self.alpha, self.d, self.theta_offset, self.convention)  # (n, 4, 4)
         axes = np.tile([0.0, 0.0, 1.0], (self.n, 1))
         if self.modified:
@@ -154,3 +152,33 @@ class Chain:
             origins[:, :3, 3] *= factor
         return Chain(self.a * factor, self.alpha, self.d * factor, self.theta_offset, self.prismatic,
                      self.convention, base, tool, origins, None if self.axes is None else self.axes.copy())
+
+
+def dh_transform(a, alpha, d, theta, convention: str = "standard") -> np.ndarray:
+    """One DH link transform.
+
+    Parameters
+    ----------
+    a, alpha, d, theta : array_like, broadcastable shapes (...) [length, rad, length, rad]
+    convention : {"standard", "modified"}
+        standard ``Rz(theta) Tz(d) Tx(a) Rx(alpha)``; modified ``Rx(alpha) Tx(a) Rz(theta) Tz(d)``.
+
+    Returns
+    -------
+    T : ndarray, shape (..., 4, 4)
+    """
+    a, alpha, d, theta = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (a, alpha, d, theta)))
+    ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+    T = np.zeros(a.shape + (4, 4))
+    if convention == "standard":
+        T[..., 0, :] = np.stack([ct, -st * ca, st * sa, a * ct], -1)
+        T[..., 1, :] = np.stack([st, ct * ca, -ct * sa, a * st], -1)
+        T[..., 2, :] = np.stack([np.zeros_like(ct), sa, ca, d], -1)
+    elif convention == "modified":
+        T[..., 0, :] = np.stack([ct, -st, np.zeros_like(ct), a], -1)
+        T[..., 1, :] = np.stack([st * ca, ct * ca, -sa, -sa * d], -1)
+        T[..., 2, :] = np.stack([st * sa, ct * sa, ca, ca * d], -1)
+    else:
+        raise ValueError(f"unknown DH convention {convention!r}")
+    T[..., 3, 3] = 1.0
+    return T

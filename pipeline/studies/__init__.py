@@ -20,30 +20,11 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import json
-from dataclasses import dataclass, field
 from pathlib import Path
 
-import pandas as pd
 
 
-@dataclass
-class TableSpec:
-    """One reproduced table: file stem, title, the frame (units in every header) and a note."""
-
-    name: str
-    title: str
-    frame: pd.DataFrame
-    note: str = ""
-
-
-@dataclass
-class FigureSpec:
-    """One figure: file names written (PNG first), title and caption."""
-
-    files: list[str]
-    title: str
-    caption: str = ""
-    extra: dict = field(default_factory=dict)
+from pipeline.studies.specs import FigureSpec, TableSpec  # noqa: E402,F401  (re-exported)
 
 
 def study_cli_modules() -> list:

@@ -33,7 +33,7 @@ import math
 
 import pandas as pd
 
-from pipeline.studies import TableSpec
+from pipeline.studies.specs import TableSpec
 
 CHECKS = ("max", "min", "order", "less", "ratio_at_least", "within", "abs_at_most", "column_less")
 HOLDS, DIFFERS, MISSING = "holds", "differs", "not reproduced"

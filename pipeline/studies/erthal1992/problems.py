@@ -26,7 +26,7 @@ from pipeline.kinematics import quat_from_matrix
 from pipeline.problems import ProblemSet, ProblemSpecError
 from pipeline.robots import RobotModel
 
-from pipeline.studies.erthal1992.runs import RunError, goal_frame, q_from_settings, robot_base
+from pipeline.studies.erthal1992.inputs import RunError, goal_frame, q_from_settings, robot_base
 from pipeline.studies.erthal1992.tasks import Task, cartesian_points, load_task
 
 INTERPOLATIONS = ("joint", "cartesian")

@@ -1,0 +1,129 @@
+"""The import graph of the package: no module imports a layer above its own, and no cycle anywhere.
+
+Every ``import`` statement counts, at module level or inside a function (a lazy import is still a
+dependency). Layers, bottom to top (see pipeline/jobs/__init__.py):
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+PKG = Path(__file__).resolve().parent.parent / "pipeline"
+
+# (layer, module-name prefixes); the longest matching prefix decides
+LAYERS = [
+    (0, ["pipeline", "pipeline.provenance", "pipeline.yamlio", "pipeline.errors", "pipeline.catalogue",
+         "pipeline.kinematics"]),
+    (1, ["pipeline.robots", "pipeline.urdf", "pipeline.problems"]),
+    (2, ["pipeline.io"]),
+    (3, ["pipeline.solvers", "pipeline.settings", "pipeline.runner"]),
+    (4, ["pipeline.studies", "pipeline.report"]),
+    (5, ["pipeline.jobs"]),
+    (6, ["pipeline.cli", "pipeline.__main__"]),
+]
+NAMES = {0: "base (provenance, yamlio, kinematics)", 1: "robots and problems", 2: "file formats (io)",
+         3: "solvers and settings", 4: "studies and report", 5: "jobs", 6: "cli"}
+
+
+def layer_of(module: str) -> int:
+    if module.startswith("pipeline.studies.") and module.endswith(".cli"):
+        return 6  # a study's own verbs: command-line layer
+    best, layer = -1, None
+    for lay, prefixes in LAYERS:
+        for p in prefixes:
+            if (module == p or module.startswith(p + ".")) and len(p) > best:
+                best, layer = len(p), lay
+    assert layer is not None, module
+    return layer
+
+
+def modules() -> dict[str, Path]:
+    out = {}
+    for f in PKG.rglob("*.py"):
+        parts = list(f.relative_to(PKG.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = f
+    return out
+
+
+def import_graph() -> dict[str, set[str]]:
+    mods = modules()
+
+    def resolve(name: str) -> str | None:
+        while name and name not in mods:
+            name = name.rpartition(".")[0]
+        return name or None
+
+    graph: dict[str, set[str]] = {m: set() for m in mods}
+    for m, f in mods.items():
+        pkg = m if f.name == "__init__.py" else m.rpartition(".")[0]
+        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    parts = pkg.split(".")[: len(pkg.split(".")) - node.level + 1]
+                    base = ".".join(parts + ([base] if base else []))
+                # `from pkg import sub` imports the submodule when there is one, else a name of pkg
+                names = [f"{base}.{a.name}" if f"{base}.{a.name}" in mods else base for a in node.names]
+            for n in names:
+                if n == "pipeline" or n.startswith("pipeline."):
+                    r = resolve(n)
+                    if r and r != m:
+                        graph[m].add(r)
+    return graph
+
+
+def test_no_module_imports_a_layer_above_its_own():
+    bad = [f"{m} ({NAMES[layer_of(m)]}) imports {d} ({NAMES[layer_of(d)]})"
+           for m, deps in sorted(import_graph().items()) for d in sorted(deps) if layer_of(d) > layer_of(m)]
+    assert not bad, "\n".join(bad)
+
+
+def test_no_import_cycle():
+    graph = import_graph()
+    index, low, stack, on, cycles = {}, {}, [], set(), []
+    counter = [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                cycles.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    assert not cycles, "import cycles: " + "; ".join(" <-> ".join(c) for c in cycles)
+
+
+def test_the_file_format_layer_imports_nothing_above_robots():
+    graph = import_graph()
+    for m, deps in graph.items():
+        if m.startswith("pipeline.io"):
+            assert all(layer_of(d) <= 2 for d in deps), (m, deps)
+
+
+def test_the_walk_sees_lazy_imports():
+    """A function-level import counts: the CLI's verbs import the jobs inside their functions."""
+    assert "pipeline.jobs.solve" in import_graph()["pipeline.cli"]
