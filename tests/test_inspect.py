@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pipeline.cli import main
-from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter, read_archive, solve_record
+from pipeline.io.archive import FORMAT_VERSION, ArchiveWriter, batch_columns, read_archive
 from pipeline.report.inspect import describe
 from pipeline.solvers import IKResult
 
@@ -29,13 +29,16 @@ def _result(i, rows=3, info=None):
 
 
 def _write(path, n=4, solvers=("dls",), rows=3, strategies=None):
+    from pipeline.solvers.registry import _stack
+
     with ArchiveWriter(path, {**META, "problems": str(n * len(solvers))}) as w:
         for s_i, solver in enumerate(solvers):
-            for i in range(n):
-                info = {"strategy": strategies[i % len(strategies)]} if strategies else {"steps": i}
-                rec, tr = solve_record(i, "r", solver, "cm", [0.0, 1.0, -1.0], [1.5, 2.5, 3.5], [1, 0, 0, 0],
-                                       _result(i + s_i, rows, info), method=solver.split("_")[0])
-                w.write(rec, tr)
+            res = _stack([_result(i + s_i, rows, {"strategy": strategies[i % len(strategies)]} if strategies
+                                  else {"steps": i}) for i in range(n)], "cm", traces=True)
+            cols, tr = batch_columns(np.arange(n), np.zeros(n), np.full(n, -1), "r", solver, "cm",
+                                     np.tile([0.0, 1.0, -1.0], (n, 1)), np.tile([1.5, 2.5, 3.5], (n, 1)),
+                                     np.tile([1.0, 0, 0, 0], (n, 1)), res, method=solver.split("_")[0])
+            w.write_columns(cols, tr)
     return read_archive(path)
 
 
