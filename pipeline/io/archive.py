@@ -328,7 +328,41 @@ def run_metadata(*, study: str, robot: str, solver: str, settings: dict, seed="-
     return meta
 
 
-class ArchiveWriter:
+class AtomicMcap:
+    """An MCAP file written atomically: data go to ``<path>.partial`` (zstd chunks, data CRCs), which
+    is renamed to ``path`` only when :meth:`close` has written the summary; :meth:`abort` (or an
+    exception inside ``with``) removes it. The base of every MCAP writer here."""
+
+    def __init__(self, path: str | Path, library: str):
+        from mcap.writer import CompressionType, Writer
+
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.partial = self.path.with_name(self.path.name + ".partial")
+        self._fh = open(self.partial, "wb")
+        self._w = Writer(self._fh, compression=CompressionType.ZSTD, enable_data_crcs=True)
+        self._w.start(profile="", library=library)
+
+    def close(self) -> None:
+        self._w.finish()
+        self._fh.close()
+        os.replace(self.partial, self.path)
+
+    def abort(self) -> None:
+        self._fh.close()
+        self.partial.unlink(missing_ok=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+
+class ArchiveWriter(AtomicMcap):
     """Context manager writing one archive atomically.
 
     Solves are given as columns (:meth:`write_columns`, from :func:`batch_columns`) and written as
@@ -349,8 +383,6 @@ class ArchiveWriter:
 
     def __init__(self, path: str | Path, metadata: dict[str, str], policy: TracePolicy | None = None,
                  problem_ids=None):
-        from mcap.writer import CompressionType, Writer
-
         missing = [k for k in REQUIRED_META if k not in metadata]
         if missing:
             raise ValueError(f"archive metadata lacks {missing}")
@@ -360,12 +392,7 @@ class ArchiveWriter:
         self._sample = None if problem_ids is None else self.policy.sample_ids(problem_ids)
         self._budget = self.policy.failed_rows
         self._count = {"traces": 0, "stored": 0, "rows": 0, "rows_stored": 0, "failed_stored": 0}
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.partial = self.path.with_name(self.path.name + ".partial")
-        self._fh = open(self.partial, "wb")
-        self._w = Writer(self._fh, compression=CompressionType.ZSTD, enable_data_crcs=True)
-        self._w.start(profile="", library=f"ik-pipeline {metadata['package_version']}")
+        super().__init__(path, f"ik-pipeline {metadata['package_version']}")
         self._w.add_metadata("run", self.meta)
         self._ch = {}
         for topic, (message, _, _) in MESSAGES.items():
@@ -465,22 +492,7 @@ class ArchiveWriter:
     def close(self) -> None:
         c = self._count
         self._w.add_metadata("traces", {"policy": self.policy.describe(), **{k: str(v) for k, v in c.items()}})
-        self._w.finish()
-        self._fh.close()
-        os.replace(self.partial, self.path)
-
-    def abort(self) -> None:
-        self._fh.close()
-        self.partial.unlink(missing_ok=True)
-
-    def __enter__(self) -> "ArchiveWriter":
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()
+        super().close()
 
 
 def _dumps(obj) -> bytes:
@@ -665,16 +677,20 @@ class Archive:
         for _, _, msg in _iter_messages(self.path, [topic]):
             yield _loads(msg.data, self.path, topic, msg.sequence)
 
+    def _batches(self, topic: str, decode) -> Iterator[dict]:
+        """The messages of ``topic`` decoded by ``decode``; a damaged one is a one-line ArchiveError."""
+        for _, _, msg in _iter_messages(self.path, [topic]):
+            try:
+                yield decode(msg.data)
+            except ValueError as exc:
+                raise ArchiveError(f"{self.path}: message {msg.sequence} on {topic}: {exc}") from None
+
     def trace_index(self) -> dict:
         """``(problem_id, repetition) -> (rows, digest, stored rows as a (rows, 8) float64 array or None)``."""
         if self._trace_index is not None:
             return self._trace_index
         idx = {}
-        for _, _, msg in _iter_messages(self.path, [TRACE_TOPIC]):
-            try:
-                bt = _trace_batch(msg.data)
-            except ValueError as exc:
-                raise ArchiveError(f"{self.path}: message {msg.sequence} on {TRACE_TOPIC}: {exc}") from None
+        for bt in self._batches(TRACE_TOPIC, _trace_batch):
             lo = 0
             for k, pid in enumerate(bt["problem_id"].tolist()):
                 rows = int(bt["rows"][k])
@@ -734,11 +750,7 @@ class Archive:
             raise ArchiveError(f"{self.path}: problem {problem_id} (repetition {repetition}) is not in the archive")
         if self._solutions is None:
             out = {}
-            for _, _, msg in _iter_messages(self.path, [SOLUTIONS_TOPIC]):
-                try:
-                    b = _solution_batch(msg.data)
-                except ValueError as exc:
-                    raise ArchiveError(f"{self.path}: message {msg.sequence} on {SOLUTIONS_TOPIC}: {exc}") from None
+            for b in self._batches(SOLUTIONS_TOPIC, _solution_batch):
                 lo = 0
                 for p, r, c in zip(b["problem_id"].tolist(), b["repetition"].tolist(), b["count"].tolist()):
                     out[(p, r)] = b["rows"][lo:lo + c].tolist()

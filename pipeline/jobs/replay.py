@@ -40,11 +40,12 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from pipeline.io.archive import AtomicMcap
 
 TOL = 1e-9  # re-run vs archived q_solution [rad | robot length unit]
 FRAME_SCHEMA = {
@@ -127,20 +128,14 @@ def _rot_angle(Ra: np.ndarray, Rb: np.ndarray) -> float:
     return float(math.acos(min(1.0, max(-1.0, c))))
 
 
-class _Writer:
+class _Writer(AtomicMcap):
     """The replay file: mcap writer, foxglove-sdk schemas, one channel per topic."""
 
     def __init__(self, path: Path, metadata: dict[str, str]):
         import foxglove.messages as fm
-        from mcap.writer import CompressionType, Writer
 
         self.fm = fm
-        self.path = path
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.partial = path.with_name(path.name + ".partial")
-        self._fh = open(self.partial, "wb")
-        self._w = Writer(self._fh, compression=CompressionType.ZSTD, enable_data_crcs=True)
-        self._w.start(profile="", library=f"ik-pipeline replay {metadata.get('package_version', '')}")
+        super().__init__(path, f"ik-pipeline replay {metadata.get('package_version', '')}")
         self._w.add_metadata("replay", metadata)
         self.channels: dict[str, int] = {}
         self.topics: dict[str, str] = {}
@@ -158,15 +153,6 @@ class _Writer:
     def add(self, topic: str, t_ns: int, data: bytes) -> None:
         self._w.add_message(self.channels[topic], log_time=t_ns, publish_time=t_ns, sequence=self._seq, data=data)
         self._seq += 1
-
-    def close(self) -> None:
-        self._w.finish()
-        self._fh.close()
-        os.replace(self.partial, self.path)
-
-    def abort(self) -> None:
-        self._fh.close()
-        self.partial.unlink(missing_ok=True)
 
 
 def _write_frame(w: _Writer, t_ns: int, model_m, q_m: np.ndarray, goal_m: np.ndarray, info: dict,
