@@ -301,6 +301,11 @@ def describe(arch: Archive, failed: bool = False, problem: int | None = None, cs
         for k in sorted(arch.metadata):
             v = arch.metadata[k]
             lines.append(f"  {k}: {v if len(v) < 200 else v[:197] + '...'}")
+        t = arch.trace_summary
+        if t:
+            lines.append(f"traces stored: {t.get('stored', '?')} of {t.get('traces', '?')} [count], "
+                         f"{t.get('rows_stored', '?')} of {t.get('rows', '?')} rows ({t.get('policy', '')}; the others: "
+                         f"`python -m pipeline reproduce {arch.path} --problem N`)")
         if not arch.solves:
             lines.append("no solve records")
         else:
