@@ -18,6 +18,7 @@ from pipeline.solvers._kin import (  # noqa: F401  (re-exported: one kinematics 
     forward, jacobian, now_ns, quat_from_rot, quat_relative, relative_rotation, relative_translation_norm, small_svd,
     vec_norm,
 )
+from pipeline.solvers._kin import DIVERGING, ITERATION_CAP, NON_FINITE, STALLED, SUCCESS  # stop codes (000 §3.4)
 
 # integer parameter slots -------------------------------------------------------------------
 I_METHOD, I_MAX_ITER, I_CRITERION, I_ORIENT, I_GROW_LIMIT, I_SDLS_NORM, I_SDLS_BLOCKS, I_NO_STALL, I_NO_GROW = range(9)
@@ -32,9 +33,6 @@ CRITERIA = {"dq_norm": 0, "pos_orient": 1, "dq_norm_body": 2}
 ORIENT_ERRORS = {"quat_vec": 0, "axis_angle": 1}
 NORMS = {"maxabs": 0, "one": 1, "two": 2}
 
-# stop codes (000_7e3cb7ad5ee98ff0.txt §3.4), plus two of ours
-SUCCESS, STALLED, DIVERGING, ITERATION_CAP, NON_FINITE, FK_CHECK_FAILED = 1, 2, 3, 4, 5, 6
-TRACE_COLS = 8  # scalar error, e (6), position error norm
 
 
 @numba.njit(cache=True)

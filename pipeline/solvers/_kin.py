@@ -23,6 +23,18 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from pipeline.io.layout import TRACE_COLS, StopReason
+
+# ---- the one table of codes the compiled kernels use -------------------------------------------
+# Stop codes: the values of pipeline.io.layout.StopReason as plain ints (numba compiles a module
+# global int as a constant; every method module imports these names, none defines its own).
+SUCCESS, STALLED, DIVERGING, ITERATION_CAP, NON_FINITE, FK_CHECK_FAILED, NO_SOLUTION, OUT_OF_LIMITS = (
+    int(StopReason.SUCCESS), int(StopReason.STALLED), int(StopReason.DIVERGING), int(StopReason.ITERATION_CAP),
+    int(StopReason.NON_FINITE), int(StopReason.FK_CHECK_FAILED), int(StopReason.NO_SOLUTION),
+    int(StopReason.OUT_OF_LIMITS))
+# Trace rows: TRACE_COLS columns (pipeline.io.layout.TRACE_COLUMNS), the last one |dp|
+TRACE_DP = TRACE_COLS - 1
+
 # libc's clock_gettime, resolved by symbol name so that compiled functions can be cached on disk
 _clock_gettime = types.ExternalFunction("clock_gettime", types.int32(types.int32, types.voidptr))
 CLOCK_MONOTONIC = 1

@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _jit
-from pipeline.solvers._kin import now_ns, quat_from_rot, quat_relative, relative_translation_norm, rodrigues
+from pipeline.solvers._kin import NON_FINITE, SUCCESS, now_ns, quat_from_rot, quat_relative, relative_translation_norm, rodrigues
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -258,9 +258,9 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     it = 0
     grew = 0
     if not math.isfinite(err):
-        code = _jit.NON_FINITE
+        code = NON_FINITE
     elif (crit != 1 and err <= fp[_jit.F_TOL_DQ]) or (crit == 1 and dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]):
-        code = _jit.SUCCESS
+        code = SUCCESS
     while code == 0:
         it += 1
         _jacobian(prism, axes, origins, T, J)

@@ -53,10 +53,10 @@ import numba
 import numpy as np
 
 from pipeline.kinematics.fkcheck import meets
-from pipeline.solvers._kin import now_ns
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, now_ns
 from pipeline.solvers.analytic_ur import InfoRows, copy12, mul34, mul_link, pose_errors, rigid_rows
 from pipeline.solvers.base import (CRITERION_CODE, TRACE_COLS, BatchRaw, IKResult, Prepared, Raw, Settings,
-                                   StopReason, check_pack, check_packed,
+                                   check_pack, check_packed,
                                    closed_form_code, fused_inputs)
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
@@ -123,8 +123,6 @@ I_FOUND, I_VALID, I_CHOSEN, I_DEG, I_DISTINCT, I_BKEY, I_VKEY = range(7)
 N_I = 7
 CHUNK = 64  # poses per work item of the batch kernel
 
-SUCCESS = int(StopReason.SUCCESS)
-NO_SOLUTION = int(StopReason.NO_SOLUTION)
 
 
 def packed(prep: Prepared, s: AnalyticPumaSettings) -> np.ndarray:

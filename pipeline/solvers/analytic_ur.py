@@ -50,8 +50,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers._kin import now_ns
-from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, StopReason, check_pack,
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, now_ns
+from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, check_pack,
                                    check_packed, closed_form_code, fused_inputs, setting)
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
@@ -105,8 +105,6 @@ W_Q8, W_T8, W_VALID = 150, 198, 294  # all 8 branches (8 x 6), their FK poses (8
 N_W = 302
 CHUNK = 64  # poses per work item of the batch kernel (one workspace each)
 
-SUCCESS = int(StopReason.SUCCESS)
-NO_SOLUTION = int(StopReason.NO_SOLUTION)
 
 
 def rigid_rows(T: np.ndarray, inverse: bool = False) -> np.ndarray:

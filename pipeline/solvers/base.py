@@ -38,6 +38,7 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.fkcheck import check_model, check_one
 from pipeline.io.layout import STOP_REASONS, TRACE_COLS, StopReason  # noqa: F401  (re-exported)
 from pipeline.robots import LENGTH_UNITS, RobotModel
+from pipeline.solvers._kin import FK_CHECK_FAILED, NO_SOLUTION, NON_FINITE, OUT_OF_LIMITS, SUCCESS, TRACE_DP
 
 
 class SettingsError(ValueError):
@@ -444,7 +445,7 @@ class BatchResult:
         """Problem ``i``'s trace (iterations + 1, 8); one row of NaN but |dp| when none was kept."""
         if self.trace_rows is None:
             t = np.full((1, TRACE_COLS), np.nan)
-            t[0, 7] = self.position_error[i]
+            t[0, TRACE_DP] = self.position_error[i]
             return t
         return self.trace_rows[self.trace_offsets[i]:self.trace_offsets[i + 1]]
 
@@ -484,13 +485,13 @@ def finish_batch(prep: Prepared, goals: np.ndarray, raw: BatchRaw, settings: Set
     check_many(*prep.check, q, np.ascontiguousarray(goals, dtype=float), CRITERION_CODE[settings.criterion],
                settings.tol_pos, settings.tol_rot, settings.tol_dq, ok, err)
     code = np.asarray(raw.code, dtype=np.int64).copy()
-    claimed = code == int(StopReason.SUCCESS)
-    code[claimed & ~ok] = int(StopReason.FK_CHECK_FAILED)
-    code[~np.isfinite(q).all(axis=1)] = int(StopReason.NON_FINITE)
+    claimed = code == SUCCESS
+    code[claimed & ~ok] = FK_CHECK_FAILED
+    code[~np.isfinite(q).all(axis=1)] = NON_FINITE
     inside = np.zeros(N, dtype=np.bool_)
     _within_many(q, prep.limits, np.ascontiguousarray(prep.prismatic), inside)
     ang = np.full(N, np.nan) if settings.criterion == "position" else err[:, 1].copy()
-    return BatchResult(q=q, success=claimed & ok & (code == int(StopReason.SUCCESS)), stop_reason=code,
+    return BatchResult(q=q, success=claimed & ok & (code == SUCCESS), stop_reason=code,
                        iterations=np.asarray(raw.iterations, dtype=np.int64), solve_time_s=raw.solve_ns * 1e-9,
                        ik_time_s=raw.ik_ns * 1e-9, position_error=err[:, 0].copy(), orientation_error=ang,
                        claimed_success=claimed, within_limits=inside, call_time_s=0.0, length_unit=prep.unit,
@@ -638,28 +639,24 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
     ok, dp, ang, inside = _check_within(F, prism, q, T_goal, CRITERION_CODE[settings.criterion], settings.tol_pos,
                                         settings.tol_rot, settings.tol_dq)
     code = int(raw.code)
-    claimed = code == _SUCCESS
+    claimed = code == SUCCESS
     if claimed and not ok:
-        code = _FK_CHECK_FAILED
+        code = FK_CHECK_FAILED
     if dp != dp and not np.isfinite(q).all():  # a NaN error: a non-finite joint value (or goal)
-        code = _NON_FINITE
+        code = NON_FINITE
     trace = raw.trace
     if trace is None:
         trace = np.full((1, TRACE_COLS), np.nan)
-        trace[0, 7] = dp
+        trace[0, TRACE_DP] = dp
     elif len(trace) != raw.iterations + 1:
         trace = np.asarray(trace)[: raw.iterations + 1]
-    if code == _SUCCESS and settings.require_limits and not inside:
-        code = _OUT_OF_LIMITS
+    if code == SUCCESS and settings.require_limits and not inside:
+        code = OUT_OF_LIMITS
     # positional: a keyword call of the 15-field dataclass costs ~0.5 us more (Python 3.11), on every solve
-    return IKResult(q, bool(claimed and ok and code == _SUCCESS), code, int(raw.iterations), trace,
+    return IKResult(q, bool(claimed and ok and code == SUCCESS), code, int(raw.iterations), trace,
                     raw.solve_ns * 1e-9, raw.ik_ns * 1e-9, dp, math.nan if settings.criterion == "position" else ang,
                     claimed, inside, call_ns * 1e-9, prep.unit, raw.solutions, raw.info)
 
-
-_NO_SOLUTION = int(StopReason.NO_SOLUTION)
-_SUCCESS, _FK_CHECK_FAILED, _NON_FINITE, _OUT_OF_LIMITS = (int(StopReason.SUCCESS), int(StopReason.FK_CHECK_FAILED),
-                                                          int(StopReason.NON_FINITE), int(StopReason.OUT_OF_LIMITS))
 
 
 def finish_args(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
@@ -741,12 +738,12 @@ def check_packed(C, q, Tg):
 def closed_form_code(claimed, ok, dp, q):
     """The stop reason :func:`finish` gives a closed form's result (without ``require_limits``), for
     the fused compiled calls: no solution, success, FK check failed, or non-finite."""
-    code = _SUCCESS if claimed else _NO_SOLUTION
+    code = SUCCESS if claimed else NO_SOLUTION
     if claimed and not ok:
-        code = _FK_CHECK_FAILED
+        code = FK_CHECK_FAILED
     if dp != dp:  # a NaN error: a non-finite joint value (or goal)
         for j in range(q.shape[0]):
             if not math.isfinite(q[j]):
-                code = _NON_FINITE
+                code = NON_FINITE
                 break
     return code

@@ -39,17 +39,15 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
-from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, StopReason, setting
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
+from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.4, eqs. 4-6"
-TRACE_COLS = 8
 
 ROWS_POSITION, ROWS_HOLD, ROWS_POSE = 0, 1, 2
 STOP_REACH, STOP_CHANGE = 0, 1
 
-_SUCCESS, _STALLED, _CAP, _NON_FINITE = (int(StopReason.SUCCESS), int(StopReason.STALLED),
-                                         int(StopReason.ITERATION_CAP), int(StopReason.NON_FINITE))
 
 
 @dataclass(frozen=True)
@@ -212,11 +210,11 @@ def ji_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, gain, delta
     _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T)
     e, dp, ang = _error(Tg, T, rows, scale, qa, qb, rg)
     _trace_row(trace, 0, e, Tg, T, rows, rg, dp)
-    code = _CAP
+    code = ITERATION_CAP
     k = 0
     if stop_rule == STOP_REACH and _within(dp, ang, rows, tol_pos, tol_rot):
-        code = _SUCCESS
-    while code == _CAP and k < max_iter:
+        code = SUCCESS
+    while code == ITERATION_CAP and k < max_iter:
         if rows == ROWS_HOLD:
             rpy(T, X)
         fd_jacobian(a, alpha, d, offs, prism, modified, base, tool, q, T, X, delta, rows, scale, J, qp, Tp, Xp,
@@ -234,12 +232,12 @@ def ji_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, gain, delta
         k += 1
         _trace_row(trace, k, e_new, Tg, T, rows, rg, dp)
         if not np.isfinite(e_new):
-            code = _NON_FINITE
+            code = NON_FINITE
         elif stop_rule == STOP_REACH:
             if _within(dp, ang, rows, tol_pos, tol_rot):
-                code = _SUCCESS
+                code = SUCCESS
         elif abs(e - e_new) < tol_change:
-            code = _SUCCESS if _within_or_equal(dp, ang, rows, tol_pos, tol_rot) else _STALLED
+            code = SUCCESS if _within_or_equal(dp, ang, rows, tol_pos, tol_rot) else STALLED
         e = e_new
     times[0] = _kin.now_ns(clk) - t0
     times[1] = _kin.thread_cpu_ns(clk) - c0

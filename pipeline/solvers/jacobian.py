@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.solvers import _jit, _lean
+from pipeline.solvers._kin import TRACE_COLS
 from pipeline.solvers.base import BatchRaw, Prepared, Raw, Settings, setting
 from pipeline.solvers.registry import Solver, register
 
@@ -103,7 +104,7 @@ def _bind(method: str):
 
         def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
             q = np.empty_like(q_start)
-            trace = np.empty((rows, _jit.TRACE_COLS))
+            trace = np.empty((rows, TRACE_COLS))
             times = np.zeros(3, np.int64)
             code, iters = kernel(*chain, T_goal, q_start, ip, fp, q, trace, times)
             return Raw(q=q, code=code, iterations=iters, solve_ns=int(times[0]), trace=trace[: iters + 1].copy(),
@@ -132,7 +133,7 @@ def _batch(method: str):
         chain = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
         N, n = starts.shape
         rows = s.max_iterations + 1 if keep_traces else 1
-        chunk = max(1, min(N, TRACE_BUDGET // (rows * _jit.TRACE_COLS * 8)))
+        chunk = max(1, min(N, TRACE_BUDGET // (rows * TRACE_COLS * 8)))
         Q = np.empty((N, n))
         codes = np.zeros(N, np.int64)
         iters = np.zeros(N, np.int64)
@@ -140,7 +141,7 @@ def _batch(method: str):
         parts, counts = [], []
         for lo in range(0, N, chunk):
             hi = min(N, lo + chunk)
-            buf = np.empty((hi - lo, rows, _jit.TRACE_COLS))
+            buf = np.empty((hi - lo, rows, TRACE_COLS))
             _lean.solve_batch(*chain, goals[lo:hi], starts[lo:hi], ip, fp, Q[lo:hi], codes[lo:hi], iters[lo:hi],
                               times[lo:hi], buf)
             if keep_traces:
@@ -149,7 +150,7 @@ def _batch(method: str):
                 counts.append(k)
         rows_out = offsets = None
         if keep_traces:
-            rows_out = np.concatenate(parts) if parts else np.empty((0, _jit.TRACE_COLS))
+            rows_out = np.concatenate(parts) if parts else np.empty((0, TRACE_COLS))
             offsets = np.concatenate([[0], np.cumsum(np.concatenate(counts))]).astype(np.int64)
         return BatchRaw(q=Q, code=codes, iterations=iters, solve_ns=times[:, 0], ik_ns=times[:, 1],
                         trace_rows=rows_out, trace_offsets=offsets)

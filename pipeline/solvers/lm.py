@@ -34,15 +34,13 @@ import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
 from pipeline.solvers import _kin
-from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
+from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.5, eqs. 7-8; MRPT CLevenbergMarquardtTempl"
-TRACE_COLS = 8
 RES_SCALAR, RES_VECTOR = 0, 1
 
-_SUCCESS, _STALLED, _CAP, _NON_FINITE = (int(StopReason.SUCCESS), int(StopReason.STALLED),
-                                         int(StopReason.ITERATION_CAP), int(StopReason.NON_FINITE))
 
 
 @dataclass(frozen=True)
@@ -179,7 +177,7 @@ def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose,
     Fx = 0.0
     for i in range(m):
         Fx += f[i] * f[i]
-    code = _SUCCESS if found else _CAP
+    code = SUCCESS if found else ITERATION_CAP
     it = 0
     Tlast[:, :] = T
     while not found:
@@ -197,14 +195,14 @@ def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose,
             ok = False
             h = np.zeros(n)
         if not ok:
-            code = _NON_FINITE
+            code = NON_FINITE
             _trace_row(trace, it, e, Tg, Tlast, pose, qa, qb, rv)
             break
         nh = np.sqrt(np.sum(h * h))
         nx = np.sqrt(np.sum(q * q))
         if nh < e2 * (nx + e2):
             found = True
-            code = _SUCCESS
+            code = SUCCESS
         else:
             for i in range(n):
                 xnew[i] = q[i] + h[i]
@@ -229,25 +227,25 @@ def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose,
                 g = J.T @ f
                 if np.max(np.abs(g)) <= e1:
                     found = True
-                    code = _SUCCESS
+                    code = SUCCESS
                 lam, nu = nielsen(lam, nu, rho, min_shrink)
                 e_new, dp, ang = _errors(Tg, Tlast, pose, scale, qa, qb, rv)
                 if abs(e - e_new) < tol_change:
                     found = True
-                    code = _SUCCESS
+                    code = SUCCESS
                 e = e_new
             else:
                 lam, nu = nielsen(lam, nu, rho, min_shrink)
         _trace_row(trace, it, e, Tg, Tlast, pose, qa, qb, rv)
         if not (np.isfinite(e) and np.isfinite(lam)):
-            code = _NON_FINITE
+            code = NON_FINITE
             break
     if it >= max_iter:
         it = max_iter
-    if code == _SUCCESS:
+    if code == SUCCESS:
         e_last, dp, ang = _errors(Tg, Tlast, pose, scale, qa, qb, rv)
         if dp > tol_pos or (pose and ang > tol_rot):
-            code = _STALLED
+            code = STALLED
     times[0] = _kin.now_ns(clk) - t0
     times[1] = _kin.thread_cpu_ns(clk) - c0
     return code, it

@@ -24,18 +24,14 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
 from pipeline.solvers._jit import pose_error
-from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) eqs 4.10-4.13 (Newton-Raphson, Whitney step control)"
-TRACE_COLS = 8
 STOP_TESTS = ("tolerance", "error_norm")
 
-_SUCCESS = int(StopReason.SUCCESS)
-_STALLED = int(StopReason.STALLED)
-_ITERATION_CAP = int(StopReason.ITERATION_CAP)
-_NON_FINITE = int(StopReason.NON_FINITE)
 
 I_MAX_ITER, I_HALVINGS, I_STALL, I_STOP, I_CRIT = range(5)
 F_EPS, F_TOL_POS, F_TOL_ROT, F_TOL_DQ, F_INV_L, F_RCOND = range(6)
@@ -128,9 +124,9 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
     it = 0
     halved = 0
     if not np.isfinite(err):
-        code = _NON_FINITE
+        code = NON_FINITE
     elif (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-        code = _SUCCESS
+        code = SUCCESS
     while code == 0:
         it += 1
         for r in range(3):
@@ -172,13 +168,13 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
         trace[it, 1:7] = e
         trace[it, 7] = dp
         if not np.isfinite(err):
-            code = _NON_FINITE
+            code = NON_FINITE
         elif (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-            code = _SUCCESS
+            code = SUCCESS
         elif not accepted and stall:
-            code = _STALLED
+            code = STALLED
         elif it >= max_iter:
-            code = _ITERATION_CAP
+            code = ITERATION_CAP
     times[0] = _kin.now_ns(clk) - t_start
     times[1] = t_ik
     return code, it, halved

@@ -44,12 +44,12 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
+from pipeline.solvers._kin import TRACE_COLS
 from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, meets, setting
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
 SOURCE = "004_957b32c2b06ea31d.txt (Nepomuceno 2024) §4.2, Apêndices B, C, E"
-TRACE_COLS = 8
 
 # ---- compiled pieces -------------------------------------------------------------------------
 

@@ -37,14 +37,12 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
-from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, StopReason, setting
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
+from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.6, eqs. 9-11; Rookfighter/pso-cpp Optimizer::minimize"
-TRACE_COLS = 8
 
-_SUCCESS, _STALLED, _CAP, _NON_FINITE = (int(StopReason.SUCCESS), int(StopReason.STALLED),
-                                         int(StopReason.ITERATION_CAP), int(StopReason.NON_FINITE))
 
 
 @dataclass(frozen=True)
@@ -167,10 +165,10 @@ def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_part
     it = 0
     fdiff = np.inf
     xdiff = np.inf
-    code = _CAP
+    code = ITERATION_CAP
     if stop_at_tol and dp <= tol_pos and (not pose or ang <= tol_rot):
-        code = _SUCCESS
-    while code == _CAP and fdiff > feps and xdiff > xeps and it < max_iter:
+        code = SUCCESS
+    while code == ITERATION_CAP and fdiff > feps and xdiff > xeps and it < max_iter:
         for i in range(P):
             for j in range(n):
                 velp = np.random.random() * (bx[i, j] - x[i, j])
@@ -206,11 +204,11 @@ def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_part
         dp, ang = _best_row(a, alpha, d, offs, prism, modified, base, tool, Tg, bx[gb], pose, trace, it, bf[gb], T,
                             qa, qb, rv)
         if not np.isfinite(bf[gb]):
-            code = _NON_FINITE
+            code = NON_FINITE
         elif stop_at_tol and dp <= tol_pos and (not pose or ang <= tol_rot):
-            code = _SUCCESS
-    if code == _CAP and (fdiff <= feps or xdiff <= xeps):
-        code = _SUCCESS if dp <= tol_pos and (not pose or ang <= tol_rot) else _STALLED
+            code = SUCCESS
+    if code == ITERATION_CAP and (fdiff <= feps or xdiff <= xeps):
+        code = SUCCESS if dp <= tol_pos and (not pose or ang <= tol_rot) else STALLED
     for j in range(n):
         q[j] = bx[gb, j]
     times[0] = _kin.now_ns(clk) - t0

@@ -50,18 +50,15 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
-from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, SettingsError, StopReason, setting
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_COLS
+from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) Appendix 4 (Kazerounian's Zero-Position method), §6.2c strategies"
-TRACE_COLS = 8
 STRATEGIES = tuple(range(1, 11))
 STOP_TESTS = ("tolerance", "delta_sum")
 FLAT_REL = 64 * 2.220446049250313e-16  # |K| below this times the sum of |terms| is rounding: no step
 
-_SUCCESS = int(StopReason.SUCCESS)
-_ITERATION_CAP = int(StopReason.ITERATION_CAP)
-_NON_FINITE = int(StopReason.NON_FINITE)
 
 # kernel parameter slots
 I_MAX_ITER, I_STOP, I_CRIT, I_ORIENT = range(4)
@@ -266,9 +263,9 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
     it = 0
     steps = 0
     if not np.isfinite(dR + dP):
-        code = _NON_FINITE
+        code = NON_FINITE
     elif (dR + dP < eps) if delta_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-        code = _SUCCESS
+        code = SUCCESS
     while code == 0:
         it += 1
         for i in range(n):
@@ -293,14 +290,14 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
             if not use_orient:
                 dR = 0.0
             if not np.isfinite(dR + dP):
-                code = _NON_FINITE
+                code = NON_FINITE
                 break
             if (dR + dP < eps) if delta_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-                code = _SUCCESS
+                code = SUCCESS
                 break
         _trace_row(trace, it, dR, dP, M, dv)
         if code == 0 and it >= max_iter:
-            code = _ITERATION_CAP
+            code = ITERATION_CAP
     times[0] = _kin.now_ns(clk) - t_start
     times[1] = t_ik
     return code, it, steps
