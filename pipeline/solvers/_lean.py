@@ -1,7 +1,7 @@
 """Allocation-free hot loop of the Jacobian IK methods, and their batch form on every core.
 
-:func:`pipeline.solvers._jit.solve_one` is the reference transcription of 000's loop; this module
-computes the same iterates without allocating inside the loop:
+The loop of 000 §3 (the four Jacobian methods), computed without allocating inside the loop
+(``tests/test_fast_path.py`` holds its iterates to the same loop written with the numpy kinematics):
 
 * forward kinematics multiplies the running 3x4 frame by each link in place, with the link's
   cos/sin alpha computed once per robot (:func:`lean_chain`), about 36 multiply-adds per link;
@@ -213,7 +213,7 @@ def _step(method, J, e, lam2, A, y, dq):
 
 @numba.njit(cache=True)
 def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace, times):
-    """One problem, the same contract as :func:`pipeline.solvers._jit.solve_one`.
+    """One problem of the Jacobian loop (000 §3; stop rule :func:`pipeline.solvers._jit.stop_code`).
 
     Writes the solution into ``q`` (n,), trace rows ``0..iterations`` of ``trace`` (k, 8) (rows
     beyond its length are not written; it needs at least one row), and ``times`` (3,) = (total,

@@ -1,7 +1,7 @@
 """Jacobian transpose, pseudoinverse, DLS and SDLS (000_7e3cb7ad5ee98ff0.txt §3, eqs. 47-61).
 
-One compiled loop serves the four methods (:func:`pipeline.solvers._lean.solve`, the allocation-free
-form of the reference :func:`pipeline.solvers._jit.solve_one`; its batch form runs on every core);
+One compiled loop serves the four methods (:func:`pipeline.solvers._lean.solve`, allocation-free;
+its batch form runs on every core);
 each is registered under its own name with the settings it uses. The stop rules are the document's:
 success (code 1), pose change below the stall threshold (2), error grew ``grow_limit`` times in a
 row (3), iteration cap (4), non-finite value (5).
