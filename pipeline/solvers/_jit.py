@@ -13,6 +13,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers._kin import quat_from_rot, quat_relative, relative_translation_norm, small_svd, vec_norm
+from pipeline.solvers._kin import CRIT_DQ_BODY, CRIT_DQ_NORM  # success tests (CRITERION_CODE)
 from pipeline.solvers._kin import DIVERGING, ITERATION_CAP, NON_FINITE, STALLED, SUCCESS  # stop codes (000 §3.4)
 
 # integer parameter slots -------------------------------------------------------------------
@@ -24,7 +25,6 @@ F_LAMBDA, F_GAMMA_MAX, F_TOL_DQ, F_STALL_DQ, F_TOL_POS, F_TOL_ROT, F_STALL_POS, 
 N_FP = 9
 
 METHODS = {"jacobian_transpose": 0, "pseudoinverse": 1, "dls": 2, "sdls": 3}
-CRITERIA = {"dq_norm": 0, "pos_orient": 1, "dq_norm_body": 2}
 ORIENT_ERRORS = {"quat_vec": 0, "axis_angle": 1}
 NORMS = {"maxabs": 0, "one": 1, "two": 2}
 
@@ -56,10 +56,11 @@ def pose_error_q(Tg, T, qg, qt, ip, fp, e):
         g = fp[F_ORIENT_GAIN]
     e[3], e[4], e[5] = g * x, g * y, g * z
     dp = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-    if ip[I_CRITERION] == 0:
+    crit = ip[I_CRITERION]  # pipeline.solvers._kin.CRITERION_CODE
+    if crit == CRIT_DQ_NORM:
         t = relative_translation_norm(Tg, T)
         err = np.sqrt(1.0 + 0.25 * t * t)
-    elif ip[I_CRITERION] == 2:
+    elif crit == CRIT_DQ_BODY:
         # Q* Q_goal: its translation is R^T (p_goal - p), so the norm sees position only
         err = np.sqrt(1.0 + 0.25 * dp * dp)
     else:

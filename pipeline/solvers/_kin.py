@@ -32,6 +32,11 @@ SUCCESS, STALLED, DIVERGING, ITERATION_CAP, NON_FINITE, FK_CHECK_FAILED, NO_SOLU
     int(StopReason.SUCCESS), int(StopReason.STALLED), int(StopReason.DIVERGING), int(StopReason.ITERATION_CAP),
     int(StopReason.NON_FINITE), int(StopReason.FK_CHECK_FAILED), int(StopReason.NO_SOLUTION),
     int(StopReason.OUT_OF_LIMITS))
+# Success tests (Settings.criterion) as every compiled kernel and the FK check
+# (pipeline.kinematics.fkcheck) take them: one integer code per criterion
+CRITERIA = ("pos_orient", "position", "dq_norm", "dq_norm_body")
+CRITERION_CODE = {c: i for i, c in enumerate(CRITERIA)}
+CRIT_POS_ORIENT, CRIT_POSITION, CRIT_DQ_NORM, CRIT_DQ_BODY = (CRITERION_CODE[c] for c in CRITERIA)
 # Trace rows: TRACE_COLS columns (pipeline.io.layout.TRACE_COLUMNS), the last one |dp|
 TRACE_DP = TRACE_COLS - 1
 
@@ -337,17 +342,17 @@ def rotation_angle(Ta, Tb):
 def meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
     """The success test of :func:`pipeline.solvers.base.meets` on a compiled pose ``T`` (4, 4).
 
-    ``crit`` is ``base.CRITERION_CODE[criterion]``: 0 pos_orient, 1 position, 2 dq_norm, 3 dq_norm_body;
+    ``crit`` is :data:`CRITERION_CODE` ``[criterion]``;
     tolerances in the working unit, with the same slack as the independent FK check.
     """
     dp = position_distance(Tg, T)
     if not np.isfinite(dp):
         return False
-    if crit == 1:
+    if crit == CRIT_POSITION:
         return dp <= tol_pos * (1 + 1e-9)
-    if crit == 3:
+    if crit == CRIT_DQ_BODY:
         return np.sqrt(1 + dp * dp / 4) <= tol_dq * (1 + 1e-12)
-    if crit == 2:
+    if crit == CRIT_DQ_NORM:
         t = relative_translation_norm(Tg, T)
         return np.sqrt(1 + t * t / 4) <= tol_dq * (1 + 1e-12)
     ang = rotation_angle(Tg, T)

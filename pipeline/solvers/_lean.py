@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _jit
-from pipeline.solvers._kin import NON_FINITE, SUCCESS, now_ns, quat_from_rot, quat_relative, relative_translation_norm, rodrigues
+from pipeline.solvers._kin import CRIT_DQ_BODY, CRIT_DQ_NORM, NON_FINITE, SUCCESS, now_ns, quat_from_rot, quat_relative, relative_translation_norm, rodrigues
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -241,7 +241,8 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     qp = np.empty(4)  # the previous iterate's (stall test)
     quat_from_rot(Tg, qg)
     method = ip[_jit.I_METHOD]
-    crit = ip[_jit.I_CRITERION]
+    crit = ip[_jit.I_CRITERION]  # pipeline.solvers._kin.CRITERION_CODE
+    dq_crit = crit == CRIT_DQ_NORM or crit == CRIT_DQ_BODY
     time_ik = ip[_jit.I_TIME_IK] != 0
     t0 = 0
     lam = fp[_jit.F_LAMBDA] if method == 2 else 0.0
@@ -259,7 +260,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     grew = 0
     if not math.isfinite(err):
         code = NON_FINITE
-    elif (crit != 1 and err <= fp[_jit.F_TOL_DQ]) or (crit == 1 and dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]):
+    elif (dq_crit and err <= fp[_jit.F_TOL_DQ]) or (not dq_crit and dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]):
         code = SUCCESS
     while code == 0:
         it += 1
@@ -287,8 +288,8 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
             for r in range(6):
                 trace[it, 1 + r] = e[r]
             trace[it, 7] = dp
-        if crit == 0 or crit == 2:
-            if crit == 0:
+        if dq_crit:
+            if crit == CRIT_DQ_NORM:
                 t = relative_translation_norm(T, Tprev)
             else:
                 t = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)

@@ -38,6 +38,7 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.fkcheck import check_model, check_one
 from pipeline.io.layout import STOP_REASONS, TRACE_COLS, StopReason  # noqa: F401  (re-exported)
 from pipeline.robots import LENGTH_UNITS, RobotModel
+from pipeline.solvers._kin import CRITERIA, CRITERION_CODE  # noqa: F401  (re-exported: the one success-test code)
 from pipeline.solvers._kin import FK_CHECK_FAILED, NO_SOLUTION, NON_FINITE, OUT_OF_LIMITS, SUCCESS, TRACE_DP
 
 
@@ -50,8 +51,6 @@ class NotApplicableError(ValueError):
 
 
 
-CRITERIA = ("pos_orient", "position", "dq_norm", "dq_norm_body")
-CRITERION_CODE = {c: i for i, c in enumerate(CRITERIA)}  # what compiled kernels take (pipeline.solvers._kin.meets)
 POSITION_CRITERIA = ("position", "dq_norm_body")  # success tests that ignore the goal orientation
 
 

@@ -16,11 +16,10 @@ import numpy as np
 
 from pipeline.solvers import _jit, _lean
 from pipeline.solvers._kin import TRACE_COLS
-from pipeline.solvers.base import BatchRaw, Prepared, Raw, Settings, setting
+from pipeline.solvers.base import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, setting
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "000_7e3cb7ad5ee98ff0.txt (Cerbaro 2019) §3"
-_CRIT = {"dq_norm": 0, "pos_orient": 1, "dq_norm_body": 2, "position": 1}
 
 
 @dataclass(frozen=True)
@@ -75,7 +74,7 @@ def packed(method: str, s: JacobianSettings) -> tuple[np.ndarray, np.ndarray]:
     fp = np.zeros(_jit.N_FP)
     ip[_jit.I_METHOD] = _jit.METHODS[method]
     ip[_jit.I_MAX_ITER] = s.max_iterations
-    ip[_jit.I_CRITERION] = _CRIT[s.criterion]
+    ip[_jit.I_CRITERION] = CRITERION_CODE[s.criterion]  # position: pos_orient's tests, tol_rot = inf
     ip[_jit.I_ORIENT] = _jit.ORIENT_ERRORS[s.orientation_error]
     ip[_jit.I_GROW_LIMIT] = s.grow_limit
     ip[_jit.I_SDLS_NORM] = _jit.NORMS[getattr(s, "sdls_norm", "maxabs")]

@@ -24,7 +24,8 @@ import numba
 import numpy as np
 
 from pipeline.solvers import _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
+from pipeline.solvers._kin import CRIT_POS_ORIENT, CRIT_POSITION, ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
+from pipeline.solvers import _jit
 from pipeline.solvers._jit import pose_error
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, setting
 from pipeline.solvers.registry import Solver, register
@@ -78,9 +79,9 @@ def packed(s: NewtonRaphsonSettings) -> tuple[np.ndarray, np.ndarray]:
 def _error(Tg, T, pip, pfp, qa, qb, e, inv_l, crit):
     """e = ((p_goal - p) / L, angle axis) (orientation zeroed for position-only goals); returns (|e|, |dp|, angle)."""
     err, dp, ang = pose_error(Tg, T, pip, pfp, qa, qb, e)
-    if crit == 1:  # position
+    if crit == CRIT_POSITION:
         e[3], e[4], e[5] = 0.0, 0.0, 0.0
-    if inv_l != 1.0 or crit == 1:
+    if inv_l != 1.0 or crit == CRIT_POSITION:
         for r in range(3):
             e[r] *= inv_l
         err = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
@@ -100,10 +101,10 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
     n = q0.shape[0]
     for i in range(n):
         q[i] = q0[i]
-    pip = np.zeros(9, np.int64)  # pose_error's slots: orientation error = axis-angle, scalar = |e|
-    pip[2] = 1
-    pip[3] = 1
-    pfp = np.zeros(9)
+    pip = np.zeros(_jit.N_IP, np.int64)  # pose_error's slots: orientation error = axis-angle, scalar = |e|
+    pip[_jit.I_CRITERION] = CRIT_POS_ORIENT
+    pip[_jit.I_ORIENT] = 1
+    pfp = np.zeros(_jit.N_FP)
     axes = np.empty((n, 3))
     origins = np.empty((n, 3))
     T = np.empty((4, 4))
@@ -136,7 +137,7 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
             for r in range(3):
                 for c in range(n):
                     J[r, c] *= inv_l
-        if crit == 1:  # position: no orientation rows
+        if crit == CRIT_POSITION:  # no orientation rows
             for r in range(3, 6):
                 for c in range(n):
                     J[r, c] = 0.0
