@@ -29,7 +29,7 @@ import math
 import numba
 import numpy as np
 
-from pipeline.solvers import _jit
+import pipeline.solvers._jit as _jit
 from pipeline.solvers._kin import CRIT_DQ_BODY, CRIT_DQ_NORM, NON_FINITE, SUCCESS, now_ns, quat_from_rot, quat_relative, relative_translation_norm, rodrigues
 
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, StopReason, setting
 from pipeline.solvers.registry import Solver, register
 

@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.solvers import _jit, _lean
+import pipeline.solvers._jit as _jit
+import pipeline.solvers._lean as _lean
 from pipeline.solvers._kin import TRACE_COLS
 from pipeline.solvers.base import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, setting
 from pipeline.solvers.registry import Solver, register

@@ -33,7 +33,7 @@ import numba
 import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
 from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
 from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, setting
 from pipeline.solvers.registry import Solver, register

@@ -23,9 +23,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
 from pipeline.solvers._kin import CRIT_POS_ORIENT, CRIT_POSITION, ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
-from pipeline.solvers import _jit
+import pipeline.solvers._jit as _jit
 from pipeline.solvers._jit import pose_error
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, setting
 from pipeline.solvers.registry import Solver, register

@@ -43,7 +43,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
 from pipeline.solvers._kin import TRACE_COLS
 from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, meets, setting
 from pipeline.solvers.registry import Solver, register
@@ -463,13 +463,15 @@ def _make_bounds(prep: Prepared, s: LBFGSBSettings):
 def _jacobian_args(prep: Prepared, robot_file: str) -> tuple:
     """Kernel arrays of the robot file whose Jacobian the descent uses (``jacobian_robot``)."""
     from pipeline.robots import load_robot
-    from pipeline.settings import ROOT
 
     path = Path(robot_file)
-    jm = load_robot(path if path.is_absolute() else ROOT / path)
+    jm = load_robot(path if path.is_absolute() else _ROOT / path)
     if jm.n != prep.n:
         raise SettingsError(f"solver settings: field 'jacobian_robot': {jm.n} joints, the robot has {prep.n}")
     return Prepared(jm, prep.unit).args
+
+
+_ROOT = Path(__file__).resolve().parents[2]  # the project root (pipeline.settings.ROOT), where relative robot paths start
 
 
 # ---- run functions ---------------------------------------------------------------------------

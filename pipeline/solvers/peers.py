@@ -97,7 +97,7 @@ import numpy as np
 from pipeline.kinematics import fk_htm
 from pipeline.kinematics.chain import Chain
 from pipeline.robots import LENGTH_UNITS
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
 from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting, wrap_into_limits
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
 from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
 from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.registry import Solver, register

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
 from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_COLS
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.registry import Solver, register
