@@ -52,7 +52,7 @@ import numpy as np
 
 from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, check_pack,
-                                   check_packed, closed_form_code, fused_inputs, setting)
+                                   finish_packed, fused_inputs, setting)
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -437,22 +437,20 @@ def ur_one(P, Tg, q_start, S, q, trace):
 
 @numba.njit(cache=True)
 def ur_call(PC, Tg, q_start, S, q, trace):
-    """The whole public single call in one compiled call: :func:`ur_core`, then the independent FK check
-    of the chosen ``q`` and its joint-limit record (:func:`pipeline.solvers.base.check_packed`: the
-    dual-quaternion FK, no code shared with the closed form's), then the stop reason as
-    :func:`pipeline.solvers.base.finish` sets it (without ``require_limits``).
+    """The whole public single call in one compiled call: :func:`ur_core`, then the result rule of
+    every finish (:func:`pipeline.solvers.base.finish_packed`: the independent FK check of the chosen
+    ``q`` by the dual-quaternion FK, no code shared with the closed form's, its joint-limit record and
+    the stop reason; without ``require_limits``).
 
     ``PC`` = :func:`packed` followed by :func:`~pipeline.solvers.base.check_pack`. Returns (number
     valid, chosen row or −1, solve time [ns] (ur_core's, the check excluded), stop reason, claimed
-    success, FK check passed, |dp|, angle, within the limits, the document's error at ``q``).
+    success, success, |dp|, angle, within the limits, the document's error at ``q``).
     """
     W = np.empty(N_W)
     clk = np.zeros(2, np.int64)
     nv, best, ns = ur_core(PC[:N_P], Tg, q_start, W, clk, S, q, trace, True)
-    ok, dp, ang, inside = check_packed(PC[N_P:], q, Tg)
-    claimed = best >= 0
-    code = closed_form_code(claimed, ok, dp, q)
-    return nv, best, ns, code, claimed, ok, dp, ang, inside, trace[1, 0]
+    code, claimed, success, dp, ang, inside = finish_packed(PC[N_P:], q, Tg, SUCCESS if best >= 0 else NO_SOLUTION)
+    return nv, best, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
 
 
 @numba.njit(cache=True, parallel=True)
@@ -523,10 +521,10 @@ def bind_call(prep: Prepared, s: AnalyticURSettings):
         S = empty((8, 6))
         q = empty(6)
         trace = empty((2, 8))
-        nv, best, ns, code, claimed, ok, dp, ang, inside, doc = ur_call(PC, Tg, q0, S, q, trace)
+        nv, best, ns, code, claimed, success, dp, ang, inside, doc = ur_call(PC, Tg, q0, S, q, trace)
         info = {"n_solutions": nv, "branch": best, "nfev": 8, "njev": 0, "doc_error": doc,
                 "message": messages[nv] if claimed else _NO_SOLUTION_TEXT}
-        res = IKResult(q, claimed and ok and code == SUCCESS, code, 1, trace, ns * 1e-9, 0.0, dp,
+        res = IKResult(q, success, code, 1, trace, ns * 1e-9, 0.0, dp,
                        nan if pos_only else ang, claimed, inside, nan, unit, S[:nv], info)
         res.call_time_s = (clock_ns() - t0) * 1e-9
         return res
