@@ -242,7 +242,7 @@ class Prepared:
         self.limits = own(self.model.limits)
         self.prismatic = np.asarray(c.prismatic, dtype=bool)
         self._cache: dict = {}  # see memo()
-        self._bound: dict = {}  # (solver name, id(settings)) -> registry.Bound (see registry.bind)
+        self._bound: dict = {}  # (solver name, id(settings)) -> driver.Bound (see registry.bind)
         self._finish_args = None  # finish()'s packed check model (see _finish_args)
 
     @property
@@ -720,7 +720,7 @@ C_CRIT, C_TOLP, C_TOLR, C_TOLDQ, C_F = 0, 1, 2, 3, 4  # criterion code, toleranc
 def fused_inputs(prep: Prepared):
     """The input half of a fused closed-form call (``Solver.bind_call``): ``inputs(T_goal, q_start) ->
     (goal in the working unit (4, 4), start (n,))``, both contiguous float64, the start's shape
-    checked (one-line SettingsError) as :meth:`pipeline.solvers.registry.Bound.solve` does."""
+    checked (one-line SettingsError) as :meth:`pipeline.solvers.driver.Bound.solve` does."""
     scale, working_goal, contiguous, shape = prep.goal_scale, prep.working_goal, np.ascontiguousarray, (prep.n,)
 
     def inputs(T_goal, q_start):

@@ -39,8 +39,9 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS
 from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.4, eqs. 4-6"
@@ -253,13 +254,10 @@ def _within_or_equal(dp, ang, rows, tol_pos, tol_rot):
 
 # ---- registry entry -------------------------------------------------------------------------
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: FDJacobianSettings, seed: int) -> Raw:
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, it = ji_solve(*prep.args, T_goal, q_start, float(s.alpha), float(s.delta), s.rows(),
-                        float(s.orientation_scale), STOP_REACH if s.stop == "reach" else STOP_CHANGE,
-                        float(s.tol_pos), float(s.tol_rot), float(s.error_change_stop), int(s.max_iterations),
-                        q, trace, times)
+    q, trace, times, (code, it) = run_loop(
+        ji_solve, (*prep.args, T_goal, q_start, float(s.alpha), float(s.delta), s.rows(), float(s.orientation_scale),
+                   STOP_REACH if s.stop == "reach" else STOP_CHANGE, float(s.tol_pos), float(s.tol_rot),
+                   float(s.error_change_stop), int(s.max_iterations)), q_start, s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
                info={"cpu_time_s": int(times[1]) * 1e-9})
 

@@ -27,8 +27,9 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_COLS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS
 from pipeline.solvers.base import Prepared, Raw, Settings, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) §6.3f / Test 6: iterative geometric method of Pinto & Bevilacqua [72]"
@@ -132,11 +133,9 @@ def geometric_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, max
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: GeometricSettings, seed: int) -> Raw:
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, iters = geometric_kernel(*prep.args, T_goal, q_start, s.max_iterations, s.tol_pos, s.order == "tip_to_base",
-                                   q, trace, times)
+    q, trace, times, (code, iters) = run_loop(geometric_kernel, (*prep.args, T_goal, q_start, s.max_iterations,
+                                                                 s.tol_pos, s.order == "tip_to_base"),
+                                              q_start, s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(iters), solve_ns=int(times[0]), trace=trace, ik_ns=int(times[1]))
 
 

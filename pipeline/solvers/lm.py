@@ -34,8 +34,9 @@ import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS
 from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.5, eqs. 7-8; MRPT CLevenbergMarquardtTempl"
@@ -253,14 +254,12 @@ def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose,
 
 # ---- registry entry -------------------------------------------------------------------------
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: LMSettings, seed: int) -> Raw:
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
     e1 = s.gradient_tol / LENGTH_UNITS[prep.unit] ** 2
-    code, it = lm_solve(*prep.args, T_goal, q_start, RES_SCALAR if s.residual == "scalar" else RES_VECTOR, s.pose(),
-                        float(s.orientation_scale), float(s.increment), int(s.max_iterations), float(s.tau), float(e1),
-                        float(s.step_tol), float(s.min_shrink), float(s.error_change_stop), float(s.tol_pos),
-                        float(s.tol_rot), q, trace, times)
+    q, trace, times, (code, it) = run_loop(
+        lm_solve, (*prep.args, T_goal, q_start, RES_SCALAR if s.residual == "scalar" else RES_VECTOR, s.pose(),
+                   float(s.orientation_scale), float(s.increment), int(s.max_iterations), float(s.tau), float(e1),
+                   float(s.step_tol), float(s.min_shrink), float(s.error_change_stop), float(s.tol_pos),
+                   float(s.tol_rot)), q_start, s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
                info={"cpu_time_s": int(times[1]) * 1e-9})
 

@@ -24,10 +24,11 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import CRIT_POS_ORIENT, CRIT_POSITION, ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
+from pipeline.solvers._kin import CRIT_POS_ORIENT, CRIT_POSITION, ITERATION_CAP, NON_FINITE, STALLED, SUCCESS
 import pipeline.solvers._jit as _jit
 from pipeline.solvers._jit import pose_error
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) eqs 4.10-4.13 (Newton-Raphson, Whitney step control)"
@@ -183,10 +184,8 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: NewtonRaphsonSettings, seed: int) -> Raw:
     ip, fp = prep.memo(("newton_raphson_packed", s), lambda: packed(s))
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, iters, halved = nr_kernel(*prep.args, T_goal, q_start, ip, fp, q, trace, times)
+    q, trace, times, (code, iters, halved) = run_loop(nr_kernel, (*prep.args, T_goal, q_start, ip, fp), q_start,
+                                                      s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(iters), solve_ns=int(times[0]), trace=trace, ik_ns=int(times[1]),
                info={"step_halvings": int(halved)})
 

@@ -46,6 +46,7 @@ import numpy as np
 import pipeline.solvers._kin as _kin
 from pipeline.solvers._kin import TRACE_COLS
 from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, meets, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -485,11 +486,10 @@ def run_descent(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Desc
     tp, tr = -1.0, -1.0
     if s.stop_at_tolerance and s.criterion in ("pos_orient", "position"):
         tp, tr = s.tol_pos, (math.inf if s.criterion == "position" else s.tol_rot)
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    clk = np.zeros(2, np.int64)
-    code, it, ns = descent(*prep.args, *jargs, own, T_goal, q_start, float(s.rate), float(s.tolerance),
-                           int(s.max_iterations), float(s.rcond), float(s.damping) ** 2, float(s.max_step), int(s.halvings), tp, tr, q, trace, clk)
+    q, trace, _, (code, it, ns) = run_loop(
+        descent, (*prep.args, *jargs, own, T_goal, q_start, float(s.rate), float(s.tolerance), int(s.max_iterations),
+                  float(s.rcond), float(s.damping) ** 2, float(s.max_step), int(s.halvings), tp, tr),
+        q_start, s.max_iterations)
     it = int(it)
     return Raw(q=q, code=int(code), iterations=it, solve_ns=int(ns), trace=trace,
                info={"nfev": it + 1, "njev": it, "doc_error": float(trace[it, 0]),

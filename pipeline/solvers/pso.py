@@ -37,8 +37,9 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS
 from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.6, eqs. 9-11; Rookfighter/pso-cpp Optimizer::minimize"
@@ -254,13 +255,11 @@ def applies_to(prep: Prepared) -> str | None:
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: PSOSettings, seed: int) -> Raw:
     lo, hi, window = search_bounds(prep, T_goal, q_start, s)
     sseed = stream_seed(s.seed, seed)
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, it = pso_solve(*prep.args, T_goal, lo, hi, int(s.particles), float(s.inertia), float(s.c1), float(s.c2),
-                         s.velocity_limits(lo, hi), float(s.feps), float(s.xeps), int(s.max_iterations),
-                         bool(s.stop_at_tolerance), s.pose(), float(s.orientation_scale), float(s.tol_pos),
-                         float(s.tol_rot), sseed, q, trace, times)
+    q, trace, times, (code, it) = run_loop(
+        pso_solve, (*prep.args, T_goal, lo, hi, int(s.particles), float(s.inertia), float(s.c1), float(s.c2),
+                    s.velocity_limits(lo, hi), float(s.feps), float(s.xeps), int(s.max_iterations),
+                    bool(s.stop_at_tolerance), s.pose(), float(s.orientation_scale), float(s.tol_pos),
+                    float(s.tol_rot), sseed), q_start, s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
                info={"cpu_time_s": int(times[1]) * 1e-9, "stream_seed": sseed, "window": window})
 

@@ -50,8 +50,9 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_COLS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, SettingsError, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) Appendix 4 (Kazerounian's Zero-Position method), §6.2c strategies"
@@ -305,10 +306,8 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: ZeroPositionSettings, seed: int) -> Raw:
     c, ip, fp = prep.memo(("zero_position_packed", s), lambda: packed(s, prep.prismatic))
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, iters, steps = zp_kernel(*prep.args, T_goal, q_start, c, ip, fp, q, trace, times)
+    q, trace, times, (code, iters, steps) = run_loop(zp_kernel, (*prep.args, T_goal, q_start, c, ip, fp), q_start,
+                                                     s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(iters), solve_ns=int(times[0]), trace=trace, ik_ns=int(times[1]),
                info={"joint_steps": int(steps)})
 
