@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, now_ns
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, check_pack,
                                    finish_packed, fused_inputs, setting)
 from pipeline.solvers.registry import Solver, register
@@ -484,7 +484,7 @@ def bind(prep: Prepared, s: AnalyticURSettings):
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
         S = np.empty((8, 6))
         q = np.empty(6)
-        trace = np.empty((2, 8))
+        trace = np.empty((2, TRACE_COLS))
         nv, best, ns = ur_one(P, T_goal, q_start, S, q, trace)
         return Raw(q=q, code=SUCCESS if best >= 0 else NO_SOLUTION, iterations=1, solve_ns=ns, trace=trace,
                    solutions=S[:nv], info=_info(nv, best, float(trace[1, 0])))
@@ -520,7 +520,7 @@ def bind_call(prep: Prepared, s: AnalyticURSettings):
         Tg, q0 = inputs(T_goal, q_start)
         S = empty((8, 6))
         q = empty(6)
-        trace = empty((2, 8))
+        trace = empty((2, TRACE_COLS))
         nv, best, ns, code, claimed, success, dp, ang, inside, doc = ur_call(PC, Tg, q0, S, q, trace)
         info = {"n_solutions": nv, "branch": best, "nfev": 8, "njev": 0, "doc_error": doc,
                 "message": messages[nv] if claimed else _NO_SOLUTION_TEXT}
@@ -576,7 +576,7 @@ def batch(prep: Prepared, s: AnalyticURSettings, goals: np.ndarray, starts: np.n
     N = goals.shape[0]
     S = np.empty((N, 8, 6))
     Q = np.empty((N, 6))
-    traces = np.empty((N, 2, 8))
+    traces = np.empty((N, 2, TRACE_COLS))
     nsol = np.zeros(N, np.int64)
     best = np.zeros(N, np.int64)
     ns = np.zeros(N, np.int64)
