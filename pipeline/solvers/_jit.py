@@ -14,7 +14,7 @@ import numpy as np
 
 from pipeline.solvers._kin import quat_from_rot, quat_relative, relative_translation_norm, small_svd, vec_norm
 from pipeline.solvers._kin import CRIT_DQ_BODY, CRIT_DQ_NORM  # success tests (CRITERION_CODE)
-from pipeline.solvers._kin import DIVERGING, ITERATION_CAP, NON_FINITE, STALLED, SUCCESS  # stop codes (000 §3.4)
+from pipeline.solvers._kin import stop_rule
 
 # integer parameter slots -------------------------------------------------------------------
 I_METHOD, I_MAX_ITER, I_CRITERION, I_ORIENT, I_GROW_LIMIT, I_SDLS_NORM, I_SDLS_BLOCKS, I_NO_STALL, I_NO_GROW = range(9)
@@ -134,16 +134,7 @@ def step(method, J, e, ip, fp):
 
 @numba.njit(cache=True)
 def stop_code(err, ok, stalled, grew, it, ip):
-    """The loop's stop rule after iteration ``it`` (000 §3.4; the order is ours: a converged step is
-    never counted as a failure): 0 = go on, else the stop code."""
-    if not np.isfinite(err):
-        return NON_FINITE
-    if ok:
-        return SUCCESS
-    if stalled and ip[I_NO_STALL] == 0:
-        return STALLED
-    if grew >= ip[I_GROW_LIMIT] and ip[I_NO_GROW] == 0:
-        return DIVERGING
-    if it >= ip[I_MAX_ITER]:
-        return ITERATION_CAP
-    return 0
+    """The Jacobian loop's stop rule after iteration ``it``: :func:`pipeline.solvers._kin.stop_rule`
+    with the settings' switches (``disable_stall``, ``disable_grow``) applied."""
+    return stop_rule(err, ok, stalled and ip[I_NO_STALL] == 0, grew if ip[I_NO_GROW] == 0 else 0,
+                     ip[I_GROW_LIMIT], it, ip[I_MAX_ITER])

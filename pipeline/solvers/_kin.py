@@ -39,6 +39,25 @@ CRITERION_CODE = {c: i for i, c in enumerate(CRITERIA)}
 CRIT_POS_ORIENT, CRIT_POSITION, CRIT_DQ_NORM, CRIT_DQ_BODY = (CRITERION_CODE[c] for c in CRITERIA)
 # Trace rows: TRACE_COLS columns (pipeline.io.layout.TRACE_COLUMNS), the last one |dp|
 TRACE_DP = TRACE_COLS - 1
+NEVER = 1 << 62  # a grow limit or iteration cap that is never reached
+
+
+@numba.njit(cache=True)
+def stop_rule(err, ok, stalled, grew, grow_limit, it, max_iter):
+    """The stop rule of an iterative method after iteration ``it`` (000 §3.4; the order is ours: a
+    converged step is never counted as a failure): 0 = go on, else the stop code. ``stalled``: the
+    method's own stall test fired; ``grew``: iterations in a row whose error grew."""
+    if not np.isfinite(err):
+        return NON_FINITE
+    if ok:
+        return SUCCESS
+    if stalled:
+        return STALLED
+    if grew >= grow_limit:
+        return DIVERGING
+    if it >= max_iter:
+        return ITERATION_CAP
+    return 0
 
 # libc's clock_gettime, resolved by symbol name so that compiled functions can be cached on disk
 _clock_gettime = types.ExternalFunction("clock_gettime", types.int32(types.int32, types.voidptr))

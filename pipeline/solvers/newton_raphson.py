@@ -24,7 +24,7 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import CRIT_POS_ORIENT, CRIT_POSITION, ITERATION_CAP, NON_FINITE, STALLED, SUCCESS
+from pipeline.solvers._kin import CRIT_POS_ORIENT, CRIT_POSITION, NON_FINITE, SUCCESS
 import pipeline.solvers._jit as _jit
 from pipeline.solvers._jit import pose_error
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, setting
@@ -169,14 +169,8 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
         trace[it, 0] = err
         trace[it, 1:7] = e
         trace[it, 7] = dp
-        if not np.isfinite(err):
-            code = NON_FINITE
-        elif (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-            code = SUCCESS
-        elif not accepted and stall:
-            code = STALLED
-        elif it >= max_iter:
-            code = ITERATION_CAP
+        ok = (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq)
+        code = _kin.stop_rule(err, ok, not accepted and stall, 0, _kin.NEVER, it, max_iter)
     times[0] = _kin.now_ns(clk) - t_start
     times[1] = t_ik
     return code, it, halved
