@@ -57,6 +57,7 @@ from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, now_ns
 from pipeline.solvers.analytic_ur import InfoRows, copy12, mul34, mul_link, pose_errors, rigid_rows
 from pipeline.solvers.base import (CRITERION_CODE, TRACE_COLS, BatchRaw, IKResult, Prepared, Raw, Settings,
                                    check_pack, finish_packed, fused_inputs)
+from pipeline.solvers.driver import run_of
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -481,9 +482,7 @@ def bind_call(prep: Prepared, s: AnalyticPumaSettings):
     return call
 
 
-def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: AnalyticPumaSettings, seed: int) -> Raw:
-    """One pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``."""
-    return bind(prep, s)(np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q_start, dtype=float), seed)
+run = run_of(bind)  # one pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``
 
 
 def batch(prep: Prepared, s: AnalyticPumaSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):

@@ -53,6 +53,7 @@ import numpy as np
 from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, check_pack,
                                    finish_packed, fused_inputs, setting)
+from pipeline.solvers.driver import run_of
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -532,9 +533,7 @@ def bind_call(prep: Prepared, s: AnalyticURSettings):
     return call
 
 
-def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: AnalyticURSettings, seed: int) -> Raw:
-    """One pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``."""
-    return bind(prep, s)(np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q_start, dtype=float), seed)
+run = run_of(bind)  # one pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``
 
 
 class InfoRows(Sequence):

@@ -67,6 +67,17 @@ def run_loop(kernel, args: tuple, q_start: np.ndarray, max_iterations: int, cloc
     return q, trace, times, out
 
 
+def run_of(bind):
+    """A method's ``run(prep, T_goal, q_start, settings, seed) -> Raw`` from its ``bind(prep, settings) ->
+    run1``: one search with the per-job work redone (a method with ``bind`` writes its search once)."""
+
+    def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, settings: Settings, seed: int):
+        return bind(prep, settings)(np.ascontiguousarray(T_goal, dtype=float),
+                                    np.ascontiguousarray(q_start, dtype=float), seed)
+
+    return run
+
+
 class Bound:
     """A solver bound to a prepared robot and its settings: what is done once per job, done once.
 

@@ -18,6 +18,7 @@ import pipeline.solvers._jit as _jit
 import pipeline.solvers._lean as _lean
 from pipeline.solvers._kin import TRACE_COLS
 from pipeline.solvers.base import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, setting
+from pipeline.solvers.driver import run_of
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "000_7e3cb7ad5ee98ff0.txt (Cerbaro 2019) §3"
@@ -115,15 +116,6 @@ def _bind(method: str):
     return bind
 
 
-def _runner(method: str):
-    bind = _bind(method)
-
-    def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: JacobianSettings, seed: int) -> Raw:
-        return bind(prep, s)(T_goal, q_start, seed)
-
-    return run
-
-
 TRACE_BUDGET = 64 * 2**20  # [bytes] per chunk of a batch's trace buffer (N x (max_iterations + 1) x 8 floats)
 
 
@@ -171,4 +163,5 @@ for _name, _title, _cls in (
     ("dls", "damped least squares J^T (J J^T + lambda^2 I)^-1 e (eq. 50)", DLSSettings),
     ("sdls", "selectively damped least squares (Buss & Kim 2004; eqs. 56-61)", SDLSSettings),
 ):
-    register(Solver(_name, _title, "local", _cls, _runner(_name), source=SOURCE, bind=_bind(_name), batch=_batch(_name)))
+    _b = _bind(_name)
+    register(Solver(_name, _title, "local", _cls, run_of(_b), source=SOURCE, bind=_b, batch=_batch(_name)))
