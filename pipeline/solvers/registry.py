@@ -35,7 +35,8 @@ class Solver:
         local: iterates from the start angles; global: searches the joint box (start ignored or
         used as a seed); analytic: closed form, all solutions, the one nearest the start returned.
     settings : type[Settings]
-    run : callable                  ``run(prep, T_goal, q_start, settings, seed) -> Raw``
+    run : callable                  ``run(prep, T_goal, q_start, settings, seed) -> Raw`` (one search;
+                                    :func:`pipeline.solvers.driver.run_of` derives it from ``bind``)
     applies_to : callable           ``applies_to(prep) -> str | None``: why the method does not fit
                                     the robot (None = it does)
     source : str                    where the method comes from (document, section, reference)
