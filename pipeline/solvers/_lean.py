@@ -30,7 +30,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers._jit as _jit
-from pipeline.solvers._kin import CRIT_DQ_BODY, CRIT_DQ_NORM, NON_FINITE, SUCCESS, now_ns, quat_from_rot, quat_relative, relative_translation_norm, rodrigues
+from pipeline.solvers._kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NON_FINITE, SUCCESS, TRACE_DP, now_ns, quat_from_rot,
+                                    quat_relative, relative_translation_norm, rodrigues)
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -253,7 +254,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     trace[0, 0] = err
     for r in range(6):
         trace[0, 1 + r] = e[r]
-    trace[0, 7] = dp
+    trace[0, TRACE_DP] = dp
     t_ik = 0
     code = 0
     it = 0
@@ -287,7 +288,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
             trace[it, 0] = err
             for r in range(6):
                 trace[it, 1 + r] = e[r]
-            trace[it, 7] = dp
+            trace[it, TRACE_DP] = dp
         if dq_crit:
             if crit == CRIT_DQ_NORM:
                 t = relative_translation_norm(T, Tprev)

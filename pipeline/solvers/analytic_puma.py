@@ -53,7 +53,7 @@ import numba
 import numpy as np
 
 from pipeline.kinematics.fkcheck import meets
-from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, now_ns
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_DP, now_ns
 from pipeline.solvers.analytic_ur import InfoRows, copy12, mul34, mul_link, pose_errors, rigid_rows
 from pipeline.solvers.base import (CRITERION_CODE, TRACE_COLS, BatchRaw, IKResult, Prepared, Raw, Settings,
                                    check_pack, finish_packed, fused_inputs)
@@ -388,7 +388,7 @@ def puma_call(PC, Tg, q_start, sols, q, iv, fv, trace):
                                                            SUCCESS if iv[I_CHOSEN] >= 0 else NO_SOLUTION)
     for c in range(7):
         trace[0, c] = math.nan
-    trace[0, 7] = dp
+    trace[0, TRACE_DP] = dp
     return ns, code, claimed, success, dp, ang, inside
 
 

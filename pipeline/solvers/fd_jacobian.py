@@ -39,7 +39,7 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_DP
 from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
@@ -122,7 +122,7 @@ def _trace_row(trace, k, e, Tg, T, rows, rv, dp):
         trace[k, 4], trace[k, 5], trace[k, 6] = rv[0], rv[1], rv[2]
     else:
         trace[k, 4], trace[k, 5], trace[k, 6] = 0.0, 0.0, 0.0
-    trace[k, 7] = dp
+    trace[k, TRACE_DP] = dp
 
 
 @numba.njit(cache=True)

@@ -27,7 +27,7 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_DP
 from pipeline.solvers.base import Prepared, Raw, Settings, setting
 from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
@@ -60,7 +60,7 @@ def _fill(trace, row, Tg, T):
     dp = np.sqrt(s)
     trace[row, 0] = dp
     trace[row, 4], trace[row, 5], trace[row, 6] = 0.0, 0.0, 0.0
-    trace[row, 7] = dp
+    trace[row, TRACE_DP] = dp
     return dp
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_DP
 from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, setting
 from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
@@ -133,7 +133,7 @@ def _trace_row(trace, k, e, Tg, T, pose, qa, qb, rv):
     else:
         trace[k, 4], trace[k, 5], trace[k, 6] = 0.0, 0.0, 0.0
     dx, dy, dz = trace[k, 1], trace[k, 2], trace[k, 3]
-    trace[k, 7] = np.sqrt(dx * dx + dy * dy + dz * dz)
+    trace[k, TRACE_DP] = np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 @numba.njit(cache=True)

@@ -24,7 +24,7 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import CRIT_POS_ORIENT, CRIT_POSITION, NON_FINITE, SUCCESS
+from pipeline.solvers._kin import CRIT_POSITION, CRIT_POS_ORIENT, NON_FINITE, SUCCESS, TRACE_DP
 import pipeline.solvers._jit as _jit
 from pipeline.solvers._jit import pose_error
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, setting
@@ -120,7 +120,7 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
     err, dp, ang = _error(Tg, T, pip, pfp, qa, qb, e, inv_l, crit)
     trace[0, 0] = err
     trace[0, 1:7] = e
-    trace[0, 7] = dp
+    trace[0, TRACE_DP] = dp
     t_ik = 0
     code = 0
     it = 0
@@ -168,7 +168,7 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
             _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
         trace[it, 0] = err
         trace[it, 1:7] = e
-        trace[it, 7] = dp
+        trace[it, TRACE_DP] = dp
         ok = (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq)
         code = _kin.stop_rule(err, ok, not accepted and stall, 0, _kin.NEVER, it, max_iter)
     times[0] = _kin.now_ns(clk) - t_start

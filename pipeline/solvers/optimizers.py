@@ -44,7 +44,7 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import TRACE_COLS
+from pipeline.solvers._kin import TRACE_COLS, TRACE_DP
 from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, meets, setting
 from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
@@ -139,7 +139,7 @@ def descent(a, alpha, d, offs, prism, modified, base, tool, ja, jalpha, jd, joff
         trace[it, 0] = en
         for k in range(6):
             trace[it, 1 + k] = e[k]
-        trace[it, 7] = dp
+        trace[it, TRACE_DP] = dp
         if not math.isfinite(en):
             code = 5
             break
@@ -298,7 +298,7 @@ def trace_rows(X, P, Tg, out):
             out[k, 0] = P[P_WP] * d1 + P[P_WR] * d2
         for r in range(6):
             out[k, 1 + r] = e[r]
-        out[k, 7] = dp
+        out[k, TRACE_DP] = dp
 
 
 @numba.njit(cache=True)

@@ -98,7 +98,7 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.chain import Chain
 from pipeline.robots import LENGTH_UNITS
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import TRACE_COLS
+from pipeline.solvers._kin import TRACE_COLS, TRACE_DP
 from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting, wrap_into_limits
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
@@ -196,7 +196,7 @@ def trace_from_record(method: str, prep: Prepared, T_goal: np.ndarray, q0: np.nd
     if method not in _NO_TRACE:
         return _trace(prep, T_goal, q0, q)[: iterations + 1]
     out = np.full((1, TRACE_COLS), np.nan)
-    out[0, 7] = position_error
+    out[0, TRACE_DP] = position_error
     return out
 
 
@@ -226,7 +226,7 @@ def _trace(prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray) ->
         out[k, 1:4] = dp
         out[k, 4:7] = rv
         out[k, 0] = math.sqrt(float(dp @ dp + rv @ rv))
-        out[k, 7] = math.sqrt(float(dp @ dp))
+        out[k, TRACE_DP] = math.sqrt(float(dp @ dp))
     return out
 
 

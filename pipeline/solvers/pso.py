@@ -37,7 +37,7 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_DP
 from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
@@ -124,7 +124,7 @@ def _best_row(a, alpha, d, offs, prism, modified, base, tool, Tg, x, pose, trace
         trace[k, 4], trace[k, 5], trace[k, 6] = 0.0, 0.0, 0.0
     dx, dy, dz = trace[k, 1], trace[k, 2], trace[k, 3]
     dp = np.sqrt(dx * dx + dy * dy + dz * dz)
-    trace[k, 7] = dp
+    trace[k, TRACE_DP] = dp
     return dp, ang
 
 

@@ -50,7 +50,7 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_DP
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
@@ -174,7 +174,7 @@ def _trace_row(trace, row, dR, dP, M, dv):
     trace[row, 4] = 0.5 * (M[2, 1] - M[1, 2])
     trace[row, 5] = 0.5 * (M[0, 2] - M[2, 0])
     trace[row, 6] = 0.5 * (M[1, 0] - M[0, 1])
-    trace[row, 7] = np.sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2])
+    trace[row, TRACE_DP] = np.sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2])
 
 
 @numba.njit(cache=True)
