@@ -181,7 +181,17 @@ def collect(only: str | None = None) -> dict:
 
 
 def _cases(keys) -> list[str]:
-    return sorted({k.split("/")[0] for k in keys})
+    return sorted({k.split("/")[0] for k in keys if not k.startswith("__")})
+
+
+def _build() -> str:
+    """The libraries and machine the snapshot is bit-exact for (last bits may differ on another build)."""
+    import platform
+
+    import numba
+    import scipy
+
+    return f"numpy {np.__version__}, numba {numba.__version__}, scipy {scipy.__version__}, {platform.machine()}"
 
 
 @pytest.fixture(scope="module")
@@ -189,7 +199,10 @@ def golden():
     if not GOLDEN.exists():
         pytest.skip(f"no golden snapshot ({GOLDEN}); record it with python tests/test_driver_golden.py --record")
     with np.load(GOLDEN, allow_pickle=False) as z:
-        return {k: z[k] for k in z.files}
+        out = {k: z[k] for k in z.files}
+    if str(out.pop("__build__", np.array(""))) != _build():
+        pytest.skip(f"golden snapshot recorded on another build than this one ({_build()}): record it again")
+    return out
 
 
 def _methods():
@@ -225,6 +238,7 @@ def record() -> None:
 
     t = time.time()
     out = collect()
+    out["__build__"] = np.array(_build())
     GOLDEN.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(GOLDEN, **out)
     print(f"{len(out)} arrays, {len(_cases(out))} methods, {GOLDEN.stat().st_size / 1e6:.2f} MB, "
