@@ -21,14 +21,15 @@ the closed forms, on ``threads`` cores) and :func:`pipeline.solvers.base.finish_
 result rule per problem), or else steps 1-5 per problem; results are the same either way
 (tests/test_fast_path.py, tests/test_driver_golden.py).
 
-Two fast paths stay, each measured and each held equal to the path it replaces field by field:
+Two fast paths stay, each measured (``python benchmarks/bench_fast.py --only paths``) and each held
+equal to the path it replaces field by field (tests/test_driver_paths.py):
 
-* ``Solver.batch`` (the N-problem kernels): 1.4x (Jacobian DLS, cerbaro2019 settings) to 3x (the
+* ``Solver.batch`` (the N-problem kernels): 1.3x (Jacobian DLS, cerbaro2019 settings) to 3x (the
   closed forms) the throughput of per-problem calls on one thread, and the only path on several
-  cores (tests/test_fast_path.py, tests/test_analytic_fast.py);
+  cores;
 * ``Solver.bind_call`` (the analytic closed forms' fused single call: kernel, FK check and result
-  in one compiled call, :func:`pipeline.solvers.base.finish_packed`): about 5 us instead of about 9
-  for ``run1`` + ``finish`` (tests/test_fastpath_ur.py).
+  in one compiled call, :func:`pipeline.solvers.base.finish_packed`): 1.4x faster than ``run1`` +
+  ``finish`` (UR5 5.1 us instead of 7.3, PUMA 560 8.6 us instead of 11.7).
 
 The loop buffers of an iterative method (the solution, one trace row per iterate up to the
 iteration cap, the kernel's clock readings) are allocated by :func:`run_loop`, so that a method's
