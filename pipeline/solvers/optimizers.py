@@ -44,7 +44,7 @@ import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
-from pipeline.solvers._kin import TRACE_COLS, TRACE_DP
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS, TRACE_DP
 from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, meets, setting
 from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
@@ -141,13 +141,13 @@ def descent(a, alpha, d, offs, prism, modified, base, tool, ja, jalpha, jd, joff
             trace[it, 1 + k] = e[k]
         trace[it, TRACE_DP] = dp
         if not math.isfinite(en):
-            code = 5
+            code = NON_FINITE
             break
         if en < tol or (tol_pos >= 0.0 and dp <= tol_pos and _kin.rotation_angle(Tg, T) <= tol_rot):
-            code = 1
+            code = SUCCESS
             break
         if it >= max_iter:
-            code = 4
+            code = ITERATION_CAP
             break
         if own_jacobian:
             for r in range(3):
@@ -186,7 +186,7 @@ def descent(a, alpha, d, offs, prism, modified, base, tool, ja, jalpha, jd, joff
                     break
                 f *= 0.5
             if not accepted:
-                code = 2
+                code = STALLED
                 break
             for j in range(n):
                 q[j] = qc[j]
@@ -493,8 +493,8 @@ def run_descent(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Desc
     it = int(it)
     return Raw(q=q, code=int(code), iterations=it, solve_ns=int(ns), trace=trace,
                info={"nfev": it + 1, "njev": it, "doc_error": float(trace[it, 0]),
-                     "message": {1: "norm(e) < tolerance", 2: "no decrease after backtracking", 4: "iteration cap",
-                                 5: "non-finite"}.get(int(code), "")})
+                     "message": {SUCCESS: "norm(e) < tolerance", STALLED: "no decrease after backtracking",
+                                 ITERATION_CAP: "iteration cap", NON_FINITE: "non-finite"}.get(int(code), "")})
 
 
 def _scipy_runner(method: str):
