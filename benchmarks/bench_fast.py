@@ -30,6 +30,10 @@ Sections (each prints medians and 95th percentiles; every time is per problem un
 ``batch``     ``pipeline.solvers.solve_batch`` at the cerbaro2019 DLS settings
               (data/studies/cerbaro2019.yaml) on ``--batch`` of its random problems, on 1 and 2
               threads: solves per second (wall time of the whole call).
+``paths``     (only when named in ``--only``) each fast path of the solve driver against the
+              driver's generic path on the job it serves: the batch kernels against one call per
+              problem (cerbaro2019's DLS; 4 x ``--batch`` UR5 / PUMA poses) and the closed forms'
+              fused single call against ``run1`` + ``finish``; a fast path stays where it is >= 1.2x.
 ``analytic``  UR5 (data/robots/ur5.yaml) and PUMA 560: all solutions per pose through the public
               call, ur_analytic_ik (peer, C++) on the same poses, and UR5 poses per second through
               the batch call. Public-call times are given interleaved with the peer (the peer's
@@ -259,16 +263,68 @@ def analytic(n: int) -> dict:
     return out
 
 
+def paths(n: int, n_batch: int) -> dict:
+    """Each fast path of the solve driver (pipeline/solvers/driver.py) against the driver's generic path
+    on the job it serves; a fast path stays only where it is at least 20 % faster (issue 24, item 5)."""
+    from dataclasses import replace
+
+    from pipeline.settings import load_study
+    from pipeline.solvers import get
+    from pipeline.solvers.driver import Bound
+
+    out = {}
+    study = load_study(ROOT / "data" / "studies" / "cerbaro2019.yaml")
+    spec = study.problem_sets["random"]
+    lwr = load_robot(ROOT / "data" / "robots" / "kuka_lwr.yaml")
+    jobs = [("dls", lwr, study.solvers["dls"].settings,
+             random_joint_pairs(lwr, n_batch, np.random.default_rng(spec["seed"]), **spec.get("params", {})))]
+    for name, robot in (("analytic_ur", "ur5"), ("analytic_puma", "puma560")):
+        model = load_robot(ROOT / "data" / "robots" / f"{robot}.yaml")
+        jobs.append((name, model, make_settings(name),
+                     random_joint_pairs(model, 4 * n_batch, np.random.default_rng(3), low=-math.pi, high=math.pi)))
+    print("driver fast paths against its generic path (one thread) [speed-up = generic time / fast time]")
+    for name, model, s, ps in jobs:  # the batch kernel vs one Bound.solve per problem, stacked (a runner job)
+        prep = prepare(name, model, s)
+        warm_up(name, prep, s)
+        T = ps.goal_transforms()
+        fast, generic = Bound(get(name), prep, s), Bound(replace(get(name), batch=None), prep, s)
+        best = {"fast": math.inf, "generic": math.inf}
+        for _ in range(3):
+            for label, b in (("fast", fast), ("generic", generic)):
+                t = time.perf_counter()
+                b.solve_many(T, ps.q_start, threads=1)
+                best[label] = min(best[label], time.perf_counter() - t)
+        up = best["generic"] / best["fast"]
+        out[f"{name}/batch_speedup"] = up
+        print(f"  {name:14s} batch kernel {len(T) / best['fast']:9.0f} /s, per-problem calls "
+              f"{len(T) / best['generic']:9.0f} /s: {up:.2f}x ({'keep' if up >= 1.2 else 'below 1.2x'})")
+    for name, model, s, ps in jobs[1:]:  # the fused closed-form call vs run1 + finish (a public single call)
+        prep = prepare(name, model, s)
+        T, S = ps.goal_transforms()[:n], ps.q_start[:n]
+        fast, generic = Bound(get(name), prep, s), Bound(replace(get(name), bind_call=None), prep, s)
+        st = {}
+        for label, b in (("fast", fast), ("generic", generic)):
+            st[label] = _best_of(lambda: [b.call(T[i], S[i], 0, time.perf_counter_ns()).call_time_s * 1e6
+                                          for i in range(len(T))], len(T), passes=5)
+        up = st["generic"]["p50"] / st["fast"]["p50"]
+        out[f"{name}/fused_speedup"] = up
+        print(f"  {name:14s} fused call p50 {st['fast']['p50']:6.2f} us, run1 + finish {st['generic']['p50']:6.2f} us: "
+              f"{up:.2f}x ({'keep' if up >= 1.2 else 'below 1.2x'})")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--problems", type=int, default=2000, help="problems of the per-call sections")
     ap.add_argument("--batch", type=int, default=10000, help="problems of the batch section")
     ap.add_argument("--repeat", type=int, default=2, help="runs of every section")
-    ap.add_argument("--only", default="public,hotloop,batch,analytic", help="comma-separated sections")
+    ap.add_argument("--only", default="public,hotloop,batch,analytic",
+                    help="comma-separated sections (also: paths, not run by default)")
     ap.add_argument("--json", help="write every number to this JSON file")
     args = ap.parse_args()
     sections = {"public": lambda: public(args.problems), "hotloop": lambda: hotloop(min(args.problems, 200)),
-                "batch": lambda: batch(args.batch), "analytic": lambda: analytic(args.problems)}
+                "batch": lambda: batch(args.batch), "analytic": lambda: analytic(args.problems),
+                "paths": lambda: paths(args.problems, args.batch)}
     wanted = [s.strip() for s in args.only.split(",") if s.strip()]
     unknown = [s for s in wanted if s not in sections]
     if unknown:

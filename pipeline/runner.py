@@ -19,7 +19,7 @@ import numpy as np
 from pipeline.problems import ProblemSet
 from pipeline.robots import LENGTH_UNITS, RobotModel
 from pipeline.solvers import BatchResult, IKResult, Settings, bind, get, prepare, solve_batch, warm_up
-from pipeline.solvers.registry import _stack
+from pipeline.solvers.driver import stack
 
 BATCH = 2000  # problems per batch call (progress is reported between batches)
 
@@ -110,6 +110,6 @@ def solve_set_batches(method: str, settings: Settings, model: RobotModel, ps: Pr
 
 
 def _batch_of(rows, reps, starts, results, unit) -> tuple:
-    res = _stack(results, unit, traces=True)
+    res = stack(results, unit, traces=True)
     res.call_time_s = float(np.sum(res.call_times_s))
     return np.array(rows, dtype=np.int64), np.array(reps, dtype=np.int64), np.array(starts, dtype=float), res

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from pipeline.kinematics import fk_htm, geometric_jacobian
 from pipeline.robots import parse_robot
 from pipeline.solvers import Prepared, SettingsError, StopReason, make_settings, solve
-from pipeline.solvers import _jit
+from pipeline.solvers import _jit, _kin
 from pipeline.solvers.jacobian import DLSSettings, packed
 from tests.conftest import chains
 
@@ -23,9 +23,9 @@ def test_kernel_fk_and_jacobian_match_numpy(chain, seed):
     q = np.random.default_rng(seed).uniform(-np.pi, np.pi, chain.n)
     n = chain.n
     axes, origins, T, J = np.empty((n, 3)), np.empty((n, 3)), np.empty((4, 4)), np.empty((6, n))
-    _jit.forward(chain.a, chain.alpha, chain.d, chain.theta_offset, chain.prismatic, chain.modified,
+    _kin.forward(chain.a, chain.alpha, chain.d, chain.theta_offset, chain.prismatic, chain.modified,
                  chain.base, chain.tool, q, axes, origins, T)
-    _jit.jacobian(chain.prismatic, axes, origins, T[:3, 3].copy(), J)
+    _kin.jacobian(chain.prismatic, axes, origins, T[:3, 3].copy(), J)
     np.testing.assert_allclose(T, fk_htm(chain, q), atol=KERNEL_TOL * 100)
     np.testing.assert_allclose(J, geometric_jacobian(chain, q), atol=KERNEL_TOL * 100)
 
@@ -147,7 +147,7 @@ def test_small_svd_matches_lapack(seed, m, n, rank_drop):
     k = min(m, n)
     if rank_drop and k > rank_drop:  # exact rank deficiency, as at a singular configuration
         J = rng.normal(size=(m, k - rank_drop)) @ rng.normal(size=(k - rank_drop, n))
-    U, S, Vt = _jit.small_svd(J)
+    U, S, Vt = _kin.small_svd(J)
     assert U.shape == (m, k) and S.shape == (k,) and Vt.shape == (k, n)
     np.testing.assert_allclose(S, np.linalg.svd(J, compute_uv=False), atol=1e-12 * (1 + S[0]))
     np.testing.assert_allclose(U @ np.diag(S) @ Vt, J, atol=1e-12 * (1 + S[0]))

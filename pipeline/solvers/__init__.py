@@ -6,11 +6,14 @@
 Layout
 ------
 ``base``      StopReason, Settings (+ ``setting`` fields), Prepared robot, Raw kernel output,
-              IKResult, the independent FK check (``finish``), joint-limit test
+              IKResult, the one result rule (``finish``: independent FK check, limits, stop reason)
 ``registry``  name -> Solver (settings type, applicability, kernel call); ``solve``, ``solve_batch``,
-              ``bind`` (a solver bound to a robot and settings: per-job work done once), ``prepare``
+              ``bind``, ``prepare``
+``driver``    the one way to run a solve (``Bound``: a solver bound to a robot and settings, per-job
+              work done once; one problem or N, restarts, result, timing)
 ``timing``    the one timing definition (solve_time_s, ik_time_s, call_time_s)
-``_kin``      the compiled kinematics layer (numba) every iterative method uses
+``_kin``      the compiled kinematics layer (numba) every iterative method uses, and the one table
+              of integer codes the kernels take (stop codes, success-test codes, trace columns)
 ``jacobian``  Jacobian transpose, pseudoinverse, DLS, SDLS (000)
 ``fd_jacobian``, ``lm``, ``pso``            inverse Jacobian (finite differences), Levenberg-Marquardt, PSO (002)
 ``optimizers`` J+ gradient descent, BFGS, L-BFGS-B, Nelder-Mead (004); ``analytic_ur`` UR closed form (004)

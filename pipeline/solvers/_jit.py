@@ -1,12 +1,10 @@
-"""Compiled hot path of the Jacobian IK methods (numba, nopython).
+"""The Jacobian IK methods' parameter slots, pose error, reference step and stop rule (numba, nopython).
 
-Everything here is a straight transcription of :mod:`pipeline.kinematics` (standard/modified
-DH, geometric Jacobian, quaternion errors) into scalar loops so that a solve's time reflects the
-method and not interpreter overhead. ``tests/test_solvers.py`` checks these kernels against the
-numpy reference on random chains.
-
-Timing uses ``clock_gettime(CLOCK_MONOTONIC)`` called from compiled code (about 25 ns a call),
-so the IK-block time of one iteration can be measured on its own.
+The loop itself is :func:`pipeline.solvers._lean.solve`; this module holds what it calls that is
+written as a straight transcription of 000 (the pose error 6-vector, the four updates of eqs. 48-61,
+the stop rule of §3.4), and the layout of the packed parameters (:func:`pipeline.solvers.jacobian.packed`).
+``tests/test_solvers.py`` and ``tests/test_fast_path.py`` check them, and the loop's iterates,
+against the numpy kinematics.
 """
 
 from __future__ import annotations
@@ -14,10 +12,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from pipeline.solvers._kin import (  # noqa: F401  (re-exported: one kinematics layer)
-    forward, jacobian, now_ns, quat_from_rot, quat_relative, relative_rotation, relative_translation_norm, small_svd,
-    vec_norm,
-)
+from pipeline.solvers._kin import quat_from_rot, quat_relative, relative_translation_norm, small_svd, vec_norm
+from pipeline.solvers._kin import CRIT_DQ_BODY, CRIT_DQ_NORM  # success tests (CRITERION_CODE)
+from pipeline.solvers._kin import stop_rule
 
 # integer parameter slots -------------------------------------------------------------------
 I_METHOD, I_MAX_ITER, I_CRITERION, I_ORIENT, I_GROW_LIMIT, I_SDLS_NORM, I_SDLS_BLOCKS, I_NO_STALL, I_NO_GROW = range(9)
@@ -28,13 +25,9 @@ F_LAMBDA, F_GAMMA_MAX, F_TOL_DQ, F_STALL_DQ, F_TOL_POS, F_TOL_ROT, F_STALL_POS, 
 N_FP = 9
 
 METHODS = {"jacobian_transpose": 0, "pseudoinverse": 1, "dls": 2, "sdls": 3}
-CRITERIA = {"dq_norm": 0, "pos_orient": 1, "dq_norm_body": 2}
 ORIENT_ERRORS = {"quat_vec": 0, "axis_angle": 1}
 NORMS = {"maxabs": 0, "one": 1, "two": 2}
 
-# stop codes (000_7e3cb7ad5ee98ff0.txt §3.4), plus two of ours
-SUCCESS, STALLED, DIVERGING, ITERATION_CAP, NON_FINITE, FK_CHECK_FAILED = 1, 2, 3, 4, 5, 6
-TRACE_COLS = 8  # scalar error, e (6), position error norm
 
 
 @numba.njit(cache=True)
@@ -63,10 +56,11 @@ def pose_error_q(Tg, T, qg, qt, ip, fp, e):
         g = fp[F_ORIENT_GAIN]
     e[3], e[4], e[5] = g * x, g * y, g * z
     dp = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-    if ip[I_CRITERION] == 0:
+    crit = ip[I_CRITERION]  # pipeline.solvers._kin.CRITERION_CODE
+    if crit == CRIT_DQ_NORM:
         t = relative_translation_norm(Tg, T)
         err = np.sqrt(1.0 + 0.25 * t * t)
-    elif ip[I_CRITERION] == 2:
+    elif crit == CRIT_DQ_BODY:
         # Q* Q_goal: its translation is R^T (p_goal - p), so the norm sees position only
         err = np.sqrt(1.0 + 0.25 * dp * dp)
     else:
@@ -140,92 +134,7 @@ def step(method, J, e, ip, fp):
 
 @numba.njit(cache=True)
 def stop_code(err, ok, stalled, grew, it, ip):
-    """The loop's stop rule after iteration ``it`` (000 §3.4; the order is ours: a converged step is
-    never counted as a failure): 0 = go on, else the stop code."""
-    if not np.isfinite(err):
-        return NON_FINITE
-    if ok:
-        return SUCCESS
-    if stalled and ip[I_NO_STALL] == 0:
-        return STALLED
-    if grew >= ip[I_GROW_LIMIT] and ip[I_NO_GROW] == 0:
-        return DIVERGING
-    if it >= ip[I_MAX_ITER]:
-        return ITERATION_CAP
-    return 0
-
-
-@numba.njit(cache=True)
-def solve_one(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q, trace, times):
-    """Run one IK problem.
-
-    Writes the solution into ``q`` (n,), the per-iteration trace into ``trace`` rows
-    ``0..iterations`` (scalar error, e(6), |dp|), and into ``times`` (3,) the total, IK-block and
-    FK+Jacobian+error times in ns. Returns ``(stop_code, iterations)``.
-    """
-    clk = np.zeros(2, np.int64)
-    t_start = now_ns(clk)
-    n = q0.shape[0]
-    for i in range(n):
-        q[i] = q0[i]
-    axes = np.empty((n, 3))
-    origins = np.empty((n, 3))
-    T = np.empty((4, 4))
-    Tprev = np.empty((4, 4))
-    J = np.empty((6, n))
-    e = np.empty(6)
-    qa = np.empty(4)
-    qb = np.empty(4)
-    p = np.empty(3)
-    method = ip[I_METHOD]
-    crit = ip[I_CRITERION]
-    forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
-    err, dp, ang = pose_error(Tg, T, ip, fp, qa, qb, e)
-    trace[0, 0] = err
-    trace[0, 1:7] = e
-    trace[0, 7] = dp
-    t_ik = 0
-    code = 0
-    it = 0
-    grew = 0
-    if not np.isfinite(err):
-        code = NON_FINITE
-    elif (crit != 1 and err <= fp[F_TOL_DQ]) or (crit == 1 and dp <= fp[F_TOL_POS] and ang <= fp[F_TOL_ROT]):
-        code = SUCCESS
-    while code == 0:
-        it += 1
-        for r in range(3):
-            p[r] = T[r, 3]
-        jacobian(prism, axes, origins, p, J)
-        t0 = now_ns(clk)
-        dq = step(method, J, e, ip, fp)
-        t_ik += now_ns(clk) - t0
-        for i in range(n):
-            q[i] += dq[i]
-        Tprev[:, :] = T
-        forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
-        prev_err = err
-        err, dp, ang = pose_error(Tg, T, ip, fp, qa, qb, e)
-        trace[it, 0] = err
-        trace[it, 1:7] = e
-        trace[it, 7] = dp
-        if crit == 0 or crit == 2:
-            if crit == 0:
-                t = relative_translation_norm(T, Tprev)
-            else:
-                t = np.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
-            moved = np.sqrt(1.0 + 0.25 * t * t)
-            stalled = moved < fp[F_STALL_DQ]
-            ok = err <= fp[F_TOL_DQ]
-        else:
-            w, x, y, z = relative_rotation(T, Tprev, qa, qb)
-            dmove = np.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
-            rmove = 2.0 * np.arctan2(np.sqrt(x * x + y * y + z * z), w)
-            stalled = dmove < fp[F_STALL_POS] and rmove < fp[F_STALL_ROT]
-            ok = dp <= fp[F_TOL_POS] and ang <= fp[F_TOL_ROT]
-        grew = grew + 1 if err > prev_err else 0
-        code = stop_code(err, ok, stalled, grew, it, ip)
-    t_end = now_ns(clk)
-    times[0] = t_end - t_start
-    times[1] = t_ik
-    return code, it
+    """The Jacobian loop's stop rule after iteration ``it``: :func:`pipeline.solvers._kin.stop_rule`
+    with the settings' switches (``disable_stall``, ``disable_grow``) applied."""
+    return stop_rule(err, ok, stalled and ip[I_NO_STALL] == 0, grew if ip[I_NO_GROW] == 0 else 0,
+                     ip[I_GROW_LIMIT], it, ip[I_MAX_ITER])

@@ -23,6 +23,42 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from pipeline.io.layout import TRACE_COLS, StopReason
+
+# ---- the one table of codes the compiled kernels use -------------------------------------------
+# Stop codes: the values of pipeline.io.layout.StopReason as plain ints (numba compiles a module
+# global int as a constant; every method module imports these names, none defines its own).
+SUCCESS, STALLED, DIVERGING, ITERATION_CAP, NON_FINITE, FK_CHECK_FAILED, NO_SOLUTION, OUT_OF_LIMITS = (
+    int(StopReason.SUCCESS), int(StopReason.STALLED), int(StopReason.DIVERGING), int(StopReason.ITERATION_CAP),
+    int(StopReason.NON_FINITE), int(StopReason.FK_CHECK_FAILED), int(StopReason.NO_SOLUTION),
+    int(StopReason.OUT_OF_LIMITS))
+# Success tests (Settings.criterion) as every compiled kernel and the FK check
+# (pipeline.kinematics.fkcheck) take them: one integer code per criterion
+CRITERIA = ("pos_orient", "position", "dq_norm", "dq_norm_body")
+CRITERION_CODE = {c: i for i, c in enumerate(CRITERIA)}
+CRIT_POS_ORIENT, CRIT_POSITION, CRIT_DQ_NORM, CRIT_DQ_BODY = (CRITERION_CODE[c] for c in CRITERIA)
+# Trace rows: TRACE_COLS columns (pipeline.io.layout.TRACE_COLUMNS), the last one |dp|
+TRACE_DP = TRACE_COLS - 1
+NEVER = 1 << 62  # a grow limit or iteration cap that is never reached
+
+
+@numba.njit(cache=True)
+def stop_rule(err, ok, stalled, grew, grow_limit, it, max_iter):
+    """The stop rule of an iterative method after iteration ``it`` (000 §3.4; the order is ours: a
+    converged step is never counted as a failure): 0 = go on, else the stop code. ``stalled``: the
+    method's own stall test fired; ``grew``: iterations in a row whose error grew."""
+    if not np.isfinite(err):
+        return NON_FINITE
+    if ok:
+        return SUCCESS
+    if stalled:
+        return STALLED
+    if grew >= grow_limit:
+        return DIVERGING
+    if it >= max_iter:
+        return ITERATION_CAP
+    return 0
+
 # libc's clock_gettime, resolved by symbol name so that compiled functions can be cached on disk
 _clock_gettime = types.ExternalFunction("clock_gettime", types.int32(types.int32, types.voidptr))
 CLOCK_MONOTONIC = 1
@@ -325,17 +361,17 @@ def rotation_angle(Ta, Tb):
 def meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
     """The success test of :func:`pipeline.solvers.base.meets` on a compiled pose ``T`` (4, 4).
 
-    ``crit`` is ``base.CRITERION_CODE[criterion]``: 0 pos_orient, 1 position, 2 dq_norm, 3 dq_norm_body;
+    ``crit`` is :data:`CRITERION_CODE` ``[criterion]``;
     tolerances in the working unit, with the same slack as the independent FK check.
     """
     dp = position_distance(Tg, T)
     if not np.isfinite(dp):
         return False
-    if crit == 1:
+    if crit == CRIT_POSITION:
         return dp <= tol_pos * (1 + 1e-9)
-    if crit == 3:
+    if crit == CRIT_DQ_BODY:
         return np.sqrt(1 + dp * dp / 4) <= tol_dq * (1 + 1e-12)
-    if crit == 2:
+    if crit == CRIT_DQ_NORM:
         t = relative_translation_norm(Tg, T)
         return np.sqrt(1 + t * t / 4) <= tol_dq * (1 + 1e-12)
     ang = rotation_angle(Tg, T)

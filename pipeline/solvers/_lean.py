@@ -1,7 +1,7 @@
 """Allocation-free hot loop of the Jacobian IK methods, and their batch form on every core.
 
-:func:`pipeline.solvers._jit.solve_one` is the reference transcription of 000's loop; this module
-computes the same iterates without allocating inside the loop:
+The loop of 000 §3 (the four Jacobian methods), computed without allocating inside the loop
+(``tests/test_fast_path.py`` holds its iterates to the same loop written with the numpy kinematics):
 
 * forward kinematics multiplies the running 3x4 frame by each link in place, with the link's
   cos/sin alpha computed once per robot (:func:`lean_chain`), about 36 multiply-adds per link;
@@ -29,8 +29,9 @@ import math
 import numba
 import numpy as np
 
-from pipeline.solvers import _jit
-from pipeline.solvers._kin import now_ns, quat_from_rot, quat_relative, relative_translation_norm, rodrigues
+import pipeline.solvers._jit as _jit
+from pipeline.solvers._kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NON_FINITE, SUCCESS, TRACE_DP, now_ns, quat_from_rot,
+                                    quat_relative, relative_translation_norm, rodrigues)
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -213,7 +214,7 @@ def _step(method, J, e, lam2, A, y, dq):
 
 @numba.njit(cache=True)
 def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace, times):
-    """One problem, the same contract as :func:`pipeline.solvers._jit.solve_one`.
+    """One problem of the Jacobian loop (000 §3; stop rule :func:`pipeline.solvers._jit.stop_code`).
 
     Writes the solution into ``q`` (n,), trace rows ``0..iterations`` of ``trace`` (k, 8) (rows
     beyond its length are not written; it needs at least one row), and ``times`` (3,) = (total,
@@ -241,7 +242,8 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     qp = np.empty(4)  # the previous iterate's (stall test)
     quat_from_rot(Tg, qg)
     method = ip[_jit.I_METHOD]
-    crit = ip[_jit.I_CRITERION]
+    crit = ip[_jit.I_CRITERION]  # pipeline.solvers._kin.CRITERION_CODE
+    dq_crit = crit == CRIT_DQ_NORM or crit == CRIT_DQ_BODY
     time_ik = ip[_jit.I_TIME_IK] != 0
     t0 = 0
     lam = fp[_jit.F_LAMBDA] if method == 2 else 0.0
@@ -252,15 +254,15 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     trace[0, 0] = err
     for r in range(6):
         trace[0, 1 + r] = e[r]
-    trace[0, 7] = dp
+    trace[0, TRACE_DP] = dp
     t_ik = 0
     code = 0
     it = 0
     grew = 0
     if not math.isfinite(err):
-        code = _jit.NON_FINITE
-    elif (crit != 1 and err <= fp[_jit.F_TOL_DQ]) or (crit == 1 and dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]):
-        code = _jit.SUCCESS
+        code = NON_FINITE
+    elif (dq_crit and err <= fp[_jit.F_TOL_DQ]) or (not dq_crit and dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]):
+        code = SUCCESS
     while code == 0:
         it += 1
         _jacobian(prism, axes, origins, T, J)
@@ -286,9 +288,9 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
             trace[it, 0] = err
             for r in range(6):
                 trace[it, 1 + r] = e[r]
-            trace[it, 7] = dp
-        if crit == 0 or crit == 2:
-            if crit == 0:
+            trace[it, TRACE_DP] = dp
+        if dq_crit:
+            if crit == CRIT_DQ_NORM:
                 t = relative_translation_norm(T, Tprev)
             else:
                 t = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)

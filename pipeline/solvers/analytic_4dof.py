@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, StopReason, setting
 from pipeline.solvers.registry import Solver, register
 
@@ -149,7 +149,7 @@ def solve_kernel(a, alpha, d, offs, prism, modified, base, tool, Tb, T_goal, q_s
     if hz > 1e-12:                                   # tool z axis = (s sin th1, -s cos th1, 0)
         th1[n1] = math.atan2(s * Tb[0, 2], -s * Tb[1, 2])
         n1 += 1
-    if crit == 1 or crit == 3:                       # orientation ignored: eq. 29 and the back branch
+    if crit == _kin.CRIT_POSITION or crit == _kin.CRIT_DQ_BODY:  # orientation ignored: eq. 29 and the back branch
         r2 = x * x + y * y - lat * lat
         if r2 >= 0.0:
             r = math.sqrt(r2)

@@ -53,11 +53,11 @@ import numba
 import numpy as np
 
 from pipeline.kinematics.fkcheck import meets
-from pipeline.solvers._kin import now_ns
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_DP, now_ns
 from pipeline.solvers.analytic_ur import InfoRows, copy12, mul34, mul_link, pose_errors, rigid_rows
 from pipeline.solvers.base import (CRITERION_CODE, TRACE_COLS, BatchRaw, IKResult, Prepared, Raw, Settings,
-                                   StopReason, check_pack, check_packed,
-                                   closed_form_code, fused_inputs)
+                                   check_pack, finish_packed, fused_inputs)
+from pipeline.solvers.driver import run_of
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -123,8 +123,6 @@ I_FOUND, I_VALID, I_CHOSEN, I_DEG, I_DISTINCT, I_BKEY, I_VKEY = range(7)
 N_I = 7
 CHUNK = 64  # poses per work item of the batch kernel
 
-SUCCESS = int(StopReason.SUCCESS)
-NO_SOLUTION = int(StopReason.NO_SOLUTION)
 
 
 def packed(prep: Prepared, s: AnalyticPumaSettings) -> np.ndarray:
@@ -373,25 +371,25 @@ def puma_one(P, Tg, q_start, sols, q, iv, fv):
 
 @numba.njit(cache=True)
 def puma_call(PC, Tg, q_start, sols, q, iv, fv, trace):
-    """The whole public single call in one compiled call: :func:`puma_core`, then the independent FK
-    check of the chosen ``q`` and its joint-limit record (:func:`pipeline.solvers.base.check_packed`:
-    the dual-quaternion FK, no code shared with the closed form's), the stop reason and the one-row
-    trace as :func:`pipeline.solvers.base.finish` sets them (without ``require_limits``).
+    """The whole public single call in one compiled call: :func:`puma_core`, then the result rule of
+    every finish (:func:`pipeline.solvers.base.finish_packed`: the independent FK check of the chosen
+    ``q`` by the dual-quaternion FK, no code shared with the closed form's, its joint-limit record and
+    the stop reason; without ``require_limits``), and the one-row trace :func:`pipeline.solvers.base.finish`
+    gives a result without one.
 
     ``PC`` = :func:`packed` followed by :func:`~pipeline.solvers.base.check_pack`; ``trace`` (1, 8)
     gets NaN but |dp|. Returns (solve time [ns] (puma_core's, the check excluded), stop reason,
-    claimed success, FK check passed, |dp|, angle, within the limits).
+    claimed success, success, |dp|, angle, within the limits).
     """
     W = np.empty(N_W)
     clk = np.zeros(2, np.int64)
     ns = puma_core(PC[:N_P], Tg, q_start, W, clk, sols, q, iv, fv)
-    ok, dp, ang, inside = check_packed(PC[N_P:], q, Tg)
-    claimed = iv[I_CHOSEN] >= 0
-    code = closed_form_code(claimed, ok, dp, q)
+    code, claimed, success, dp, ang, inside = finish_packed(PC[N_P:], q, Tg,
+                                                           SUCCESS if iv[I_CHOSEN] >= 0 else NO_SOLUTION)
     for c in range(7):
         trace[0, c] = math.nan
-    trace[0, 7] = dp
-    return ns, code, claimed, ok, dp, ang, inside
+    trace[0, TRACE_DP] = dp
+    return ns, code, claimed, success, dp, ang, inside
 
 
 @numba.njit(cache=True, parallel=True)
@@ -473,10 +471,10 @@ def bind_call(prep: Prepared, s: AnalyticPumaSettings):
         iv = empty(N_I, int64)
         fv = empty(2)
         trace = empty((1, TRACE_COLS))
-        ns, code, claimed, ok, dp, ang, inside = puma_call(PC, Tg, q0, sols, q, iv, fv, trace)
+        ns, code, claimed, success, dp, ang, inside = puma_call(PC, Tg, q0, sols, q, iv, fv, trace)
         v = iv.tolist()
         t = ns * 1e-9
-        res = IKResult(q, claimed and ok and code == SUCCESS, code, 0, trace, t, t, dp, nan if pos_only else ang,
+        res = IKResult(q, success, code, 0, trace, t, t, dp, nan if pos_only else ang,
                        claimed, inside, nan, unit, sols[:v[I_FOUND]], _info(v, float(fv[0]), float(fv[1])))
         res.call_time_s = (clock_ns() - t0) * 1e-9
         return res
@@ -484,9 +482,7 @@ def bind_call(prep: Prepared, s: AnalyticPumaSettings):
     return call
 
 
-def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: AnalyticPumaSettings, seed: int) -> Raw:
-    """One pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``."""
-    return bind(prep, s)(np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q_start, dtype=float), seed)
+run = run_of(bind)  # one pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``
 
 
 def batch(prep: Prepared, s: AnalyticPumaSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):

@@ -50,9 +50,10 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers._kin import now_ns
-from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, StopReason, check_pack,
-                                   check_packed, closed_form_code, fused_inputs, setting)
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, now_ns
+from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, check_pack,
+                                   finish_packed, fused_inputs, setting)
+from pipeline.solvers.driver import run_of
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -105,8 +106,6 @@ W_Q8, W_T8, W_VALID = 150, 198, 294  # all 8 branches (8 x 6), their FK poses (8
 N_W = 302
 CHUNK = 64  # poses per work item of the batch kernel (one workspace each)
 
-SUCCESS = int(StopReason.SUCCESS)
-NO_SOLUTION = int(StopReason.NO_SOLUTION)
 
 
 def rigid_rows(T: np.ndarray, inverse: bool = False) -> np.ndarray:
@@ -439,22 +438,20 @@ def ur_one(P, Tg, q_start, S, q, trace):
 
 @numba.njit(cache=True)
 def ur_call(PC, Tg, q_start, S, q, trace):
-    """The whole public single call in one compiled call: :func:`ur_core`, then the independent FK check
-    of the chosen ``q`` and its joint-limit record (:func:`pipeline.solvers.base.check_packed`: the
-    dual-quaternion FK, no code shared with the closed form's), then the stop reason as
-    :func:`pipeline.solvers.base.finish` sets it (without ``require_limits``).
+    """The whole public single call in one compiled call: :func:`ur_core`, then the result rule of
+    every finish (:func:`pipeline.solvers.base.finish_packed`: the independent FK check of the chosen
+    ``q`` by the dual-quaternion FK, no code shared with the closed form's, its joint-limit record and
+    the stop reason; without ``require_limits``).
 
     ``PC`` = :func:`packed` followed by :func:`~pipeline.solvers.base.check_pack`. Returns (number
     valid, chosen row or −1, solve time [ns] (ur_core's, the check excluded), stop reason, claimed
-    success, FK check passed, |dp|, angle, within the limits, the document's error at ``q``).
+    success, success, |dp|, angle, within the limits, the document's error at ``q``).
     """
     W = np.empty(N_W)
     clk = np.zeros(2, np.int64)
     nv, best, ns = ur_core(PC[:N_P], Tg, q_start, W, clk, S, q, trace, True)
-    ok, dp, ang, inside = check_packed(PC[N_P:], q, Tg)
-    claimed = best >= 0
-    code = closed_form_code(claimed, ok, dp, q)
-    return nv, best, ns, code, claimed, ok, dp, ang, inside, trace[1, 0]
+    code, claimed, success, dp, ang, inside = finish_packed(PC[N_P:], q, Tg, SUCCESS if best >= 0 else NO_SOLUTION)
+    return nv, best, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
 
 
 @numba.njit(cache=True, parallel=True)
@@ -488,7 +485,7 @@ def bind(prep: Prepared, s: AnalyticURSettings):
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
         S = np.empty((8, 6))
         q = np.empty(6)
-        trace = np.empty((2, 8))
+        trace = np.empty((2, TRACE_COLS))
         nv, best, ns = ur_one(P, T_goal, q_start, S, q, trace)
         return Raw(q=q, code=SUCCESS if best >= 0 else NO_SOLUTION, iterations=1, solve_ns=ns, trace=trace,
                    solutions=S[:nv], info=_info(nv, best, float(trace[1, 0])))
@@ -524,11 +521,11 @@ def bind_call(prep: Prepared, s: AnalyticURSettings):
         Tg, q0 = inputs(T_goal, q_start)
         S = empty((8, 6))
         q = empty(6)
-        trace = empty((2, 8))
-        nv, best, ns, code, claimed, ok, dp, ang, inside, doc = ur_call(PC, Tg, q0, S, q, trace)
+        trace = empty((2, TRACE_COLS))
+        nv, best, ns, code, claimed, success, dp, ang, inside, doc = ur_call(PC, Tg, q0, S, q, trace)
         info = {"n_solutions": nv, "branch": best, "nfev": 8, "njev": 0, "doc_error": doc,
                 "message": messages[nv] if claimed else _NO_SOLUTION_TEXT}
-        res = IKResult(q, claimed and ok and code == SUCCESS, code, 1, trace, ns * 1e-9, 0.0, dp,
+        res = IKResult(q, success, code, 1, trace, ns * 1e-9, 0.0, dp,
                        nan if pos_only else ang, claimed, inside, nan, unit, S[:nv], info)
         res.call_time_s = (clock_ns() - t0) * 1e-9
         return res
@@ -536,9 +533,7 @@ def bind_call(prep: Prepared, s: AnalyticURSettings):
     return call
 
 
-def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: AnalyticURSettings, seed: int) -> Raw:
-    """One pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``."""
-    return bind(prep, s)(np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q_start, dtype=float), seed)
+run = run_of(bind)  # one pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``
 
 
 class InfoRows(Sequence):
@@ -580,7 +575,7 @@ def batch(prep: Prepared, s: AnalyticURSettings, goals: np.ndarray, starts: np.n
     N = goals.shape[0]
     S = np.empty((N, 8, 6))
     Q = np.empty((N, 6))
-    traces = np.empty((N, 2, 8))
+    traces = np.empty((N, 2, TRACE_COLS))
     nsol = np.zeros(N, np.int64)
     best = np.zeros(N, np.int64)
     ns = np.zeros(N, np.int64)

@@ -38,6 +38,8 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.fkcheck import check_model, check_one
 from pipeline.io.layout import STOP_REASONS, TRACE_COLS, StopReason  # noqa: F401  (re-exported)
 from pipeline.robots import LENGTH_UNITS, RobotModel
+from pipeline.solvers._kin import CRITERIA, CRITERION_CODE  # noqa: F401  (re-exported: the one success-test code)
+from pipeline.solvers._kin import FK_CHECK_FAILED, NON_FINITE, OUT_OF_LIMITS, SUCCESS, TRACE_DP
 
 
 class SettingsError(ValueError):
@@ -49,8 +51,6 @@ class NotApplicableError(ValueError):
 
 
 
-CRITERIA = ("pos_orient", "position", "dq_norm", "dq_norm_body")
-CRITERION_CODE = {c: i for i, c in enumerate(CRITERIA)}  # what compiled kernels take (pipeline.solvers._kin.meets)
 POSITION_CRITERIA = ("position", "dq_norm_body")  # success tests that ignore the goal orientation
 
 
@@ -242,7 +242,7 @@ class Prepared:
         self.limits = own(self.model.limits)
         self.prismatic = np.asarray(c.prismatic, dtype=bool)
         self._cache: dict = {}  # see memo()
-        self._bound: dict = {}  # (solver name, id(settings)) -> registry.Bound (see registry.bind)
+        self._bound: dict = {}  # (solver name, id(settings)) -> driver.Bound (see registry.bind)
         self._finish_args = None  # finish()'s packed check model (see _finish_args)
 
     @property
@@ -444,7 +444,7 @@ class BatchResult:
         """Problem ``i``'s trace (iterations + 1, 8); one row of NaN but |dp| when none was kept."""
         if self.trace_rows is None:
             t = np.full((1, TRACE_COLS), np.nan)
-            t[0, 7] = self.position_error[i]
+            t[0, TRACE_DP] = self.position_error[i]
             return t
         return self.trace_rows[self.trace_offsets[i]:self.trace_offsets[i + 1]]
 
@@ -464,35 +464,26 @@ class BatchResult:
                         solutions=sols, info=dict(self.info[i]) if self.info is not None else {})
 
 
-@numba.njit(cache=True)
-def _within_many(Q, limits, prismatic, out):
-    for k in range(Q.shape[0]):
-        out[k] = _within(Q[k], limits, prismatic, 1e-9)
-
-
 def finish_batch(prep: Prepared, goals: np.ndarray, raw: BatchRaw, settings: Settings) -> BatchResult:
-    """:func:`finish` for N problems at once (not for ``require_limits``; the registry handles that per problem).
+    """:func:`finish` for N problems at once: the same compiled rule per problem (:func:`_result`), on
+    every core (not for ``require_limits``; the registry solves those one at a time).
 
     ``goals`` (N, 4, 4) and ``settings`` in the working unit; ``call_time_s`` is left at 0.
     """
-    from pipeline.kinematics.fkcheck import check_many
-
     q = np.ascontiguousarray(raw.q, dtype=float)
     N = q.shape[0]
-    ok = np.zeros(N, dtype=np.bool_)
-    err = np.empty((N, 3))
-    check_many(*prep.check, q, np.ascontiguousarray(goals, dtype=float), CRITERION_CODE[settings.criterion],
-               settings.tol_pos, settings.tol_rot, settings.tol_dq, ok, err)
     code = np.asarray(raw.code, dtype=np.int64).copy()
-    claimed = code == int(StopReason.SUCCESS)
-    code[claimed & ~ok] = int(StopReason.FK_CHECK_FAILED)
-    code[~np.isfinite(q).all(axis=1)] = int(StopReason.NON_FINITE)
-    inside = np.zeros(N, dtype=np.bool_)
-    _within_many(q, prep.limits, np.ascontiguousarray(prep.prismatic), inside)
-    ang = np.full(N, np.nan) if settings.criterion == "position" else err[:, 1].copy()
-    return BatchResult(q=q, success=claimed & ok & (code == int(StopReason.SUCCESS)), stop_reason=code,
+    claimed, success, inside = np.zeros(N, np.bool_), np.zeros(N, np.bool_), np.zeros(N, np.bool_)
+    dp, ang = np.empty(N), np.empty(N)
+    F, prism = finish_args(prep)
+    _finish_many(F, prism, q, np.ascontiguousarray(goals, dtype=float), CRITERION_CODE[settings.criterion],
+                 settings.tol_pos, settings.tol_rot, settings.tol_dq, bool(settings.require_limits), code, claimed,
+                 success, dp, ang, inside)
+    if settings.criterion == "position":
+        ang = np.full(N, np.nan)
+    return BatchResult(q=q, success=success, stop_reason=code,
                        iterations=np.asarray(raw.iterations, dtype=np.int64), solve_time_s=raw.solve_ns * 1e-9,
-                       ik_time_s=raw.ik_ns * 1e-9, position_error=err[:, 0].copy(), orientation_error=ang,
+                       ik_time_s=raw.ik_ns * 1e-9, position_error=dp, orientation_error=ang,
                        claimed_success=claimed, within_limits=inside, call_time_s=0.0, length_unit=prep.unit,
                        trace_rows=raw.trace_rows, trace_offsets=raw.trace_offsets, solutions=raw.solutions,
                        n_solutions=raw.n_solutions, info=raw.info)
@@ -623,10 +614,9 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
 
     Notes
     -----
-    The analytic closed forms' fused public calls (``Solver.bind_call``: ``analytic_ur.ur_call``,
-    ``analytic_puma.puma_call``) do this same work inside their compiled call, through
-    :func:`check_packed`; a change here must be made there too (tests/test_fastpath_ur.py holds the
-    two paths equal bit for bit).
+    The stop reason, ``success``, the errors and the limit record come from one compiled rule,
+    :func:`_result`, which :func:`finish_batch` and the analytic closed forms' fused public calls
+    (``Solver.bind_call``, through :func:`finish_packed`) run too.
     """
     if settings.require_limits:
         q = _within_limit_choice(prep, T_goal, raw, settings, q_start)
@@ -635,35 +625,23 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
         if type(q) is not np.ndarray or q.dtype != np.float64:
             q = np.asarray(q, dtype=float)
     F, prism = finish_args(prep)
-    ok, dp, ang, inside = _check_within(F, prism, q, T_goal, CRITERION_CODE[settings.criterion], settings.tol_pos,
-                                        settings.tol_rot, settings.tol_dq)
-    code = int(raw.code)
-    claimed = code == _SUCCESS
-    if claimed and not ok:
-        code = _FK_CHECK_FAILED
-    if dp != dp and not np.isfinite(q).all():  # a NaN error: a non-finite joint value (or goal)
-        code = _NON_FINITE
+    code, claimed, success, dp, ang, inside = _finish_one(F, prism, q, T_goal, CRITERION_CODE[settings.criterion],
+                                                          settings.tol_pos, settings.tol_rot, settings.tol_dq,
+                                                          int(raw.code), settings.require_limits)
     trace = raw.trace
     if trace is None:
         trace = np.full((1, TRACE_COLS), np.nan)
-        trace[0, 7] = dp
+        trace[0, TRACE_DP] = dp
     elif len(trace) != raw.iterations + 1:
         trace = np.asarray(trace)[: raw.iterations + 1]
-    if code == _SUCCESS and settings.require_limits and not inside:
-        code = _OUT_OF_LIMITS
     # positional: a keyword call of the 15-field dataclass costs ~0.5 us more (Python 3.11), on every solve
-    return IKResult(q, bool(claimed and ok and code == _SUCCESS), code, int(raw.iterations), trace,
+    return IKResult(q, success, code, int(raw.iterations), trace,
                     raw.solve_ns * 1e-9, raw.ik_ns * 1e-9, dp, math.nan if settings.criterion == "position" else ang,
                     claimed, inside, call_ns * 1e-9, prep.unit, raw.solutions, raw.info)
 
 
-_NO_SOLUTION = int(StopReason.NO_SOLUTION)
-_SUCCESS, _FK_CHECK_FAILED, _NON_FINITE, _OUT_OF_LIMITS = (int(StopReason.SUCCESS), int(StopReason.FK_CHECK_FAILED),
-                                                          int(StopReason.NON_FINITE), int(StopReason.OUT_OF_LIMITS))
-
-
 def finish_args(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
-    """``(F, prism)`` of :func:`_check_within` for ``prep`` (built once, kept on the prepared robot)."""
+    """``(F, prism)`` of :func:`_result` for ``prep`` (built once, kept on the prepared robot)."""
     fa = prep._finish_args
     if fa is None:
         fa = prep._finish_args = _finish_args(prep)
@@ -678,19 +656,61 @@ def _finish_args(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
     return F, np.ascontiguousarray(prism)
 
 
-@numba.njit(cache=True)
-def _check_within(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq):
-    """The FK check and the joint-limit record of one solution in one compiled call (``F``: :func:`_finish_args`)."""
-    n = q.shape[0]
+@numba.njit(cache=True, inline="always")
+def final_code(code, ok, dp, q, inside, require_limits):
+    """The one result rule: the stop reason and success from the method's own stop ``code`` and the
+    independent FK check (``ok``, ``dp``) of ``q``. A claimed success the check contradicts is
+    FK_CHECK_FAILED; a NaN error from a non-finite joint value is NON_FINITE; under
+    ``require_limits`` a success outside the limits is OUT_OF_LIMITS. Returns (code, claimed, success)."""
+    claimed = code == SUCCESS
+    if claimed and not ok:
+        code = FK_CHECK_FAILED
+    if dp != dp:  # a NaN error: a non-finite joint value (or goal)
+        for j in range(q.shape[0]):
+            if not math.isfinite(q[j]):
+                code = NON_FINITE
+                break
+    if code == SUCCESS and require_limits and not inside:
+        code = OUT_OF_LIMITS
+    return code, claimed, claimed and ok and code == SUCCESS
+
+
+@numba.njit(cache=True, inline="always")
+def _unpack(F, n):
+    """(K (n+1, 8), axis (n, 3), offset (n,), limits (n, 2), scratch (8,)) views of :func:`_finish_args`'s array."""
     o1 = 8 * (n + 1)
     o2 = o1 + 3 * n
     o3 = o2 + n
     o4 = o3 + 2 * n
-    K = F[:o1].reshape((n + 1, 8))
-    axis = F[o1:o2].reshape((n, 3))
-    limits = F[o3:o4].reshape((n, 2))
-    ok, dp, ang, _ = check_one(K, axis, F[o2:o3], prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, F[o4:])
-    return ok, dp, ang, _within(q, limits, prism, 1e-9)
+    return F[:o1].reshape((n + 1, 8)), F[o1:o2].reshape((n, 3)), F[o2:o3], F[o3:o4].reshape((n, 2)), F[o4:o4 + 8]
+
+
+@numba.njit(cache=True, inline="always")
+def _result(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, code, require_limits, buf):
+    """Everything of a result but its packing, for one solution (every path's finish): the FK check, the
+    joint-limit record and :func:`final_code`. Returns (code, claimed, success, |dp|, angle, within)."""
+    K, axis, offset, limits, _ = _unpack(F, q.shape[0])
+    ok, dp, ang, _ = check_one(K, axis, offset, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, buf)
+    inside = _within(q, limits, prism, 1e-9)
+    code, claimed, success = final_code(code, ok, dp, q, inside, require_limits)
+    return code, claimed, success, dp, ang, inside
+
+
+@numba.njit(cache=True)
+def _finish_one(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, code, require_limits):
+    """:func:`_result` of one solution in one compiled call (``F``: :func:`_finish_args`, its scratch used)."""
+    return _result(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, code, require_limits, _unpack(F, q.shape[0])[4])
+
+
+@numba.njit(cache=True, parallel=True)
+def _finish_many(F, prism, Q, goals, crit, tol_pos, tol_rot, tol_dq, require_limits, code, claimed, success, dp, ang,
+                 inside):
+    """:func:`_result` for every row of ``Q`` (N, n) against ``goals`` (N, 4, 4); ``code`` (N,) in and out."""
+    for k in numba.prange(Q.shape[0]):
+        buf = np.empty(8)
+        c, cl, su, d, a, w = _result(F, prism, Q[k], goals[k], crit, tol_pos, tol_rot, tol_dq, code[k], require_limits,
+                                     buf)
+        code[k], claimed[k], success[k], dp[k], ang[k], inside[k] = c, cl, su, d, a, w
 
 
 # ---- the check packed for a fused call (an analytic solver's kernel, choice and check in one call) ----
@@ -700,7 +720,7 @@ C_CRIT, C_TOLP, C_TOLR, C_TOLDQ, C_F = 0, 1, 2, 3, 4  # criterion code, toleranc
 def fused_inputs(prep: Prepared):
     """The input half of a fused closed-form call (``Solver.bind_call``): ``inputs(T_goal, q_start) ->
     (goal in the working unit (4, 4), start (n,))``, both contiguous float64, the start's shape
-    checked (one-line SettingsError) as :meth:`pipeline.solvers.registry.Bound.solve` does."""
+    checked (one-line SettingsError) as :meth:`pipeline.solvers.driver.Bound.solve` does."""
     scale, working_goal, contiguous, shape = prep.goal_scale, prep.working_goal, np.ascontiguousarray, (prep.n,)
 
     def inputs(T_goal, q_start):
@@ -714,7 +734,7 @@ def fused_inputs(prep: Prepared):
 
 
 def check_pack(prep: Prepared, settings: Settings) -> np.ndarray:
-    """The success test, the FK check's model and the limits in one float array, for :func:`check_packed`.
+    """The success test, the FK check's model and the limits in one float array, for :func:`finish_packed`.
 
     ``[criterion code, tol_pos, tol_rot, tol_dq, F (see :func:`_finish_args`), prismatic flags as 1.0/0.0]``
     (``settings`` in the working unit). A kernel that runs the check inside its own compiled call
@@ -728,25 +748,11 @@ def check_pack(prep: Prepared, settings: Settings) -> np.ndarray:
 
 
 @numba.njit(cache=True, inline="always")
-def check_packed(C, q, Tg):
-    """:func:`_check_within` (the independent dual-quaternion FK check of ``q`` against ``Tg`` and the
-    joint-limit record, the same arithmetic) from one :func:`check_pack` array: (ok, |dp|, angle, within)."""
+def finish_packed(C, q, Tg, code):
+    """:func:`_result` (without ``require_limits``) from one :func:`check_pack` array, for a fused
+    compiled call: (code, claimed, success, |dp|, angle, within)."""
     n = q.shape[0]
     nf = 14 * n + 16  # len(F): K 8 (n + 1), axis 3 n, offset n, limits 2 n, scratch 8
-    return _check_within(C[C_F:C_F + nf], C[C_F + nf:C_F + nf + n], q, Tg, int(C[C_CRIT]), C[C_TOLP], C[C_TOLR],
-                         C[C_TOLDQ])
-
-
-@numba.njit(cache=True, inline="always")
-def closed_form_code(claimed, ok, dp, q):
-    """The stop reason :func:`finish` gives a closed form's result (without ``require_limits``), for
-    the fused compiled calls: no solution, success, FK check failed, or non-finite."""
-    code = _SUCCESS if claimed else _NO_SOLUTION
-    if claimed and not ok:
-        code = _FK_CHECK_FAILED
-    if dp != dp:  # a NaN error: a non-finite joint value (or goal)
-        for j in range(q.shape[0]):
-            if not math.isfinite(q[j]):
-                code = _NON_FINITE
-                break
-    return code
+    F = C[C_F:C_F + nf]
+    return _result(F, C[C_F + nf:C_F + nf + n], q, Tg, int(C[C_CRIT]), C[C_TOLP], C[C_TOLR], C[C_TOLDQ], code, False,
+                   _unpack(F, n)[4])

@@ -38,18 +38,17 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
-from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, StopReason, setting
+import pipeline.solvers._kin as _kin
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_DP
+from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.4, eqs. 4-6"
-TRACE_COLS = 8
 
 ROWS_POSITION, ROWS_HOLD, ROWS_POSE = 0, 1, 2
 STOP_REACH, STOP_CHANGE = 0, 1
 
-_SUCCESS, _STALLED, _CAP, _NON_FINITE = (int(StopReason.SUCCESS), int(StopReason.STALLED),
-                                         int(StopReason.ITERATION_CAP), int(StopReason.NON_FINITE))
 
 
 @dataclass(frozen=True)
@@ -123,7 +122,7 @@ def _trace_row(trace, k, e, Tg, T, rows, rv, dp):
         trace[k, 4], trace[k, 5], trace[k, 6] = rv[0], rv[1], rv[2]
     else:
         trace[k, 4], trace[k, 5], trace[k, 6] = 0.0, 0.0, 0.0
-    trace[k, 7] = dp
+    trace[k, TRACE_DP] = dp
 
 
 @numba.njit(cache=True)
@@ -212,11 +211,11 @@ def ji_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, gain, delta
     _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T)
     e, dp, ang = _error(Tg, T, rows, scale, qa, qb, rg)
     _trace_row(trace, 0, e, Tg, T, rows, rg, dp)
-    code = _CAP
+    code = ITERATION_CAP
     k = 0
     if stop_rule == STOP_REACH and _within(dp, ang, rows, tol_pos, tol_rot):
-        code = _SUCCESS
-    while code == _CAP and k < max_iter:
+        code = SUCCESS
+    while code == ITERATION_CAP and k < max_iter:
         if rows == ROWS_HOLD:
             rpy(T, X)
         fd_jacobian(a, alpha, d, offs, prism, modified, base, tool, q, T, X, delta, rows, scale, J, qp, Tp, Xp,
@@ -234,12 +233,12 @@ def ji_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, gain, delta
         k += 1
         _trace_row(trace, k, e_new, Tg, T, rows, rg, dp)
         if not np.isfinite(e_new):
-            code = _NON_FINITE
+            code = NON_FINITE
         elif stop_rule == STOP_REACH:
             if _within(dp, ang, rows, tol_pos, tol_rot):
-                code = _SUCCESS
+                code = SUCCESS
         elif abs(e - e_new) < tol_change:
-            code = _SUCCESS if _within_or_equal(dp, ang, rows, tol_pos, tol_rot) else _STALLED
+            code = SUCCESS if _within_or_equal(dp, ang, rows, tol_pos, tol_rot) else STALLED
         e = e_new
     times[0] = _kin.now_ns(clk) - t0
     times[1] = _kin.thread_cpu_ns(clk) - c0
@@ -255,13 +254,10 @@ def _within_or_equal(dp, ang, rows, tol_pos, tol_rot):
 
 # ---- registry entry -------------------------------------------------------------------------
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: FDJacobianSettings, seed: int) -> Raw:
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, it = ji_solve(*prep.args, T_goal, q_start, float(s.alpha), float(s.delta), s.rows(),
-                        float(s.orientation_scale), STOP_REACH if s.stop == "reach" else STOP_CHANGE,
-                        float(s.tol_pos), float(s.tol_rot), float(s.error_change_stop), int(s.max_iterations),
-                        q, trace, times)
+    q, trace, times, (code, it) = run_loop(
+        ji_solve, (*prep.args, T_goal, q_start, float(s.alpha), float(s.delta), s.rows(), float(s.orientation_scale),
+                   STOP_REACH if s.stop == "reach" else STOP_CHANGE, float(s.tol_pos), float(s.tol_rot),
+                   float(s.error_change_stop), int(s.max_iterations)), q_start, s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
                info={"cpu_time_s": int(times[1]) * 1e-9})
 

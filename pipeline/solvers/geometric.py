@@ -26,18 +26,16 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
-from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting
+import pipeline.solvers._kin as _kin
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_DP
+from pipeline.solvers.base import Prepared, Raw, Settings, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) §6.3f / Test 6: iterative geometric method of Pinto & Bevilacqua [72]"
-TRACE_COLS = 8
 ORDERS = ("tip_to_base", "base_to_tip")
 ZERO_LENGTH = 1e-12  # [length_unit] a projected vector shorter than this gives no direction (joint skipped)
 
-_SUCCESS = int(StopReason.SUCCESS)
-_ITERATION_CAP = int(StopReason.ITERATION_CAP)
-_NON_FINITE = int(StopReason.NON_FINITE)
 
 
 @dataclass(frozen=True)
@@ -62,7 +60,7 @@ def _fill(trace, row, Tg, T):
     dp = np.sqrt(s)
     trace[row, 0] = dp
     trace[row, 4], trace[row, 5], trace[row, 6] = 0.0, 0.0, 0.0
-    trace[row, 7] = dp
+    trace[row, TRACE_DP] = dp
     return dp
 
 
@@ -86,9 +84,9 @@ def geometric_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, max
     it = 0
     t_ik = 0
     if not np.isfinite(err):
-        code = _NON_FINITE
+        code = NON_FINITE
     elif err <= tol:
-        code = _SUCCESS
+        code = SUCCESS
     while code == 0:
         it += 1
         for k in range(n):
@@ -121,25 +119,23 @@ def geometric_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, max
             dx, dy, dz = Tg[0, 3] - T[0, 3], Tg[1, 3] - T[1, 3], Tg[2, 3] - T[2, 3]
             err = np.sqrt(dx * dx + dy * dy + dz * dz)
             if not np.isfinite(err):
-                code = _NON_FINITE
+                code = NON_FINITE
                 break
             if err <= tol:
-                code = _SUCCESS
+                code = SUCCESS
                 break
         _fill(trace, it, Tg, T)
         if code == 0 and it >= max_iter:
-            code = _ITERATION_CAP
+            code = ITERATION_CAP
     times[0] = _kin.now_ns(clk) - t_start
     times[1] = t_ik
     return code, it
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: GeometricSettings, seed: int) -> Raw:
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, iters = geometric_kernel(*prep.args, T_goal, q_start, s.max_iterations, s.tol_pos, s.order == "tip_to_base",
-                                   q, trace, times)
+    q, trace, times, (code, iters) = run_loop(geometric_kernel, (*prep.args, T_goal, q_start, s.max_iterations,
+                                                                 s.tol_pos, s.order == "tip_to_base"),
+                                              q_start, s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(iters), solve_ns=int(times[0]), trace=trace, ik_ns=int(times[1]))
 
 

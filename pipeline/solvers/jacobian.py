@@ -1,7 +1,7 @@
 """Jacobian transpose, pseudoinverse, DLS and SDLS (000_7e3cb7ad5ee98ff0.txt §3, eqs. 47-61).
 
-One compiled loop serves the four methods (:func:`pipeline.solvers._lean.solve`, the allocation-free
-form of the reference :func:`pipeline.solvers._jit.solve_one`; its batch form runs on every core);
+One compiled loop serves the four methods (:func:`pipeline.solvers._lean.solve`, allocation-free;
+its batch form runs on every core);
 each is registered under its own name with the settings it uses. The stop rules are the document's:
 success (code 1), pose change below the stall threshold (2), error grew ``grow_limit`` times in a
 row (3), iteration cap (4), non-finite value (5).
@@ -14,12 +14,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.solvers import _jit, _lean
-from pipeline.solvers.base import BatchRaw, Prepared, Raw, Settings, setting
+import pipeline.solvers._jit as _jit
+import pipeline.solvers._lean as _lean
+from pipeline.solvers._kin import TRACE_COLS
+from pipeline.solvers.base import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, setting
+from pipeline.solvers.driver import run_of
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "000_7e3cb7ad5ee98ff0.txt (Cerbaro 2019) §3"
-_CRIT = {"dq_norm": 0, "pos_orient": 1, "dq_norm_body": 2, "position": 1}
 
 
 @dataclass(frozen=True)
@@ -74,7 +76,7 @@ def packed(method: str, s: JacobianSettings) -> tuple[np.ndarray, np.ndarray]:
     fp = np.zeros(_jit.N_FP)
     ip[_jit.I_METHOD] = _jit.METHODS[method]
     ip[_jit.I_MAX_ITER] = s.max_iterations
-    ip[_jit.I_CRITERION] = _CRIT[s.criterion]
+    ip[_jit.I_CRITERION] = CRITERION_CODE[s.criterion]  # position: pos_orient's tests, tol_rot = inf
     ip[_jit.I_ORIENT] = _jit.ORIENT_ERRORS[s.orientation_error]
     ip[_jit.I_GROW_LIMIT] = s.grow_limit
     ip[_jit.I_SDLS_NORM] = _jit.NORMS[getattr(s, "sdls_norm", "maxabs")]
@@ -103,7 +105,7 @@ def _bind(method: str):
 
         def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
             q = np.empty_like(q_start)
-            trace = np.empty((rows, _jit.TRACE_COLS))
+            trace = np.empty((rows, TRACE_COLS))
             times = np.zeros(3, np.int64)
             code, iters = kernel(*chain, T_goal, q_start, ip, fp, q, trace, times)
             return Raw(q=q, code=code, iterations=iters, solve_ns=int(times[0]), trace=trace[: iters + 1].copy(),
@@ -112,15 +114,6 @@ def _bind(method: str):
         return run1
 
     return bind
-
-
-def _runner(method: str):
-    bind = _bind(method)
-
-    def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: JacobianSettings, seed: int) -> Raw:
-        return bind(prep, s)(T_goal, q_start, seed)
-
-    return run
 
 
 TRACE_BUDGET = 64 * 2**20  # [bytes] per chunk of a batch's trace buffer (N x (max_iterations + 1) x 8 floats)
@@ -132,7 +125,7 @@ def _batch(method: str):
         chain = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
         N, n = starts.shape
         rows = s.max_iterations + 1 if keep_traces else 1
-        chunk = max(1, min(N, TRACE_BUDGET // (rows * _jit.TRACE_COLS * 8)))
+        chunk = max(1, min(N, TRACE_BUDGET // (rows * TRACE_COLS * 8)))
         Q = np.empty((N, n))
         codes = np.zeros(N, np.int64)
         iters = np.zeros(N, np.int64)
@@ -140,7 +133,7 @@ def _batch(method: str):
         parts, counts = [], []
         for lo in range(0, N, chunk):
             hi = min(N, lo + chunk)
-            buf = np.empty((hi - lo, rows, _jit.TRACE_COLS))
+            buf = np.empty((hi - lo, rows, TRACE_COLS))
             _lean.solve_batch(*chain, goals[lo:hi], starts[lo:hi], ip, fp, Q[lo:hi], codes[lo:hi], iters[lo:hi],
                               times[lo:hi], buf)
             if keep_traces:
@@ -149,7 +142,7 @@ def _batch(method: str):
                 counts.append(k)
         rows_out = offsets = None
         if keep_traces:
-            rows_out = np.concatenate(parts) if parts else np.empty((0, _jit.TRACE_COLS))
+            rows_out = np.concatenate(parts) if parts else np.empty((0, TRACE_COLS))
             offsets = np.concatenate([[0], np.cumsum(np.concatenate(counts))]).astype(np.int64)
         return BatchRaw(q=Q, code=codes, iterations=iters, solve_ns=times[:, 0], ik_ns=times[:, 1],
                         trace_rows=rows_out, trace_offsets=offsets)
@@ -170,4 +163,5 @@ for _name, _title, _cls in (
     ("dls", "damped least squares J^T (J J^T + lambda^2 I)^-1 e (eq. 50)", DLSSettings),
     ("sdls", "selectively damped least squares (Buss & Kim 2004; eqs. 56-61)", SDLSSettings),
 ):
-    register(Solver(_name, _title, "local", _cls, _runner(_name), source=SOURCE, bind=_bind(_name), batch=_batch(_name)))
+    _b = _bind(_name)
+    register(Solver(_name, _title, "local", _cls, run_of(_b), source=SOURCE, bind=_b, batch=_batch(_name)))

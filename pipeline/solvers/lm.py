@@ -33,16 +33,15 @@ import numba
 import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
-from pipeline.solvers import _kin
-from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, StopReason, setting
+import pipeline.solvers._kin as _kin
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_DP
+from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.5, eqs. 7-8; MRPT CLevenbergMarquardtTempl"
-TRACE_COLS = 8
 RES_SCALAR, RES_VECTOR = 0, 1
 
-_SUCCESS, _STALLED, _CAP, _NON_FINITE = (int(StopReason.SUCCESS), int(StopReason.STALLED),
-                                         int(StopReason.ITERATION_CAP), int(StopReason.NON_FINITE))
 
 
 @dataclass(frozen=True)
@@ -134,7 +133,7 @@ def _trace_row(trace, k, e, Tg, T, pose, qa, qb, rv):
     else:
         trace[k, 4], trace[k, 5], trace[k, 6] = 0.0, 0.0, 0.0
     dx, dy, dz = trace[k, 1], trace[k, 2], trace[k, 3]
-    trace[k, 7] = np.sqrt(dx * dx + dy * dy + dz * dz)
+    trace[k, TRACE_DP] = np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 @numba.njit(cache=True)
@@ -179,7 +178,7 @@ def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose,
     Fx = 0.0
     for i in range(m):
         Fx += f[i] * f[i]
-    code = _SUCCESS if found else _CAP
+    code = SUCCESS if found else ITERATION_CAP
     it = 0
     Tlast[:, :] = T
     while not found:
@@ -197,14 +196,14 @@ def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose,
             ok = False
             h = np.zeros(n)
         if not ok:
-            code = _NON_FINITE
+            code = NON_FINITE
             _trace_row(trace, it, e, Tg, Tlast, pose, qa, qb, rv)
             break
         nh = np.sqrt(np.sum(h * h))
         nx = np.sqrt(np.sum(q * q))
         if nh < e2 * (nx + e2):
             found = True
-            code = _SUCCESS
+            code = SUCCESS
         else:
             for i in range(n):
                 xnew[i] = q[i] + h[i]
@@ -229,25 +228,25 @@ def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose,
                 g = J.T @ f
                 if np.max(np.abs(g)) <= e1:
                     found = True
-                    code = _SUCCESS
+                    code = SUCCESS
                 lam, nu = nielsen(lam, nu, rho, min_shrink)
                 e_new, dp, ang = _errors(Tg, Tlast, pose, scale, qa, qb, rv)
                 if abs(e - e_new) < tol_change:
                     found = True
-                    code = _SUCCESS
+                    code = SUCCESS
                 e = e_new
             else:
                 lam, nu = nielsen(lam, nu, rho, min_shrink)
         _trace_row(trace, it, e, Tg, Tlast, pose, qa, qb, rv)
         if not (np.isfinite(e) and np.isfinite(lam)):
-            code = _NON_FINITE
+            code = NON_FINITE
             break
     if it >= max_iter:
         it = max_iter
-    if code == _SUCCESS:
+    if code == SUCCESS:
         e_last, dp, ang = _errors(Tg, Tlast, pose, scale, qa, qb, rv)
         if dp > tol_pos or (pose and ang > tol_rot):
-            code = _STALLED
+            code = STALLED
     times[0] = _kin.now_ns(clk) - t0
     times[1] = _kin.thread_cpu_ns(clk) - c0
     return code, it
@@ -255,14 +254,12 @@ def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose,
 
 # ---- registry entry -------------------------------------------------------------------------
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: LMSettings, seed: int) -> Raw:
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
     e1 = s.gradient_tol / LENGTH_UNITS[prep.unit] ** 2
-    code, it = lm_solve(*prep.args, T_goal, q_start, RES_SCALAR if s.residual == "scalar" else RES_VECTOR, s.pose(),
-                        float(s.orientation_scale), float(s.increment), int(s.max_iterations), float(s.tau), float(e1),
-                        float(s.step_tol), float(s.min_shrink), float(s.error_change_stop), float(s.tol_pos),
-                        float(s.tol_rot), q, trace, times)
+    q, trace, times, (code, it) = run_loop(
+        lm_solve, (*prep.args, T_goal, q_start, RES_SCALAR if s.residual == "scalar" else RES_VECTOR, s.pose(),
+                   float(s.orientation_scale), float(s.increment), int(s.max_iterations), float(s.tau), float(e1),
+                   float(s.step_tol), float(s.min_shrink), float(s.error_change_stop), float(s.tol_pos),
+                   float(s.tol_rot)), q_start, s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
                info={"cpu_time_s": int(times[1]) * 1e-9})
 

@@ -23,19 +23,17 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
+from pipeline.solvers._kin import CRIT_POSITION, CRIT_POS_ORIENT, NON_FINITE, SUCCESS, TRACE_DP
+import pipeline.solvers._jit as _jit
 from pipeline.solvers._jit import pose_error
-from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) eqs 4.10-4.13 (Newton-Raphson, Whitney step control)"
-TRACE_COLS = 8
 STOP_TESTS = ("tolerance", "error_norm")
 
-_SUCCESS = int(StopReason.SUCCESS)
-_STALLED = int(StopReason.STALLED)
-_ITERATION_CAP = int(StopReason.ITERATION_CAP)
-_NON_FINITE = int(StopReason.NON_FINITE)
 
 I_MAX_ITER, I_HALVINGS, I_STALL, I_STOP, I_CRIT = range(5)
 F_EPS, F_TOL_POS, F_TOL_ROT, F_TOL_DQ, F_INV_L, F_RCOND = range(6)
@@ -82,9 +80,9 @@ def packed(s: NewtonRaphsonSettings) -> tuple[np.ndarray, np.ndarray]:
 def _error(Tg, T, pip, pfp, qa, qb, e, inv_l, crit):
     """e = ((p_goal - p) / L, angle axis) (orientation zeroed for position-only goals); returns (|e|, |dp|, angle)."""
     err, dp, ang = pose_error(Tg, T, pip, pfp, qa, qb, e)
-    if crit == 1:  # position
+    if crit == CRIT_POSITION:
         e[3], e[4], e[5] = 0.0, 0.0, 0.0
-    if inv_l != 1.0 or crit == 1:
+    if inv_l != 1.0 or crit == CRIT_POSITION:
         for r in range(3):
             e[r] *= inv_l
         err = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
@@ -104,10 +102,10 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
     n = q0.shape[0]
     for i in range(n):
         q[i] = q0[i]
-    pip = np.zeros(9, np.int64)  # pose_error's slots: orientation error = axis-angle, scalar = |e|
-    pip[2] = 1
-    pip[3] = 1
-    pfp = np.zeros(9)
+    pip = np.zeros(_jit.N_IP, np.int64)  # pose_error's slots: orientation error = axis-angle, scalar = |e|
+    pip[_jit.I_CRITERION] = CRIT_POS_ORIENT
+    pip[_jit.I_ORIENT] = 1
+    pfp = np.zeros(_jit.N_FP)
     axes = np.empty((n, 3))
     origins = np.empty((n, 3))
     T = np.empty((4, 4))
@@ -122,15 +120,15 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
     err, dp, ang = _error(Tg, T, pip, pfp, qa, qb, e, inv_l, crit)
     trace[0, 0] = err
     trace[0, 1:7] = e
-    trace[0, 7] = dp
+    trace[0, TRACE_DP] = dp
     t_ik = 0
     code = 0
     it = 0
     halved = 0
     if not np.isfinite(err):
-        code = _NON_FINITE
+        code = NON_FINITE
     elif (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-        code = _SUCCESS
+        code = SUCCESS
     while code == 0:
         it += 1
         for r in range(3):
@@ -140,7 +138,7 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
             for r in range(3):
                 for c in range(n):
                     J[r, c] *= inv_l
-        if crit == 1:  # position: no orientation rows
+        if crit == CRIT_POSITION:  # no orientation rows
             for r in range(3, 6):
                 for c in range(n):
                     J[r, c] = 0.0
@@ -170,15 +168,9 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
             _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
         trace[it, 0] = err
         trace[it, 1:7] = e
-        trace[it, 7] = dp
-        if not np.isfinite(err):
-            code = _NON_FINITE
-        elif (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-            code = _SUCCESS
-        elif not accepted and stall:
-            code = _STALLED
-        elif it >= max_iter:
-            code = _ITERATION_CAP
+        trace[it, TRACE_DP] = dp
+        ok = (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq)
+        code = _kin.stop_rule(err, ok, not accepted and stall, 0, _kin.NEVER, it, max_iter)
     times[0] = _kin.now_ns(clk) - t_start
     times[1] = t_ik
     return code, it, halved
@@ -186,10 +178,8 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: NewtonRaphsonSettings, seed: int) -> Raw:
     ip, fp = prep.memo(("newton_raphson_packed", s), lambda: packed(s))
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, iters, halved = nr_kernel(*prep.args, T_goal, q_start, ip, fp, q, trace, times)
+    q, trace, times, (code, iters, halved) = run_loop(nr_kernel, (*prep.args, T_goal, q_start, ip, fp), q_start,
+                                                      s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(iters), solve_ns=int(times[0]), trace=trace, ik_ns=int(times[1]),
                info={"step_halvings": int(halved)})
 

@@ -43,13 +43,14 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS, TRACE_DP
 from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, meets, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
 SOURCE = "004_957b32c2b06ea31d.txt (Nepomuceno 2024) §4.2, Apêndices B, C, E"
-TRACE_COLS = 8
 
 # ---- compiled pieces -------------------------------------------------------------------------
 
@@ -138,15 +139,15 @@ def descent(a, alpha, d, offs, prism, modified, base, tool, ja, jalpha, jd, joff
         trace[it, 0] = en
         for k in range(6):
             trace[it, 1 + k] = e[k]
-        trace[it, 7] = dp
+        trace[it, TRACE_DP] = dp
         if not math.isfinite(en):
-            code = 5
+            code = NON_FINITE
             break
         if en < tol or (tol_pos >= 0.0 and dp <= tol_pos and _kin.rotation_angle(Tg, T) <= tol_rot):
-            code = 1
+            code = SUCCESS
             break
         if it >= max_iter:
-            code = 4
+            code = ITERATION_CAP
             break
         if own_jacobian:
             for r in range(3):
@@ -185,7 +186,7 @@ def descent(a, alpha, d, offs, prism, modified, base, tool, ja, jalpha, jd, joff
                     break
                 f *= 0.5
             if not accepted:
-                code = 2
+                code = STALLED
                 break
             for j in range(n):
                 q[j] = qc[j]
@@ -297,7 +298,7 @@ def trace_rows(X, P, Tg, out):
             out[k, 0] = P[P_WP] * d1 + P[P_WR] * d2
         for r in range(6):
             out[k, 1 + r] = e[r]
-        out[k, 7] = dp
+        out[k, TRACE_DP] = dp
 
 
 @numba.njit(cache=True)
@@ -463,13 +464,15 @@ def _make_bounds(prep: Prepared, s: LBFGSBSettings):
 def _jacobian_args(prep: Prepared, robot_file: str) -> tuple:
     """Kernel arrays of the robot file whose Jacobian the descent uses (``jacobian_robot``)."""
     from pipeline.robots import load_robot
-    from pipeline.settings import ROOT
 
     path = Path(robot_file)
-    jm = load_robot(path if path.is_absolute() else ROOT / path)
+    jm = load_robot(path if path.is_absolute() else _ROOT / path)
     if jm.n != prep.n:
         raise SettingsError(f"solver settings: field 'jacobian_robot': {jm.n} joints, the robot has {prep.n}")
     return Prepared(jm, prep.unit).args
+
+
+_ROOT = Path(__file__).resolve().parents[2]  # the project root (pipeline.settings.ROOT), where relative robot paths start
 
 
 # ---- run functions ---------------------------------------------------------------------------
@@ -483,16 +486,15 @@ def run_descent(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Desc
     tp, tr = -1.0, -1.0
     if s.stop_at_tolerance and s.criterion in ("pos_orient", "position"):
         tp, tr = s.tol_pos, (math.inf if s.criterion == "position" else s.tol_rot)
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    clk = np.zeros(2, np.int64)
-    code, it, ns = descent(*prep.args, *jargs, own, T_goal, q_start, float(s.rate), float(s.tolerance),
-                           int(s.max_iterations), float(s.rcond), float(s.damping) ** 2, float(s.max_step), int(s.halvings), tp, tr, q, trace, clk)
+    q, trace, _, (code, it, ns) = run_loop(
+        descent, (*prep.args, *jargs, own, T_goal, q_start, float(s.rate), float(s.tolerance), int(s.max_iterations),
+                  float(s.rcond), float(s.damping) ** 2, float(s.max_step), int(s.halvings), tp, tr),
+        q_start, s.max_iterations)
     it = int(it)
     return Raw(q=q, code=int(code), iterations=it, solve_ns=int(ns), trace=trace,
                info={"nfev": it + 1, "njev": it, "doc_error": float(trace[it, 0]),
-                     "message": {1: "norm(e) < tolerance", 2: "no decrease after backtracking", 4: "iteration cap",
-                                 5: "non-finite"}.get(int(code), "")})
+                     "message": {SUCCESS: "norm(e) < tolerance", STALLED: "no decrease after backtracking",
+                                 ITERATION_CAP: "iteration cap", NON_FINITE: "non-finite"}.get(int(code), "")})
 
 
 def _scipy_runner(method: str):

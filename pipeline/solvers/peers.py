@@ -97,7 +97,8 @@ import numpy as np
 from pipeline.kinematics import fk_htm
 from pipeline.kinematics.chain import Chain
 from pipeline.robots import LENGTH_UNITS
-from pipeline.solvers import _kin
+import pipeline.solvers._kin as _kin
+from pipeline.solvers._kin import TRACE_COLS, TRACE_DP
 from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting, wrap_into_limits
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
@@ -194,8 +195,8 @@ def trace_from_record(method: str, prep: Prepared, T_goal: np.ndarray, q0: np.nd
     """
     if method not in _NO_TRACE:
         return _trace(prep, T_goal, q0, q)[: iterations + 1]
-    out = np.full((1, 8), np.nan)
-    out[0, 7] = position_error
+    out = np.full((1, TRACE_COLS), np.nan)
+    out[0, TRACE_DP] = position_error
     return out
 
 
@@ -211,7 +212,7 @@ def _returned(prep: Prepared, q: np.ndarray, s: Settings) -> np.ndarray:
 
 def _trace(prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Rows [|e|, e (6), |dp|] at the start and the returned angles (working unit; compiled FK)."""
-    out = np.full((2, 8), np.nan)
+    out = np.full((2, TRACE_COLS), np.nan)
     T = np.empty((4, 4))
     qa, qb, rv = np.empty(4), np.empty(4), np.empty(3)
     Tg = np.ascontiguousarray(T_goal, dtype=float)
@@ -225,7 +226,7 @@ def _trace(prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray) ->
         out[k, 1:4] = dp
         out[k, 4:7] = rv
         out[k, 0] = math.sqrt(float(dp @ dp + rv @ rv))
-        out[k, 7] = math.sqrt(float(dp @ dp))
+        out[k, TRACE_DP] = math.sqrt(float(dp @ dp))
     return out
 
 

@@ -36,15 +36,14 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
-from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, StopReason, setting
+import pipeline.solvers._kin as _kin
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_DP
+from pipeline.solvers.base import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "002_56eb235931bf5f5d.txt (Borges et al.) §3.6, eqs. 9-11; Rookfighter/pso-cpp Optimizer::minimize"
-TRACE_COLS = 8
 
-_SUCCESS, _STALLED, _CAP, _NON_FINITE = (int(StopReason.SUCCESS), int(StopReason.STALLED),
-                                         int(StopReason.ITERATION_CAP), int(StopReason.NON_FINITE))
 
 
 @dataclass(frozen=True)
@@ -125,7 +124,7 @@ def _best_row(a, alpha, d, offs, prism, modified, base, tool, Tg, x, pose, trace
         trace[k, 4], trace[k, 5], trace[k, 6] = 0.0, 0.0, 0.0
     dx, dy, dz = trace[k, 1], trace[k, 2], trace[k, 3]
     dp = np.sqrt(dx * dx + dy * dy + dz * dz)
-    trace[k, 7] = dp
+    trace[k, TRACE_DP] = dp
     return dp, ang
 
 
@@ -167,10 +166,10 @@ def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_part
     it = 0
     fdiff = np.inf
     xdiff = np.inf
-    code = _CAP
+    code = ITERATION_CAP
     if stop_at_tol and dp <= tol_pos and (not pose or ang <= tol_rot):
-        code = _SUCCESS
-    while code == _CAP and fdiff > feps and xdiff > xeps and it < max_iter:
+        code = SUCCESS
+    while code == ITERATION_CAP and fdiff > feps and xdiff > xeps and it < max_iter:
         for i in range(P):
             for j in range(n):
                 velp = np.random.random() * (bx[i, j] - x[i, j])
@@ -206,11 +205,11 @@ def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_part
         dp, ang = _best_row(a, alpha, d, offs, prism, modified, base, tool, Tg, bx[gb], pose, trace, it, bf[gb], T,
                             qa, qb, rv)
         if not np.isfinite(bf[gb]):
-            code = _NON_FINITE
+            code = NON_FINITE
         elif stop_at_tol and dp <= tol_pos and (not pose or ang <= tol_rot):
-            code = _SUCCESS
-    if code == _CAP and (fdiff <= feps or xdiff <= xeps):
-        code = _SUCCESS if dp <= tol_pos and (not pose or ang <= tol_rot) else _STALLED
+            code = SUCCESS
+    if code == ITERATION_CAP and (fdiff <= feps or xdiff <= xeps):
+        code = SUCCESS if dp <= tol_pos and (not pose or ang <= tol_rot) else STALLED
     for j in range(n):
         q[j] = bx[gb, j]
     times[0] = _kin.now_ns(clk) - t0
@@ -256,13 +255,11 @@ def applies_to(prep: Prepared) -> str | None:
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: PSOSettings, seed: int) -> Raw:
     lo, hi, window = search_bounds(prep, T_goal, q_start, s)
     sseed = stream_seed(s.seed, seed)
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, it = pso_solve(*prep.args, T_goal, lo, hi, int(s.particles), float(s.inertia), float(s.c1), float(s.c2),
-                         s.velocity_limits(lo, hi), float(s.feps), float(s.xeps), int(s.max_iterations),
-                         bool(s.stop_at_tolerance), s.pose(), float(s.orientation_scale), float(s.tol_pos),
-                         float(s.tol_rot), sseed, q, trace, times)
+    q, trace, times, (code, it) = run_loop(
+        pso_solve, (*prep.args, T_goal, lo, hi, int(s.particles), float(s.inertia), float(s.c1), float(s.c2),
+                    s.velocity_limits(lo, hi), float(s.feps), float(s.xeps), int(s.max_iterations),
+                    bool(s.stop_at_tolerance), s.pose(), float(s.orientation_scale), float(s.tol_pos),
+                    float(s.tol_rot), sseed), q_start, s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
                info={"cpu_time_s": int(times[1]) * 1e-9, "stream_seed": sseed, "window": window})
 

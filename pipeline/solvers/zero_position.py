@@ -49,19 +49,17 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from pipeline.solvers import _kin
-from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, SettingsError, StopReason, setting
+import pipeline.solvers._kin as _kin
+from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_DP
+from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, SettingsError, setting
+from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = "001_7601717b50b5e768.txt (Erthal 1992) Appendix 4 (Kazerounian's Zero-Position method), §6.2c strategies"
-TRACE_COLS = 8
 STRATEGIES = tuple(range(1, 11))
 STOP_TESTS = ("tolerance", "delta_sum")
 FLAT_REL = 64 * 2.220446049250313e-16  # |K| below this times the sum of |terms| is rounding: no step
 
-_SUCCESS = int(StopReason.SUCCESS)
-_ITERATION_CAP = int(StopReason.ITERATION_CAP)
-_NON_FINITE = int(StopReason.NON_FINITE)
 
 # kernel parameter slots
 I_MAX_ITER, I_STOP, I_CRIT, I_ORIENT = range(4)
@@ -176,7 +174,7 @@ def _trace_row(trace, row, dR, dP, M, dv):
     trace[row, 4] = 0.5 * (M[2, 1] - M[1, 2])
     trace[row, 5] = 0.5 * (M[0, 2] - M[2, 0])
     trace[row, 6] = 0.5 * (M[1, 0] - M[0, 1])
-    trace[row, 7] = np.sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2])
+    trace[row, TRACE_DP] = np.sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2])
 
 
 @numba.njit(cache=True)
@@ -266,9 +264,9 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
     it = 0
     steps = 0
     if not np.isfinite(dR + dP):
-        code = _NON_FINITE
+        code = NON_FINITE
     elif (dR + dP < eps) if delta_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-        code = _SUCCESS
+        code = SUCCESS
     while code == 0:
         it += 1
         for i in range(n):
@@ -293,14 +291,14 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
             if not use_orient:
                 dR = 0.0
             if not np.isfinite(dR + dP):
-                code = _NON_FINITE
+                code = NON_FINITE
                 break
             if (dR + dP < eps) if delta_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-                code = _SUCCESS
+                code = SUCCESS
                 break
         _trace_row(trace, it, dR, dP, M, dv)
         if code == 0 and it >= max_iter:
-            code = _ITERATION_CAP
+            code = ITERATION_CAP
     times[0] = _kin.now_ns(clk) - t_start
     times[1] = t_ik
     return code, it, steps
@@ -308,10 +306,8 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: ZeroPositionSettings, seed: int) -> Raw:
     c, ip, fp = prep.memo(("zero_position_packed", s), lambda: packed(s, prep.prismatic))
-    q = np.empty_like(q_start)
-    trace = np.zeros((s.max_iterations + 1, TRACE_COLS))
-    times = np.zeros(2, np.int64)
-    code, iters, steps = zp_kernel(*prep.args, T_goal, q_start, c, ip, fp, q, trace, times)
+    q, trace, times, (code, iters, steps) = run_loop(zp_kernel, (*prep.args, T_goal, q_start, c, ip, fp), q_start,
+                                                     s.max_iterations)
     return Raw(q=q, code=int(code), iterations=int(iters), solve_ns=int(times[0]), trace=trace, ik_ns=int(times[1]),
                info={"joint_steps": int(steps)})
 

@@ -1,0 +1,104 @@
+"""The driver's fast paths equal its generic path field by field (pipeline/solvers/driver.py).
+
+A fast path stays only where it is measurably faster (see the driver's docstring) and equal to the
+path it replaces: the N-problem kernels (``Solver.batch`` + ``finish_batch``) against one
+``Bound.solve`` per problem, and the closed forms' fused single call (``Solver.bind_call``) against
+``run1`` + ``finish``. Timings aside, every field must be the same bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import fields, replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.problems import random_joint_pairs
+from pipeline.robots import load_robot
+from pipeline.solvers import NotApplicableError, get, make_settings, names, prepare
+from pipeline.solvers.driver import Bound
+
+ROOT = Path(__file__).resolve().parent.parent
+ROBOTS = ("kuka_lwr", "ur5", "puma560", "mariano_4dof")
+TIMES = {"solve_time_s", "ik_time_s", "call_time_s"}
+
+
+def _cases(attr: str):
+    out = []
+    for name in names():
+        if getattr(get(name), attr) is None:
+            continue
+        for r in ROBOTS:
+            model = load_robot(ROOT / "data" / "robots" / f"{r}.yaml")
+            try:
+                prepare(name, model, make_settings(name))
+            except NotApplicableError:
+                continue
+            out.append((name, r))
+            break
+    return out
+
+
+def _problems(model, n=40, seed=5):
+    ps = random_joint_pairs(model, n, np.random.default_rng(seed), low=-math.pi, high=math.pi)
+    return ps.goal_transforms(), ps.q_start
+
+
+def _same(a, b, where: str) -> None:
+    for f in fields(a):
+        if f.name in TIMES:
+            continue
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if f.name == "info":
+            x, y = ({k: v for k, v in dict(d).items() if "time" not in k} for d in (x, y))
+            assert json.dumps(x, sort_keys=True, default=str) == json.dumps(y, sort_keys=True, default=str), where
+        elif x is None or y is None:
+            assert x is None and y is None, f"{where}: {f.name}"
+        elif isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+            x, y = np.asarray(x), np.asarray(y)
+            assert x.shape == y.shape and np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), f"{where}: {f.name}"
+        else:
+            assert type(x) is type(y) and (x == y or (x != x and y != y)), f"{where}: {f.name} {x!r} {y!r}"
+
+
+@pytest.mark.parametrize("name,robot", _cases("batch"))
+@pytest.mark.parametrize("mapping", [{}, {"criterion": "position"}, {"length_unit": "mm"}])
+def test_batch_kernel_equals_one_solve_per_problem(name, robot, mapping):
+    model = load_robot(ROOT / "data" / "robots" / f"{robot}.yaml")
+    s = make_settings(name, mapping)
+    prep = prepare(name, model, s)
+    T, S = _problems(model)
+    fast = Bound(get(name), prep, s).solve_many(T, S, threads=2)
+    slow = Bound(replace(get(name), batch=None), prep, s).solve_many(T, S)
+    assert len(fast) == len(slow) == len(T)
+    for i in range(len(T)):
+        _same(fast.result(i), slow.result(i), f"{name} {robot} problem {i}")
+
+
+@pytest.mark.parametrize("name,robot", _cases("bind_call"))
+@pytest.mark.parametrize("mapping", [{}, {"criterion": "position"}, {"criterion": "dq_norm"}, {"length_unit": "mm"}])
+def test_fused_call_equals_run1_and_finish(name, robot, mapping):
+    model = load_robot(ROOT / "data" / "robots" / f"{robot}.yaml")
+    s = make_settings(name, mapping)
+    prep = prepare(name, model, s)
+    fused, generic = Bound(get(name), prep, s), Bound(replace(get(name), bind_call=None), prep, s)
+    assert fused.fused is not None and generic.fused is None
+    T, S = _problems(model, seed=6)
+    T[3, :3, 3] *= 100.0  # one goal out of reach
+    for i in range(len(T)):
+        _same(fused.solve(T[i], S[i], i), generic.solve(T[i], S[i], i), f"{name} {robot} problem {i}")
+
+
+def test_restarts_run_the_bound_search(lwr):
+    """A restart is the same attempt as the first search (the bound run1 + finish), not another path."""
+    s = make_settings("dls", {"restarts": 3, "max_iterations": 2})
+    b = Bound(get("dls"), prepare("dls", lwr, s), s)
+    calls = []
+    run1 = b.run1
+    b.run1 = lambda Tg, q0, seed: calls.append(seed) or run1(Tg, q0, seed)
+    T, S = _problems(lwr, 1)
+    res = b.solve(T[0], S[0], 10)
+    assert calls == [10, 11, 12, 13][: 1 + res.info.get("restarts", 0)] and res.info["restarts"] >= 1
