@@ -174,39 +174,13 @@ def _metric(prep: Prepared) -> _Metric:
     return prep.memo(("peers", "metric"), lambda: _Metric(prep))
 
 
-def trace_from_record(method: str, prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray,
-                      iterations: int, position_error: float) -> np.ndarray:
-    """The trace a peer solve archived, recomputed from its record (no peer library needed).
-
-    A peer reports no iterates. The Robotics Toolbox and Pinocchio solvers' trace is this
-    package's own FK of the start and of the returned angles (:func:`_trace`, cut to
-    ``iterations + 1`` rows by :func:`pipeline.solvers.base.finish`); TRAC-IK and ur_analytic_ik
-    give none, and ``finish`` writes one row with only |dp| known. How an archive re-derives the
-    traces of peer solves it stores as digests (``pipeline.io.archive.derive``).
-
-    Parameters
-    ----------
-    method : str                         the registered peer
-    prep : Prepared                      the robot in the solver's working unit
-    T_goal : ndarray, shape (4, 4)       goal in the working unit
-    q0, q : ndarray, shape (n,)          start and returned joint values, working unit
-    iterations : int                     the archived iteration count
-    position_error : float               the archived |dp| [working unit]
-    """
-    if method not in _NO_TRACE:
-        return _trace(prep, T_goal, q0, q)[: iterations + 1]
-    out = np.full((1, TRACE_COLS), np.nan)
-    out[0, TRACE_DP] = position_error
-    return out
-
-
 _NO_TRACE = ("trac_ik", "ur_analytic_ik")  # peers whose Raw carries no trace
 
 
 def _returned(prep: Prepared, q: np.ndarray, s: Settings) -> np.ndarray:
     """The angles a peer returns: under ``require_limits`` already wrapped into the limits as
     :func:`pipeline.solvers.base.finish` would (a no-op there then), so that the trace's last row is
-    the FK of the returned angles and can be recomputed from the archive (:func:`trace_from_record`)."""
+    the FK of the returned angles."""
     return wrap_into_limits(q, prep.limits, prep.prismatic) if s.require_limits else q
 
 
