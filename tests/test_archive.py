@@ -312,3 +312,15 @@ def test_inspect_refuses_a_damaged_archive_with_one_line(tmp_path, lwr):
     assert proc.returncode != 0 and "Traceback" not in proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and str(p) in lines[0], proc.stderr
+
+
+def test_trace_policy_settings_and_samples():
+    assert TracePolicy.from_setting(None) == TracePolicy()
+    assert TracePolicy.from_setting("all").sample_ids([3, 1, 2]) == {1, 2, 3}
+    assert TracePolicy.from_setting("none").sample_ids([3, 1, 2]) == set()
+    p = TracePolicy.from_setting({"sample": 3})
+    assert p.failed_rows == TracePolicy().failed_rows and p.sample_ids(range(100)) == {0, 50, 99}
+    assert TracePolicy.from_json(p.as_json()) == p
+    for bad in ("some", {"sample": -1}, {"sample": 1.5}, {"rows": 3}, {"sample": True}, [1]):
+        with pytest.raises(ValueError, match="trace_policy"):
+            TracePolicy.from_setting(bad)

@@ -298,10 +298,10 @@ class TracePolicy:
     def sample_ids(self, problem_ids) -> set[int]:
         """The sample: ``sample`` ids evenly spaced over the sorted ``problem_ids`` (all when fewer)."""
         ids = np.unique(np.asarray(problem_ids, dtype=np.int64))
+        if self.mode == "none" or (self.mode == "sample" and self.sample == 0):
+            return set()
         if self.mode == "all" or len(ids) <= self.sample:
             return set(ids.tolist())
-        if self.mode == "none" or self.sample == 0:
-            return set()
         pick = np.unique(np.round(np.linspace(0, len(ids) - 1, self.sample)).astype(np.int64))
         return set(ids[pick].tolist())
 
