@@ -32,7 +32,7 @@ from typing import Callable
 import numpy as np
 
 from pipeline.kinematics import matrix_from_quat, quat_from_matrix
-from pipeline.kinematics.htm import dh_transform
+from pipeline.kinematics.htm import dh_transform, mul4
 from pipeline.robots import MAX_ANGLE, RobotModel
 
 KINDS = ("random_joint_pairs", "warm_start", "within_limits", "generator")
@@ -137,23 +137,11 @@ def check_spec(spec: dict) -> None:
         raise ProblemSpecError(f"field 'params/low': {lo:g} is above 'high' {hi:g}")
 
 
-def _mul4(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """``A @ B`` of stacks of 4x4 matrices by element-wise arithmetic (no BLAS: the same bits on every
-    machine). Each entry is ``((a0 b0 + a1 b1) + a2 b2) + a3 b3``, products and sums rounded one by one."""
-    shape = np.broadcast_shapes(A.shape, B.shape)
-    out = np.empty(shape)
-    for i in range(4):
-        a = [A[..., i, k] for k in range(4)]
-        for j in range(4):
-            out[..., i, j] = ((a[0] * B[..., 0, j] + a[1] * B[..., 1, j]) + a[2] * B[..., 2, j]) + a[3] * B[..., 3, j]
-    return out
-
-
 def fk_poses(chain, q: np.ndarray) -> np.ndarray:
     """End-effector poses ``T_base_ee`` of joint vectors ``q`` (m, n), bit-identical on every machine.
 
     The link transforms of :mod:`pipeline.kinematics.htm` (element-wise ``cos``/``sin``), chained by
-    :func:`_mul4` instead of ``@`` (BLAS), one joint at a time (memory O(m), whatever n).
+    :func:`pipeline.kinematics.htm.mul4` instead of ``@`` (BLAS), one joint at a time (memory O(m), whatever n).
 
     Returns
     -------
@@ -170,7 +158,7 @@ def fk_poses(chain, q: np.ndarray) -> np.ndarray:
             K = np.zeros((4, 4))
             K[0, 1], K[0, 2], K[1, 2] = -k[2], k[1], -k[0]
             K[1, 0], K[2, 0], K[2, 1] = k[2], -k[1], k[0]
-            KK = _mul4(K, K)[:3, :3]
+            KK = mul4(K, K)[:3, :3]
             M = np.zeros((q.shape[0], 4, 4))
             if chain.prismatic[i]:
                 M[:, :3, :3] = I3
@@ -179,14 +167,14 @@ def fk_poses(chain, q: np.ndarray) -> np.ndarray:
                 th = q[:, i, None, None]
                 M[:, :3, :3] = I3 + np.sin(th) * K[:3, :3] + (1.0 - np.cos(th)) * KK
             M[:, 3, 3] = 1.0
-            T = _mul4(T, _mul4(chain.origins[i], M))
+            T = mul4(T, mul4(chain.origins[i], M))
     else:
         theta, d = chain.joint_dh(q)
         for i in range(chain.n):
             L = dh_transform(chain.a[i], chain.alpha[i], np.ascontiguousarray(d[:, i]),
                              np.ascontiguousarray(theta[:, i]), chain.convention)
-            T = _mul4(T, L)
-    return _mul4(T, chain.tool)
+            T = mul4(T, L)
+    return mul4(T, chain.tool)
 
 
 def from_goal_angles(model: RobotModel, q_start: np.ndarray, q_goal: np.ndarray, chain=None) -> ProblemSet:

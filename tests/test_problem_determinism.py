@@ -109,3 +109,34 @@ def test_fk_poses_general_form(tmp_path):
     chain = Chain(z, z, z, z, np.array([False, True, False, False, True]), "general", base, tool, origins, axes)
     q = rng.uniform(-2, 2, (100, n))
     assert np.allclose(fk_poses(chain, q), fk_htm(chain, q), rtol=0, atol=1e-12)
+
+
+EXACT_FK = r"""
+import hashlib, sys
+import numpy as np
+from pipeline.kinematics import fk_frames, fk_htm
+from pipeline.robots import load_robot
+h = hashlib.sha256()
+for name in ("kuka_lwr", "puma560", "franka_panda", "scara"):
+    m = load_robot(f"data/robots/{name}.yaml")
+    q = np.random.default_rng(3).uniform(-2, 2, (200, m.n))
+    h.update(fk_frames(m.chain, q, exact=True).tobytes())
+    h.update(fk_htm(m.chain, q, exact=True).tobytes())
+print(h.hexdigest())
+"""
+
+
+def test_exact_fk_is_the_same_bits_under_two_blas_kernels_and_agrees_with_the_blas_fk():
+    """The figures drawn from archives use fk_frames/fk_htm(exact=True) (no BLAS), so that they rebuild
+    byte-identical on another machine."""
+    outs = []
+    for core in ("Haswell", "Prescott"):
+        env = {**os.environ, "OPENBLAS_CORETYPE": core}
+        proc = subprocess.run([sys.executable, "-c", EXACT_FK], cwd=ROOT, env=env, capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr
+        outs.append(proc.stdout.strip())
+    assert outs[0] == outs[1]
+    for name in ("kuka_lwr", "franka_panda"):
+        m = load_robot(ROOT / "data" / "robots" / f"{name}.yaml")
+        q = np.random.default_rng(4).uniform(-2, 2, (50, m.n))
+        np.testing.assert_allclose(fk_htm(m.chain, q, exact=True), fk_htm(m.chain, q), rtol=0, atol=1e-12)

@@ -19,8 +19,28 @@ def rot_x(angle: np.ndarray) -> np.ndarray:
     return T
 
 
-def axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Joint motions of the general form: ``Rot(axis, q)`` (Rodrigues) or ``Trans(axis q)``.
+def mul4(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``A @ B`` of stacks of 4x4 matrices by element-wise arithmetic (no BLAS: the same bits on every
+    machine, whatever BLAS kernel it picks). Each entry is ``((a0 b0 + a1 b1) + a2 b2) + a3 b3``,
+    products and sums rounded one by one."""
+    shape = np.broadcast_shapes(A.shape, B.shape)
+    out = np.empty(shape)
+    for i in range(4):
+        a = [A[..., i, k] for k in range(4)]
+        for j in range(4):
+            out[..., i, j] = ((a[0] * B[..., 0, j] + a[1] * B[..., 1, j]) + a[2] * B[..., 2, j]) + a[3] * B[..., 3, j]
+    return out
+
+
+def transform_points(T: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """Points ``P`` (m, 3) moved by the homogeneous transform ``T`` (4, 4), element-wise (no BLAS)."""
+    P = np.asarray(P, dtype=float)
+    return np.stack([((T[i, 0] * P[:, 0] + T[i, 1] * P[:, 1]) + T[i, 2] * P[:, 2]) + T[i, 3] for i in range(3)], axis=1)
+
+
+def axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray, exact: bool = False) -> np.ndarray:
+    """Joint motions of the general form: ``Rot(axis, q)`` (Rodrigues) or ``Trans(axis q)``
+    (``exact``: ``K K`` as ``k k^T - |k|^2 I`` element-wise, no BLAS).
 
     Parameters
     ----------
@@ -39,57 +59,69 @@ def axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np.nd
     K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
     K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = k[..., 2], -k[..., 1], k[..., 0]
     M = np.zeros(q.shape + (4, 4))
-    M[..., :3, :3] = np.eye(3) + np.sin(th) * K + (1.0 - np.cos(th)) * (K @ K)
+    KK = (k[..., :, None] * k[..., None, :] - np.eye(3) * (k * k).sum(axis=-1)[..., None, None]) if exact else K @ K
+    M[..., :3, :3] = np.eye(3) + np.sin(th) * K + (1.0 - np.cos(th)) * KK
     M[..., :3, 3] = np.where(prismatic[:, None], k * q[..., None], 0.0)
     M[..., 3, 3] = 1.0
     return M
 
 
-def link_transforms(chain: Chain, q: np.ndarray) -> np.ndarray:
-    """Every joint's link transform ``T_i(q_i)``, any convention: shape (..., n, 4, 4)."""
+def link_transforms(chain: Chain, q: np.ndarray, exact: bool = False) -> np.ndarray:
+    """Every joint's link transform ``T_i(q_i)``, any convention: shape (..., n, 4, 4) (``exact``: no BLAS)."""
     q = np.asarray(q, dtype=float)
     if chain.general:
         if q.shape[-1] != chain.n:
             raise ValueError(f"expected {chain.n} joint values, got shape {q.shape}")
-        return chain.origins @ axis_motion(chain.axes, chain.prismatic, q)
+        M = axis_motion(chain.axes, chain.prismatic, q, exact)
+        if exact:
+            return mul4(chain.origins, M)
+        return chain.origins @ M
     theta, d = chain.joint_dh(q)
     return dh_transform(chain.a, chain.alpha, d, theta, chain.convention)
 
 
-def fk_frames(chain: Chain, q: np.ndarray) -> np.ndarray:
+def fk_frames(chain: Chain, q: np.ndarray, exact: bool = False) -> np.ndarray:
     """Frames of every link, base included, tool excluded.
 
     Parameters
     ----------
     chain : Chain
     q : ndarray, shape (..., n) [rad | length]
+    exact : bool
+        Chain the products by :func:`mul4` instead of ``@``: the same bits whatever BLAS kernel the
+        machine picks (what figures drawn from archives use, so that they rebuild byte-identical).
 
     Returns
     -------
     frames : ndarray, shape (..., n + 1, 4, 4)
         ``frames[..., 0]`` is the base, ``frames[..., i]`` is ``base @ T_1 @ ... @ T_i``.
     """
-    links = link_transforms(chain, q)
+    links = link_transforms(chain, q, exact)
     out = np.empty(links.shape[:-3] + (chain.n + 1, 4, 4))
     out[..., 0, :, :] = chain.base
     for i in range(chain.n):
-        out[..., i + 1, :, :] = out[..., i, :, :] @ links[..., i, :, :]
+        out[..., i + 1, :, :] = (mul4(out[..., i, :, :], links[..., i, :, :]) if exact
+                                 else out[..., i, :, :] @ links[..., i, :, :])
     return out
 
 
-def fk_htm(chain: Chain, q: np.ndarray) -> np.ndarray:
+def fk_htm(chain: Chain, q: np.ndarray, exact: bool = False) -> np.ndarray:
     """End-effector pose ``T_base_ee`` by homogeneous matrices.
 
     Parameters
     ----------
     chain : Chain
     q : ndarray, shape (..., n) [rad | length]
+    exact : bool
+        No BLAS (see :func:`fk_frames`).
 
     Returns
     -------
     T : ndarray, shape (..., 4, 4) [length for the translation]
     """
     q = np.asarray(q, dtype=float)
+    if exact:
+        return mul4(fk_frames(chain, q, exact=True)[..., -1, :, :], chain.tool)
     if q.ndim == 1 and not chain.general:
         return _fk_one(chain, q)
     return fk_frames(chain, q)[..., -1, :, :] @ chain.tool

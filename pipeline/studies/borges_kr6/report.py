@@ -117,7 +117,7 @@ def _annotate(study, a, df: pd.DataFrame) -> pd.DataFrame:
     model = _robot(study, a.metadata["robot"])
     q = np.array(df["q_solution"].tolist(), float)
     to_mm = LENGTH_UNITS[model.length_unit] / LENGTH_UNITS["mm"]
-    df["reached_mm"] = list(fk_htm(model.chain, q)[:, :3, 3] * to_mm) if len(q) else []
+    df["reached_mm"] = list(fk_htm(model.chain, q, exact=True)[:, :3, 3] * to_mm) if len(q) else []
     df["cpu_time_s"] = [i.get("cpu_time_s", np.nan) for i in df["info"]]
     df["seed"] = [i.get("stream_seed", -1) for i in df["info"]]
     return df

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.kinematics import Chain, fk_frames, fk_htm
+from pipeline.kinematics.htm import mul4, transform_points
 
 
 def _box(lo, hi, T):
@@ -21,12 +22,14 @@ def _box(lo, hi, T):
     ext = np.maximum(hi - lo, 1e-6)
     center = np.eye(4)
     center[:3, 3] = (lo + hi) / 2
-    return trimesh.creation.box(extents=ext, transform=T @ center)
+    box = trimesh.creation.box(extents=ext)  # moved below without BLAS: the figure rebuilds byte-identical
+    box.vertices = transform_points(mul4(T, center), box.vertices)
+    return box
 
 
 def robot_boxes(chain: Chain, q: np.ndarray, C: float) -> list:
     """trimesh boxes of every link and the gripper at joint values ``q`` (n,)."""
-    F = fk_frames(chain, q)
+    F = fk_frames(chain, q, exact=True)
     theta, d = chain.joint_dh(q)
     boxes = []
     for i in range(chain.n):
@@ -37,10 +40,10 @@ def robot_boxes(chain: Chain, q: np.ndarray, C: float) -> list:
         ct, st = np.cos(theta[i]), np.sin(theta[i])
         M1[:2, :2] = [[ct, -st], [st, ct]]
         M1[2, 3] = d[i]
-        V = W @ M1
+        V = mul4(W, M1)
         if abs(chain.a[i]) > C:
             boxes.append(_box(np.array([-C, -C, -C]), np.array([chain.a[i] - C, C, C]), V))
-    WN = F[-1] @ chain.tool
+    WN = mul4(F[-1], chain.tool)
     boxes.append(_box(np.array([-C, -2 * C, 0.0]), np.array([C, 2 * C, C]), WN))
     return boxes
 
@@ -52,7 +55,7 @@ def draw_robot(ax, chain: Chain, q: np.ndarray, C: float, color="C0") -> None:
         segs = b.vertices[real]
         for s in segs:
             ax.plot(s[:, 0], s[:, 1], s[:, 2], color=color, lw=0.7)
-    T = fk_htm(chain, q)
+    T = fk_htm(chain, q, exact=True)
     for k, col in enumerate(("r", "g", "b")):
         p = np.vstack([T[:3, 3], T[:3, 3] + 2 * C * T[:3, k]])
         ax.plot(p[:, 0], p[:, 1], p[:, 2], color=col, lw=1.2)
@@ -69,7 +72,7 @@ def set_equal(ax, pts: np.ndarray) -> None:
 def sample_workspace(chain: Chain, limits: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
     """Effector positions (n, 3) of joint values uniform within ``limits`` (n_joints, 2)."""
     q = rng.uniform(limits[:, 0], limits[:, 1], (n, chain.n))
-    return fk_htm(chain, q)[:, :3, 3]
+    return fk_htm(chain, q, exact=True)[:, :3, 3]
 
 
 def hull_measure(points: np.ndarray, planar: bool) -> float:

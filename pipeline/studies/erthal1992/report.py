@@ -503,7 +503,7 @@ def _drawings(A, out_dir, plt, save) -> list[FigureSpec]:
             draw_robot(ax, model.chain, np.asarray(q, float), C)
             from pipeline.kinematics import fk_frames
 
-            pts = fk_frames(model.chain, np.asarray(q, float))[:, :3, 3]
+            pts = fk_frames(model.chain, np.asarray(q, float), exact=True)[:, :3, 3]
             set_equal(ax, np.vstack([pts, [[0, 0, 0]]]))
             ax.set_title(title_fmt.format(lab), fontsize=9)
             ax.tick_params(labelsize=7, pad=0)
