@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import matplotlib
@@ -26,8 +27,27 @@ def save(fig, out_dir: Path, stem: str, svg: bool = True) -> list[str]:
     if svg:
         files.append(f"{stem}.svg")
         fig.savefig(out_dir / files[1], metadata=SVG_META)
+        _number_svg_ids(out_dir / files[1])
     plt.close(fig)
     return files
+
+
+_SVG_ID = re.compile(r'id="([pm][0-9a-f]{10})"')  # clip paths (p...) and marker paths (m...)
+
+
+def _number_svg_ids(path: Path) -> None:
+    """Rename matplotlib's clip-path and marker ids (hashes of full-precision coordinates, whose last
+    bits follow the BLAS kernel of the machine through mplot3d's projections) to ``clip1``,
+    ``marker1``... in order of appearance, so that a figure rebuilt on another machine is the same
+    bytes when everything it draws is."""
+    text = path.read_text()
+    names = {}
+    for old in _SVG_ID.findall(text):
+        kind = "clip" if old[0] == "p" else "marker"
+        names.setdefault(old, f"{kind}{sum(v.startswith(kind) for v in names.values()) + 1}")
+    if names:
+        text = re.sub(r"\b([pm][0-9a-f]{10})\b", lambda m: names.get(m.group(1), m.group(1)), text)
+        path.write_text(text)
 
 
 __all__ = ["plt", "save"]
