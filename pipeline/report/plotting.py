@@ -6,6 +6,7 @@ import re
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -14,6 +15,63 @@ import matplotlib.pyplot as plt  # noqa: E402
 plt.rcParams.update({"figure.dpi": 110, "savefig.dpi": 220, "axes.spines.top": False,
                      "axes.spines.right": False, "svg.hashsalt": "ik-pipeline", "svg.fonttype": "none"})
 PNG_META = {"Software": None}
+
+
+class _ExactLinalg:
+    """``numpy.linalg`` with ``norm`` (2-norm) computed element-wise: no BLAS ``ddot``."""
+
+    def __getattr__(self, name):
+        return getattr(np.linalg, name)
+
+    @staticmethod
+    def norm(x, ord=None, axis=None, keepdims=False):
+        if ord is not None:
+            return np.linalg.norm(x, ord=ord, axis=axis, keepdims=keepdims)
+        x = np.asarray(x, dtype=float)
+        return np.sqrt(np.add.reduce(x * x, axis=axis, keepdims=keepdims))
+
+
+class _ExactNumpy:
+    """numpy as mplot3d sees it, with ``dot`` and ``linalg.norm`` by element-wise arithmetic.
+
+    mplot3d projects every 3-D point with ``np.dot`` (4x4 matrices, BLAS ``dgemm``), whose last bits
+    follow the BLAS kernel the CPU gets (with or without fused multiply-add); antialiased PNG pixels
+    and SVG ids then differ between two machines drawing the same data. Products here are summed
+    term by term in index order, so a figure is the same bytes whatever the BLAS.
+    """
+
+    linalg = _ExactLinalg()
+
+    def __getattr__(self, name):
+        return getattr(np, name)
+
+    @staticmethod
+    def dot(a, b):
+        a, b = np.asarray(a), np.asarray(b)
+        if a.ndim not in (1, 2) or b.ndim not in (1, 2) or a.dtype.kind not in "fi" or b.dtype.kind not in "fi":
+            return np.dot(a, b)
+        a, b = a.astype(float), b.astype(float)
+        A = a if a.ndim == 2 else a[None, :]
+        B = b if b.ndim == 2 else b[:, None]
+        out = A[:, 0:1] * B[0:1, :]
+        for k in range(1, A.shape[1]):
+            out = out + A[:, k:k + 1] * B[k:k + 1, :]
+        if a.ndim == 1:
+            out = out[0]
+        if b.ndim == 1:
+            out = out[..., 0]
+        return out
+
+
+def _exact_mplot3d() -> None:
+    """Point mplot3d's modules at :class:`_ExactNumpy` (their drawing only; numpy itself is untouched)."""
+    from mpl_toolkits.mplot3d import art3d, axes3d, proj3d
+
+    for mod in (art3d, axes3d, proj3d):
+        mod.np = _ExactNumpy()
+
+
+_exact_mplot3d()
 SVG_META = {"Date": None, "Creator": None}
 
 

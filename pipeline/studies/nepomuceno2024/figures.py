@@ -87,7 +87,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
         ax.plot(goal[:, 0], goal[:, 1], goal[:, 2], color="k", lw=3, alpha=0.25, label="designed path (goals)")
         for m in methods:
             g = pp[pp["method"] == m].sort_values("problem_id")
-            p = fk_htm(model.chain, np.array(g["q_solution"].tolist()))[:, :3, 3]
+            p = fk_htm(model.chain, np.array(g["q_solution"].tolist()), exact=True)[:, :3, 3]  # no BLAS
             ax.plot(p[:, 0], p[:, 1], p[:, 2], color=colors[m], lw=1, label=f"reached: {_label(st, m)}")
         segs = g0["segment"].to_numpy()
         starts = np.flatnonzero(np.r_[True, segs[1:] != segs[:-1]])
