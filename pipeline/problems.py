@@ -31,8 +31,7 @@ from typing import Callable
 
 import numpy as np
 
-from pipeline.kinematics import matrix_from_quat, quat_from_matrix
-from pipeline.kinematics.htm import dh_transform, mul4
+from pipeline.kinematics import fk_htm, matrix_from_quat, quat_from_matrix
 from pipeline.robots import MAX_ANGLE, RobotModel
 
 KINDS = ("random_joint_pairs", "warm_start", "within_limits", "generator")
@@ -140,8 +139,9 @@ def check_spec(spec: dict) -> None:
 def fk_poses(chain, q: np.ndarray) -> np.ndarray:
     """End-effector poses ``T_base_ee`` of joint vectors ``q`` (m, n), bit-identical on every machine.
 
-    The link transforms of :mod:`pipeline.kinematics.htm` (element-wise ``cos``/``sin``), chained by
-    :func:`pipeline.kinematics.htm.mul4` instead of ``@`` (BLAS), one joint at a time (memory O(m), whatever n).
+    :func:`pipeline.kinematics.fk_htm` with ``exact=True``: the link transforms by element-wise
+    ``cos``/``sin``, chained by :func:`pipeline.kinematics.htm.mul4` instead of ``@`` (BLAS), one joint
+    at a time (memory O(m), whatever n).
 
     Returns
     -------
@@ -150,31 +150,7 @@ def fk_poses(chain, q: np.ndarray) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     if q.ndim != 2 or q.shape[1] != chain.n:
         raise ValueError(f"expected joint vectors of shape (m, {chain.n}), got {q.shape}")
-    T = np.broadcast_to(chain.base, (q.shape[0], 4, 4))
-    if chain.general:
-        I3 = np.eye(3)
-        for i in range(chain.n):
-            k = chain.axes[i]
-            K = np.zeros((4, 4))
-            K[0, 1], K[0, 2], K[1, 2] = -k[2], k[1], -k[0]
-            K[1, 0], K[2, 0], K[2, 1] = k[2], -k[1], k[0]
-            KK = mul4(K, K)[:3, :3]
-            M = np.zeros((q.shape[0], 4, 4))
-            if chain.prismatic[i]:
-                M[:, :3, :3] = I3
-                M[:, :3, 3] = k * q[:, i, None]
-            else:
-                th = q[:, i, None, None]
-                M[:, :3, :3] = I3 + np.sin(th) * K[:3, :3] + (1.0 - np.cos(th)) * KK
-            M[:, 3, 3] = 1.0
-            T = mul4(T, mul4(chain.origins[i], M))
-    else:
-        theta, d = chain.joint_dh(q)
-        for i in range(chain.n):
-            L = dh_transform(chain.a[i], chain.alpha[i], np.ascontiguousarray(d[:, i]),
-                             np.ascontiguousarray(theta[:, i]), chain.convention)
-            T = mul4(T, L)
-    return mul4(T, chain.tool)
+    return fk_htm(chain, q, exact=True)
 
 
 def from_goal_angles(model: RobotModel, q_start: np.ndarray, q_goal: np.ndarray, chain=None) -> ProblemSet:

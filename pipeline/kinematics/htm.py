@@ -38,9 +38,8 @@ def transform_points(T: np.ndarray, P: np.ndarray) -> np.ndarray:
     return np.stack([((T[i, 0] * P[:, 0] + T[i, 1] * P[:, 1]) + T[i, 2] * P[:, 2]) + T[i, 3] for i in range(3)], axis=1)
 
 
-def axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray, exact: bool = False) -> np.ndarray:
-    """Joint motions of the general form: ``Rot(axis, q)`` (Rodrigues) or ``Trans(axis q)``
-    (``exact``: ``K K`` as ``k k^T - |k|^2 I`` element-wise, no BLAS).
+def axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Joint motions of the general form: ``Rot(axis, q)`` (Rodrigues) or ``Trans(axis q)``.
 
     Parameters
     ----------
@@ -59,25 +58,42 @@ def axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray, exact: b
     K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
     K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = k[..., 2], -k[..., 1], k[..., 0]
     M = np.zeros(q.shape + (4, 4))
-    KK = (k[..., :, None] * k[..., None, :] - np.eye(3) * (k * k).sum(axis=-1)[..., None, None]) if exact else K @ K
-    M[..., :3, :3] = np.eye(3) + np.sin(th) * K + (1.0 - np.cos(th)) * KK
+    M[..., :3, :3] = np.eye(3) + np.sin(th) * K + (1.0 - np.cos(th)) * (K @ K)
     M[..., :3, 3] = np.where(prismatic[:, None], k * q[..., None], 0.0)
     M[..., 3, 3] = 1.0
     return M
 
 
-def link_transforms(chain: Chain, q: np.ndarray, exact: bool = False) -> np.ndarray:
-    """Every joint's link transform ``T_i(q_i)``, any convention: shape (..., n, 4, 4) (``exact``: no BLAS)."""
+def link_transforms(chain: Chain, q: np.ndarray) -> np.ndarray:
+    """Every joint's link transform ``T_i(q_i)``, any convention: shape (..., n, 4, 4)."""
     q = np.asarray(q, dtype=float)
     if chain.general:
         if q.shape[-1] != chain.n:
             raise ValueError(f"expected {chain.n} joint values, got shape {q.shape}")
-        M = axis_motion(chain.axes, chain.prismatic, q, exact)
-        if exact:
-            return mul4(chain.origins, M)
-        return chain.origins @ M
+        return chain.origins @ axis_motion(chain.axes, chain.prismatic, q)
     theta, d = chain.joint_dh(q)
     return dh_transform(chain.a, chain.alpha, d, theta, chain.convention)
+
+
+def _exact_link(chain: Chain, q: np.ndarray, i: int) -> np.ndarray:
+    """Joint ``i``'s link transform for joint vectors ``q`` (..., n), shape (..., 4, 4), by element-wise
+    arithmetic only (``cos``/``sin`` and :func:`mul4`; no BLAS)."""
+    if not chain.general:
+        theta, d = chain.joint_dh(q)
+        return dh_transform(chain.a[i], chain.alpha[i], d[..., i], theta[..., i], chain.convention)
+    k = chain.axes[i]
+    K = np.zeros((4, 4))
+    K[0, 1], K[0, 2], K[1, 2] = -k[2], k[1], -k[0]
+    K[1, 0], K[2, 0], K[2, 1] = k[2], -k[1], k[0]
+    M = np.zeros(q.shape[:-1] + (4, 4))
+    if chain.prismatic[i]:
+        M[..., :3, :3] = np.eye(3)
+        M[..., :3, 3] = k * q[..., i, None]
+    else:
+        th = q[..., i, None, None]
+        M[..., :3, :3] = np.eye(3) + np.sin(th) * K[:3, :3] + (1.0 - np.cos(th)) * mul4(K, K)[:3, :3]
+    M[..., 3, 3] = 1.0
+    return mul4(chain.origins[i], M)
 
 
 def fk_frames(chain: Chain, q: np.ndarray, exact: bool = False) -> np.ndarray:
@@ -96,12 +112,16 @@ def fk_frames(chain: Chain, q: np.ndarray, exact: bool = False) -> np.ndarray:
     frames : ndarray, shape (..., n + 1, 4, 4)
         ``frames[..., 0]`` is the base, ``frames[..., i]`` is ``base @ T_1 @ ... @ T_i``.
     """
-    links = link_transforms(chain, q, exact)
-    out = np.empty(links.shape[:-3] + (chain.n + 1, 4, 4))
+    q = np.asarray(q, dtype=float)
+    out = np.empty(q.shape[:-1] + (chain.n + 1, 4, 4))
     out[..., 0, :, :] = chain.base
+    if exact:
+        for i in range(chain.n):
+            out[..., i + 1, :, :] = mul4(out[..., i, :, :], _exact_link(chain, q, i))
+        return out
+    links = link_transforms(chain, q)
     for i in range(chain.n):
-        out[..., i + 1, :, :] = (mul4(out[..., i, :, :], links[..., i, :, :]) if exact
-                                 else out[..., i, :, :] @ links[..., i, :, :])
+        out[..., i + 1, :, :] = out[..., i, :, :] @ links[..., i, :, :]
     return out
 
 
@@ -113,15 +133,21 @@ def fk_htm(chain: Chain, q: np.ndarray, exact: bool = False) -> np.ndarray:
     chain : Chain
     q : ndarray, shape (..., n) [rad | length]
     exact : bool
-        No BLAS (see :func:`fk_frames`).
+        No BLAS (see :func:`fk_frames`): the same bits on every machine; what problem-set goals
+        (:func:`pipeline.problems.fk_poses`) and figures drawn from archives use.
 
     Returns
     -------
     T : ndarray, shape (..., 4, 4) [length for the translation]
     """
     q = np.asarray(q, dtype=float)
-    if exact:
-        return mul4(fk_frames(chain, q, exact=True)[..., -1, :, :], chain.tool)
+    if exact:  # one joint at a time: memory O(m) whatever n
+        if q.shape[-1] != chain.n:
+            raise ValueError(f"expected {chain.n} joint values, got shape {q.shape}")
+        T = np.broadcast_to(chain.base, q.shape[:-1] + (4, 4))
+        for i in range(chain.n):
+            T = mul4(T, _exact_link(chain, q, i))
+        return mul4(T, chain.tool)
     if q.ndim == 1 and not chain.general:
         return _fk_one(chain, q)
     return fk_frames(chain, q)[..., -1, :, :] @ chain.tool
