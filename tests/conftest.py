@@ -86,3 +86,13 @@ def quick_build(tmp_path_factory):
     results = tmp_path_factory.mktemp("results")
     _snakemake(results)
     return results
+
+
+def run_pipeline(*args, env=None, cwd=None):
+    """``python -m pipeline ARGS`` from the project folder (``env``: variables added to this one's)."""
+    import os
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True,
+                          env={**os.environ, **(env or {})}, cwd=cwd or ROOT)

@@ -2,29 +2,21 @@
 
 from __future__ import annotations
 
-import os
 import shutil
-import subprocess
-import sys
 
 import pytest
 
-from tests.conftest import ROOT
-
-
-def _pipeline(*args, env=None):
-    return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True, cwd=ROOT,
-                          env={**os.environ, **(env or {})})
+from tests.conftest import run_pipeline
 
 
 @pytest.fixture(scope="module")
 def archives(tmp_path_factory):
     d = tmp_path_factory.mktemp("rep")
     study = "data/studies/cerbaro2019.yaml"
-    assert _pipeline("make_problems", "--study", study, "--problem-set", "random", "--robot", "data/robots/kuka_lwr.yaml",
+    assert run_pipeline("make_problems", "--study", study, "--problem-set", "random", "--robot", "data/robots/kuka_lwr.yaml",
                      "--scale", "quick", "--out", str(d / "p.csv.gz")).returncode == 0
     outs = [str(d / f"{s}.mcap") for s in ("dls", "sdls")]
-    p = _pipeline("solve_problems", "--study", study, "--problem-set", "random", "--robot", "data/robots/kuka_lwr.yaml",
+    p = run_pipeline("solve_problems", "--study", study, "--problem-set", "random", "--robot", "data/robots/kuka_lwr.yaml",
                   "--solver", "dls", "sdls", "--problems", str(d / "p.csv.gz"), "--scale", "quick", "--limit", "12",
                   "--out", *outs)
     assert p.returncode == 0, p.stderr
@@ -32,7 +24,7 @@ def archives(tmp_path_factory):
 
 
 def test_every_solve_re_runs_bit_identical_on_the_machine_that_wrote_it(archives):
-    p = _pipeline("reproduce", str(archives))
+    p = run_pipeline("reproduce", str(archives))
     assert p.returncode == 0, p.stderr
     assert "2 deterministic archive(s): 2 bit-identical on every re-run solve, 0 with differences" in p.stdout
     rows = [ln.split() for ln in p.stdout.splitlines() if ln.startswith(("dls.mcap", "sdls.mcap"))]
@@ -41,7 +33,7 @@ def test_every_solve_re_runs_bit_identical_on_the_machine_that_wrote_it(archives
 
 
 def test_another_blas_kernel_is_a_finding_not_an_error(archives):
-    p = _pipeline("reproduce", str(archives / "sdls.mcap"), "--problem", "3", env={"OPENBLAS_CORETYPE": "Prescott"})
+    p = run_pipeline("reproduce", str(archives / "sdls.mcap"), "--problem", "3", env={"OPENBLAS_CORETYPE": "Prescott"})
     assert p.returncode == 0, p.stderr
     assert "OPENBLAS_CORETYPE=Prescott" in p.stdout.split("re-run on:")[1]
     assert "deterministic archive(s)" in p.stdout
@@ -51,9 +43,9 @@ def test_a_missing_robot_file_or_problem_is_one_line(archives, tmp_path):
     alone = tmp_path / "a.mcap"
     shutil.copy(archives / "dls.mcap", alone)
     shutil.copy(archives / "p.csv.gz", tmp_path / "p.csv.gz")
-    p = _pipeline("reproduce", str(alone), "--robot", str(tmp_path / "none.yaml"))
+    p = run_pipeline("reproduce", str(alone), "--robot", str(tmp_path / "none.yaml"))
     lines = [ln for ln in p.stderr.splitlines() if ln.strip() and not ln.startswith("[")]
     assert p.returncode == 2 and len(lines) == 1 and "robot_file" in lines[0] and "--robot" in lines[0], p.stderr
-    p = _pipeline("reproduce", str(archives / "dls.mcap"), "--problem", "99999")
+    p = run_pipeline("reproduce", str(archives / "dls.mcap"), "--problem", "99999")
     lines = [ln for ln in p.stderr.splitlines() if ln.strip() and not ln.startswith("[")]
     assert p.returncode == 2 and lines == [f"error: {archives / 'dls.mcap'}: problem 99999 is not in the archive"]

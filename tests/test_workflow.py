@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from tests.conftest import ROOT
+from tests.conftest import ROOT, run_pipeline
 
 pytestmark = pytest.mark.workflow
 
@@ -95,13 +95,6 @@ def test_rerun_has_nothing_to_do(built):
     assert "Nothing to be done" in proc.stdout + proc.stderr
 
 
-def _pipeline(*args, env=None, cwd=None):
-    import os
-
-    return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True,
-                          env={**os.environ, **(env or {})}, cwd=cwd or ROOT)
-
-
 BLAS_CORES = ("Haswell", "Prescott")  # two OpenBLAS kernel families every x86-64 CPU here accepts
 
 
@@ -117,25 +110,25 @@ def test_tables_figures_and_inspect_read_the_same_under_another_blas_core(built,
         runs = [str(built / r["archive"]) for r in prov]
         for verb, sub in (("aggregate_tables", "tables"), ("plot_figures", "figures")):
             out = tmp_path / sid / sub
-            proc = _pipeline(verb, "--study", f"data/studies/{sid}.yaml", "--archives", *runs, "--out-dir", str(out),
+            proc = run_pipeline(verb, "--study", f"data/studies/{sid}.yaml", "--archives", *runs, "--out-dir", str(out),
                              env=env)
             assert proc.returncode == 0, proc.stderr[-2000:]
             for f in sorted(out.rglob("*")):
                 if f.is_file() and f.name != "provenance.json":
                     assert f.read_bytes() == (built / sid / sub / f.relative_to(out)).read_bytes(), (core, f)
         for path in [r for r in runs if "/runs/" in r][:6]:
-            proc = _pipeline("inspect", path, "--problem", "0", env=env)
+            proc = run_pipeline("inspect", path, "--problem", "0", env=env)
             assert proc.returncode == 0 or "is not in the archive" in proc.stderr, proc.stderr
 
 
 def test_reproduce_reports_deterministic_labels_bit_identical_here_and_lists_differences_elsewhere(built):
-    here = _pipeline("reproduce", str(built / "cerbaro2019"), "--sample", "5")
+    here = run_pipeline("reproduce", str(built / "cerbaro2019"), "--sample", "5")
     assert here.returncode == 0, here.stderr[-2000:]
     summary = next(ln for ln in here.stdout.splitlines() if "deterministic archive(s):" in ln)
     n = int(summary.split()[0])
     assert n >= 4 and f"{n} bit-identical on every re-run solve, 0 with differences" in summary, here.stdout
     assert "written on:" in here.stdout and "re-run on:" in here.stdout
-    other = _pipeline("reproduce", str(built / "cerbaro2019"), "--sample", "5", env={"OPENBLAS_CORETYPE": "Prescott"})
+    other = run_pipeline("reproduce", str(built / "cerbaro2019"), "--sample", "5", env={"OPENBLAS_CORETYPE": "Prescott"})
     assert other.returncode == 0, other.stderr[-2000:]
     assert "OPENBLAS_CORETYPE=Prescott" not in other.stdout.split("re-run on:")[0]  # the archive's environment
     assert "deterministic archive(s):" in other.stdout

@@ -64,14 +64,14 @@ class _ExactNumpy:
 
 
 def _exact_mplot3d() -> None:
-    """Point mplot3d's modules at :class:`_ExactNumpy` (their drawing only; numpy itself is untouched)."""
-    from mpl_toolkits.mplot3d import art3d, axes3d, proj3d
+    """Point mplot3d's modules at :class:`_ExactNumpy` (their drawing only; numpy itself is untouched).
+    Called by :func:`save` before drawing, and only when the figure has 3-D axes (mplot3d then loaded)."""
+    import sys
 
-    for mod in (art3d, axes3d, proj3d):
-        mod.np = _ExactNumpy()
-
-
-_exact_mplot3d()
+    for name in ("art3d", "axes3d", "proj3d"):
+        mod = sys.modules.get(f"mpl_toolkits.mplot3d.{name}")
+        if mod is not None and not isinstance(mod.np, _ExactNumpy):
+            mod.np = _ExactNumpy()
 SVG_META = {"Date": None, "Creator": None}
 
 
@@ -79,6 +79,8 @@ def save(fig, out_dir: Path, stem: str, svg: bool = True) -> list[str]:
     """Save ``fig`` as ``stem.png`` (and ``stem.svg``), close it, return the file names."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    if any(ax.name == "3d" for ax in fig.axes):
+        _exact_mplot3d()
     fig.tight_layout()
     files = [f"{stem}.png"]
     fig.savefig(out_dir / files[0], metadata=PNG_META)
