@@ -65,13 +65,18 @@ class _ExactNumpy:
 
 def _exact_mplot3d() -> None:
     """Point mplot3d's modules at :class:`_ExactNumpy` (their drawing only; numpy itself is untouched).
-    Called by :func:`save` before drawing, and only when the figure has 3-D axes (mplot3d then loaded)."""
-    import sys
 
-    for name in ("art3d", "axes3d", "proj3d"):
-        mod = sys.modules.get(f"mpl_toolkits.mplot3d.{name}")
-        if mod is not None and not isinstance(mod.np, _ExactNumpy):
-            mod.np = _ExactNumpy()
+    Done when this module is imported, before any figure: mplot3d computes with ``np.dot`` while 3-D
+    axes are built as well as when they are drawn (applied only in :func:`save`, a quick build's 3-D
+    PNG still differed under another BLAS kernel). pyplot has loaded mplot3d already, so it costs
+    nothing more."""
+    from mpl_toolkits.mplot3d import art3d, axes3d, proj3d
+
+    for mod in (art3d, axes3d, proj3d):
+        mod.np = _ExactNumpy()
+
+
+_exact_mplot3d()
 SVG_META = {"Date": None, "Creator": None}
 
 
@@ -79,8 +84,6 @@ def save(fig, out_dir: Path, stem: str, svg: bool = True) -> list[str]:
     """Save ``fig`` as ``stem.png`` (and ``stem.svg``), close it, return the file names."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    if any(ax.name == "3d" for ax in fig.axes):
-        _exact_mplot3d()
     fig.tight_layout()
     files = [f"{stem}.png"]
     fig.savefig(out_dir / files[0], metadata=PNG_META)
