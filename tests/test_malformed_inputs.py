@@ -10,9 +10,12 @@ address space capped at +1 GiB over the imports). A sample of hostile cases also
 from __future__ import annotations
 
 import json
+import os
 import resource
+import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -99,17 +102,32 @@ def _startup_s() -> float:
 
 def _run_limited(argv: list[str], tmp_path: Path) -> tuple[subprocess.CompletedProcess, float]:
     """``python -m pipeline ARGV`` with a 1 GiB address-space limit and a timeout of 10 s beyond the start-up
-    time of a valid run; returns (process, max RSS of the children so far in MiB)."""
+    time of a valid run; returns (process, max RSS of this child in MiB).
+
+    The RSS is this child's own (``os.wait4``), not ``RUSAGE_CHILDREN``: that one is the maximum over every
+    child the test process ever waited for, so one heavy earlier subprocess (a Snakemake build in another
+    test) would be charged to every later case.
+    """
 
     def limit():
         resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
 
     timeout = run_corpus.TIME_LIMIT_S + 2 * _startup_s()
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    proc = subprocess.run([sys.executable, "-m", "pipeline", *argv], cwd=ROOT, capture_output=True, text=True,
-                          timeout=timeout, preexec_fn=limit)
-    rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    return proc, max(rss, before) / 1024
+    out, err = tmp_path / "stdout.txt", tmp_path / "stderr.txt"
+    with open(out, "w") as fo, open(err, "w") as fe:
+        child = subprocess.Popen([sys.executable, "-m", "pipeline", *argv], cwd=ROOT, stdout=fo, stderr=fe,
+                                 preexec_fn=limit)
+    timer = threading.Timer(timeout, child.kill)
+    timer.start()
+    try:
+        _, status, usage = os.wait4(child.pid, 0)
+    finally:
+        timer.cancel()
+    child.returncode = os.waitstatus_to_exitcode(status)  # reaped here; keep Popen from waiting again
+    if child.returncode == -signal.SIGKILL:
+        raise subprocess.TimeoutExpired(argv, timeout)
+    proc = subprocess.CompletedProcess(argv, child.returncode, out.read_text(), err.read_text())
+    return proc, usage.ru_maxrss / 1024
 
 
 HOSTILE_SAMPLE = [

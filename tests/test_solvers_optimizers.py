@@ -253,7 +253,7 @@ def test_analytic_unreachable_goal_is_no_solution_with_finite_angles():
 
 
 @pytest.mark.parametrize("robot,reason", [
-    ("kuka_lwr", "needs 6 joints"), ("puma560", "not a UR-type arm"), ("stanford", "not a UR-type arm"),
+    ("kuka_lwr", "not a UR-type"), ("puma560", "not a UR-type"), ("stanford", "not a UR-type"),
 ])
 def test_analytic_refuses_non_ur_robots_with_one_line(robot, reason):
     with pytest.raises(NotApplicableError, match=reason) as exc:
@@ -261,6 +261,24 @@ def test_analytic_refuses_non_ur_robots_with_one_line(robot, reason):
     assert "\n" not in str(exc.value) and "analytic_ur" in str(exc.value)
 
 
-def test_analytic_refuses_a_modified_dh_table():
-    with pytest.raises(NotApplicableError, match="modified DH"):
-        prepare("analytic_ur", _ur_variant(convention="modified"), make_settings("analytic_ur"))
+def test_analytic_ur_judges_the_geometry_not_the_file_form():
+    """UR's numbers read as a modified-DH table are another arm: solved if its joint axes still give
+    the UR family (by the geometric closed form), else refused naming the geometry, never the form."""
+    from pipeline.kinematics.geometry import classify
+
+    model = _ur_variant(convention="modified")
+    fam = classify(model.chain).family
+    if fam == "three_parallel":
+        q = np.array([0.3, -0.8, 1.1, 0.4, -0.6, 0.2])
+        r = solve("analytic_ur", model, fk_htm(model.chain, q), q + 0.1, {})
+        assert r.success
+    else:
+        with pytest.raises(NotApplicableError) as exc:
+            prepare("analytic_ur", model, make_settings("analytic_ur"))
+        msg = str(exc.value)
+        assert "axes" in msg and "DH" not in msg and "URDF" not in msg and "\n" not in msg
+    # the official URDF form of the UR5e (joint origins with rpy) is solved under the same name
+    ur5e_urdf = load_robot(ROOT / "data/robots/ur5e_urdf.yaml")
+    q = np.array([0.5, -1.2, 1.0, -0.4, 0.9, 2.0])
+    r = solve("analytic_ur", ur5e_urdf, fk_htm(ur5e_urdf.chain, q), q + 0.05, {})
+    assert r.success and len(r.solutions) >= 2 and np.allclose(r.q, q, atol=1e-9)

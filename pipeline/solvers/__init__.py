@@ -41,6 +41,7 @@ from pipeline.solvers.registry import (Bound, Solver, bind, catalogue, get, make
                                        solve_batch, warm_up)
 from pipeline.solvers import jacobian  # noqa: F401  (registers the four Jacobian methods)
 from pipeline.solvers import _methods  # noqa: F401  (registers the methods of the other studies)
+from pipeline.solvers import peers_geo  # noqa: F401  (registers the EAIK and IK-Geo peers)
 
 __all__ = ["STOP_REASONS", "BatchResult", "Bound", "IKResult", "NotApplicableError", "Prepared", "Raw", "Settings", "SettingsError",
            "Solver", "StopReason", "bind", "catalogue", "finish", "get", "make_settings", "names", "prepare", "register",

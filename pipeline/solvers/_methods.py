@@ -7,7 +7,7 @@ Each helper/maintainer adds one import line per module (keep the order: it is th
 import importlib
 
 for _mod in ("fd_jacobian", "lm", "pso", "optimizers", "analytic_ur", "zero_position", "newton_raphson",
-             "geometric", "analytic_puma", "analytic_4dof", "peers"):
+             "geometric", "analytic_puma", "analytic_4dof", "analytic", "peers"):
     try:
         importlib.import_module(f"pipeline.solvers.{_mod}")
     except ModuleNotFoundError as exc:  # a module not written yet

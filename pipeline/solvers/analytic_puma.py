@@ -58,6 +58,7 @@ from pipeline.solvers.analytic_ur import InfoRows, copy12, mul34, mul_link, pose
 from pipeline.solvers.base import (CRITERION_CODE, TRACE_COLS, BatchRaw, IKResult, Prepared, Raw, Settings,
                                    check_pack, finish_packed, fused_inputs)
 from pipeline.solvers.driver import run_of
+from pipeline.solvers.analytic import alias_hooks
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -508,6 +509,10 @@ def batch(prep: Prepared, s: AnalyticPumaSettings, goals: np.ndarray, starts: np
                     n_solutions=IV[:, I_FOUND].copy(), info=info)
 
 
+# The transcription runs where its DH test passes (the studies' tables); on any other arm whose joint
+# axes give the same family, whatever the file's form, the geometric closed form (pipeline.solvers.analytic)
+# runs under this name.
+_hooks = alias_hooks("spherical_wrist", "PUMA-type (spherical wrist)", applies_to, bind, batch, bind_call)
 register(Solver("analytic_puma", "closed-form IK of PUMA-type arms (spherical wrist): all 8 solutions, the one "
-                "nearest the start returned", "analytic", AnalyticPumaSettings, run, applies_to=applies_to,
-                source=SOURCE, bind=bind, batch=batch, bind_call=bind_call))
+                "nearest the start returned", "analytic", AnalyticPumaSettings, _hooks["run"], applies_to=_hooks["applies_to"],
+                source=SOURCE, bind=_hooks["bind"], batch=_hooks["batch"], bind_call=_hooks["bind_call"]))

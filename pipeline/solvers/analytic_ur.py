@@ -44,16 +44,17 @@ rad (and the nearer of two near-identical elbow branches may swap).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, now_ns
-from pipeline.solvers.base import (BatchRaw, IKResult, Prepared, Raw, Settings, check_pack,
+from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, check_pack,
                                    finish_packed, fused_inputs, setting)
 from pipeline.solvers.driver import run_of
+from pipeline.solvers.analytic import alias_hooks
+from pipeline.solvers.subproblems import wrap as _wrap
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -139,17 +140,6 @@ def packed(prep: Prepared, s: AnalyticURSettings) -> np.ndarray:
 
 
 # ---- allocation-free helpers on flat 3 x 4 blocks (row-major, row 3 = 0 0 0 1 implied) -----------
-@numba.njit(cache=True)
-def _wrap(x):
-    """Angle wrapped to (-π, π]."""
-    if -3.0 < x < 3.0:  # the formula below returns x itself here (floor of a value in (0, 1)); skip it
-        return x
-    y = x - 2.0 * math.pi * math.floor((x + math.pi) / (2.0 * math.pi))
-    if y <= -math.pi:
-        return y + 2.0 * math.pi
-    return y
-
-
 @numba.njit(cache=True, inline="always")
 def mul34(A, ia, B, ib, C, ic):
     """``C[ic:ic+12] = A[ia:ia+12] B[ib:ib+12]`` (rigid 3 x 4 blocks; C must not overlap A or B)."""
@@ -536,32 +526,6 @@ def bind_call(prep: Prepared, s: AnalyticURSettings):
 run = run_of(bind)  # one pose (``T_goal`` in the working unit): ``bind(prep, s)(T_goal, q_start, seed)``
 
 
-class InfoRows(Sequence):
-    """Per-problem ``info`` dicts of a batch, built on access from the batch's arrays.
-
-    A list of 100 000 dicts costs more than the batch solve; this sequence holds the arrays and
-    ``rows[i]`` builds problem i's dict (the same keys and values as the single call's ``Raw.info``).
-    """
-
-    __slots__ = ("_n", "_make")
-
-    def __init__(self, n: int, make):
-        self._n, self._make = n, make
-
-    def __len__(self) -> int:
-        return self._n
-
-    def __getitem__(self, i):
-        if isinstance(i, slice):
-            return [self._make(k) for k in range(*i.indices(self._n))]
-        k = int(i)
-        if k < 0:
-            k += self._n
-        if not 0 <= k < self._n:
-            raise IndexError(i)
-        return self._make(k)
-
-
 def batch(prep: Prepared, s: AnalyticURSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
     """N poses in one compiled call (both cores).
 
@@ -590,6 +554,9 @@ def batch(prep: Prepared, s: AnalyticURSettings, goals: np.ndarray, starts: np.n
                     n_solutions=nsol, info=info)
 
 
-register(Solver("analytic_ur", "closed-form IK of UR-type arms, all 8 solutions (Hawkins 2013), nearest to the start",
-                "analytic", AnalyticURSettings, run, applies_to=applies_to, source=SOURCE, bind=bind, batch=batch,
-                bind_call=bind_call))
+# The transcription runs where its DH test passes (the studies' tables); on any other arm whose joint
+# axes give the same family, whatever the file's form, the geometric closed form (pipeline.solvers.analytic)
+# runs under this name.
+_hooks = alias_hooks("three_parallel", "UR-type (three parallel axes, the last two meeting)", applies_to, bind, batch, bind_call)
+register(Solver("analytic_ur", "closed-form IK of UR-type arms, all 8 solutions (Hawkins 2013), nearest to the start", "analytic", AnalyticURSettings, _hooks["run"], applies_to=_hooks["applies_to"],
+                source=SOURCE, bind=_hooks["bind"], batch=_hooks["batch"], bind_call=_hooks["bind_call"]))

@@ -27,6 +27,8 @@ and the FK check included.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import math
 from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 
@@ -396,6 +398,32 @@ class BatchRaw:
     solutions: np.ndarray | None = None
     n_solutions: np.ndarray | None = None
     info: list | None = None
+
+
+class InfoRows(Sequence):
+    """Per-problem ``info`` dicts of a batch, built on access from the batch's arrays.
+
+    A list of 100 000 dicts costs more than the batch solve; this sequence holds the arrays and
+    ``rows[i]`` builds problem i's dict (the same keys and values as the single call's ``Raw.info``).
+    """
+
+    __slots__ = ("_n", "_make")
+
+    def __init__(self, n: int, make):
+        self._n, self._make = n, make
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self._make(k) for k in range(*i.indices(self._n))]
+        k = int(i)
+        if k < 0:
+            k += self._n
+        if not 0 <= k < self._n:
+            raise IndexError(i)
+        return self._make(k)
 
 
 @dataclass

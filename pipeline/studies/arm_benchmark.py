@@ -29,7 +29,7 @@ import pandas as pd
 from pipeline.studies import FigureSpec, TableSpec
 from pipeline.studies.generic import runs_frame
 
-PEERS = ("rtb_ik_lm", "rtb_ik_nr", "rtb_ik_gn", "trac_ik", "pinocchio_clik", "ur_analytic_ik")
+PEERS = ("rtb_ik_lm", "rtb_ik_nr", "rtb_ik_gn", "trac_ik", "pinocchio_clik", "ur_analytic_ik", "eaik", "ik_geo")
 CLOSE_PP = 1.0  # "within 1 percentage point" of the best success rate
 MIN_SHARE = 0.1  # labels run on at least this share of a set's goals compete for the answer
 

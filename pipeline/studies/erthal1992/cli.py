@@ -65,6 +65,9 @@ def cmd_robot(args) -> None:
                 dh = M.dh_model_from_chain(model.chain, types, q0)
                 pz = M.pz_from_dh(model.chain, q0)
                 text = M.report_txt(model.name, dh, pz, limits=model.limits)
+            from pipeline.kinematics.geometry import report
+
+            text += "\n" + report(model.chain, args.geometry_tol, model.length_unit)
     except _known_errors() + (ValueError,) as exc:
         raise _cli_error(exc) from None
     if args.out:
@@ -107,6 +110,9 @@ def register_cli(sub) -> None:
     p.add_argument("robot", help="data/robots/<name>.yaml or a joint-point input (data/erthal1992/*_input.yaml)")
     p.add_argument("--q0", help="zero position for a robot file, comma-separated deg | mm (default all 0)")
     p.add_argument("--write-robot", metavar="YAML", help="joint-point input: also write the converted robot file")
+    p.add_argument("--geometry-tol", type=float, default=1e-9,
+                   help="robot file: axes meet within this x the arm's reach, parallel within this angle [rad] "
+                        "(default 1e-9; the closed-form family section)")
     p.add_argument("--out", help="write the report here instead of stdout")
     p.set_defaults(func=cmd_robot)
 

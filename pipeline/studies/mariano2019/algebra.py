@@ -151,6 +151,9 @@ def fk_dq_chain(chain, q, general: bool = True, parts: list | None = None) -> li
 
 def _fk_chain(link, mul, chain, q, general: bool, parts: list | None):
     """Product of the chain's link transforms in one algebra (``link`` builds one, ``mul`` multiplies)."""
+    if chain.convention == "general":
+        raise ValueError("the operation-counting chain takes a DH table (standard or modified); this robot file "
+                         "is in the general URDF-style form")
     mod = chain.convention == "modified"
     T = None
     for i, (a, alpha, d, theta) in enumerate(_params(chain, q, general)):

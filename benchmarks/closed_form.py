@@ -1,0 +1,216 @@
+"""Speed of the geometric closed form (``analytic``) against EAIK, IK-Geo and TRAC-IK, on the same
+poses, interleaved in one process.
+
+Usage::
+
+    python benchmarks/closed_form.py [--poses 2000] [--batch 200000] [--only eaik,batch,search,seven]
+                                     [--json out.json]
+
+Sections (times per pose; medians and 95th percentiles over the poses):
+
+``eaik``    every 6R catalogue arm EAIK solves (spherical wrists, three parallel axes): ``--poses``
+            goals = FK of joint angles uniform within the limits (seed 7), starts likewise. Our public
+            call ``pipeline.solvers.solve('analytic', ...)`` (registry defaults: every solution,
+            FK-checked, the independent FK check of the chosen one, the result object), timed around
+            the whole call, against EAIK's and IK-Geo's library call alone (``solve_time_s`` of the
+            ``eaik`` / ``ik_geo`` peers: ``robot.IK(T)`` / ``get_ik(R, p)`` and reading its answers).
+            Interleaved by blocks of 100 poses, so a slow phase of the machine hits every method alike.
+            Verdict per arm: our median <= EAIK's; also the solutions per goal of each.
+``batch``   ``pipeline.solvers.solve_batch('analytic', ...)`` on ``--batch`` poses of the UR5 and the
+            PUMA 560, on 2 threads and on 1: poses per second (the whole batch call, best of 3).
+``search``  the offset-wrist arms (one-dimensional search): the method's own time per pose
+            (``solve_time_s``, compiled) and the public call, over ``--poses`` goals.
+``seven``   the 7R arms: our public call against TRAC-IK's (default 5 ms budget) on the same goals
+            (``--poses`` / 4 of them), interleaved by blocks of 25: success within limits and
+            median call time, and their ratio.
+
+The machine is shared: a verdict is a ratio of medians measured in the same blocks. CPU time of
+the process (``time.process_time``) is printed beside wall time for each section.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.kinematics import fk_htm
+from pipeline.kinematics.geometry import classify
+from pipeline.robots import load_robot
+from pipeline.solvers import make_settings, solve
+from pipeline.solvers.base import NotApplicableError, Prepared
+from pipeline.solvers.registry import get, solve_batch
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOTS = ROOT / "data" / "robots"
+SIX = ["abb_irb120", "abb_irb140", "abb_irb2400", "fanuc_lrmate200id", "staubli_tx2_60", "kuka_kr5_arc",
+       "kuka_kr6_r700_sixx", "puma560", "ur3", "ur5", "ur10", "ur3e", "ur5e", "ur10e", "ur16e", "ur5e_urdf"]
+OFFSET = ["ufactory_xarm6", "kinova_gen3_lite", "fanuc_crx10ia"]
+SEVEN = ["franka_panda", "kuka_iiwa14", "kinova_gen3", "ufactory_xarm7", "rethink_sawyer"]
+
+
+def problems(model, n: int, seed: int):
+    rng = np.random.default_rng(seed)
+    lim = np.where(np.isfinite(model.limits), model.limits, np.array([-np.pi, np.pi]))
+    q = rng.uniform(lim[:, 0], lim[:, 1], (n, model.n))
+    q0 = rng.uniform(lim[:, 0], lim[:, 1], (n, model.n))
+    return np.array([fk_htm(model.chain, x) for x in q]), q0
+
+
+def stats(x) -> dict:
+    x = np.asarray(x, dtype=float)
+    return {"p50": float(np.median(x)), "p95": float(np.percentile(x, 95))}
+
+
+def _applies(name, prep) -> bool:
+    return get(name).refusal(prep) is None
+
+
+def section_eaik(n: int) -> dict:
+    out = {}
+    for robot in SIX:
+        model = load_robot(ROBOTS / f"{robot}.yaml")
+        prep = Prepared(model)
+        peers = [p for p in ("eaik", "ik_geo") if _applies(p, prep)]
+        if "eaik" not in peers:
+            print(f"{robot:18s} EAIK does not apply ({get('eaik').refusal(prep)})")
+            continue
+        T, q0 = problems(model, n, 7)
+        st = {name: make_settings(name, {}) for name in ["analytic", *peers]}
+        for name in st:  # compile / build once
+            solve(name, prep, T[0], q0[0], st[name])
+        ours, lib = [], {p: [] for p in peers}
+        nsol = {name: [] for name in st}
+        ok = {name: 0 for name in st}
+        c0 = time.process_time()
+        for b in range(0, n, 100):
+            for i in range(b, min(n, b + 100)):
+                t0 = time.perf_counter_ns()
+                r = solve("analytic", prep, T[i], q0[i], st["analytic"])
+                ours.append((time.perf_counter_ns() - t0) * 1e-3)
+                nsol["analytic"].append(len(r.solutions))
+                ok["analytic"] += r.success
+            for p in peers:
+                for i in range(b, min(n, b + 100)):
+                    r = solve(p, prep, T[i], q0[i], st[p])
+                    lib[p].append(r.solve_time_s * 1e6)
+                    nsol[p].append(len(r.solutions) if r.solutions is not None else 0)
+                    ok[p] += r.success
+        cpu = time.process_time() - c0
+        row = {"family": classify(model.chain).family, "ours_public_us": stats(ours),
+               **{f"{p}_library_us": stats(lib[p]) for p in peers},
+               "solutions_per_goal": {k: float(np.mean(v)) for k, v in nsol.items()},
+               "success": {k: v / n for k, v in ok.items()}, "cpu_s": cpu}
+        row["ours_le_eaik"] = row["ours_public_us"]["p50"] <= row["eaik_library_us"]["p50"]
+        out[robot] = row
+        print(f"{robot:18s} ours public {row['ours_public_us']['p50']:6.2f} us | EAIK library "
+              f"{row['eaik_library_us']['p50']:6.2f} us" +
+              (f" | IK-Geo library {row['ik_geo_library_us']['p50']:6.2f} us" if "ik_geo" in peers else "") +
+              f" | solutions/goal ours {row['solutions_per_goal']['analytic']:.2f} EAIK "
+              f"{row['solutions_per_goal']['eaik']:.2f} | success ours {row['success']['analytic']:.4f} "
+              f"EAIK {row['success']['eaik']:.4f} | ours <= EAIK: {row['ours_le_eaik']}")
+    return out
+
+
+def section_batch(n: int) -> dict:
+    out = {}
+    for robot in ("ur5", "puma560"):
+        model = load_robot(ROBOTS / f"{robot}.yaml")
+        T1, q1 = problems(model, 2000, 8)
+        reps = max(1, n // 2000)
+        T, q0 = np.tile(T1, (reps, 1, 1)), np.tile(q1, (reps, 1))
+        st = make_settings("analytic", {})
+        solve_batch("analytic", model, T[:100], q0[:100], st, traces=False)
+        for threads in (2, 1):
+            best = np.inf
+            for _ in range(3):
+                t0 = time.perf_counter()
+                res = solve_batch("analytic", model, T, q0, st, threads=threads, traces=False)
+                best = min(best, time.perf_counter() - t0)
+            rate = len(T) / best
+            out[f"{robot}_threads{threads}_poses_per_s"] = rate
+            print(f"batch {robot:8s} {threads} thread(s): {rate / 1e6:.2f} M poses/s "
+                  f"({len(T)} poses, success {np.mean(res.success):.4f})")
+    return out
+
+
+def section_search(n: int) -> dict:
+    out = {}
+    for robot in OFFSET:
+        model = load_robot(ROBOTS / f"{robot}.yaml")
+        prep = Prepared(model)
+        T, q0 = problems(model, n, 9)
+        st = make_settings("analytic", {})
+        solve("analytic", prep, T[0], q0[0], st)
+        kern, pub, ok = [], [], 0
+        for i in range(n):
+            t0 = time.perf_counter_ns()
+            r = solve("analytic", prep, T[i], q0[i], st)
+            pub.append((time.perf_counter_ns() - t0) * 1e-3)
+            kern.append(r.solve_time_s * 1e6)
+            ok += r.success
+        out[robot] = {"solve_us": stats(kern), "public_us": stats(pub), "success": ok / n}
+        print(f"search {robot:18s} method {out[robot]['solve_us']['p50']:7.1f} us (p95 "
+              f"{out[robot]['solve_us']['p95']:.1f}) | public {out[robot]['public_us']['p50']:7.1f} us | "
+              f"success {ok / n:.4f}")
+    return out
+
+
+def section_seven(n: int) -> dict:
+    out = {}
+    for robot in SEVEN:
+        model = load_robot(ROBOTS / f"{robot}.yaml")
+        prep = Prepared(model)
+        T, q0 = problems(model, n, 10)
+        st = {name: make_settings(name, {"require_limits": True}) for name in ("analytic", "trac_ik")}
+        try:
+            for name in st:
+                solve(name, prep, T[0], q0[0], st[name])
+        except NotApplicableError as exc:
+            print(f"{robot}: {exc}")
+            continue
+        t = {name: [] for name in st}
+        ok = {name: 0 for name in st}
+        for b in range(0, n, 25):
+            for name in st:
+                for i in range(b, min(n, b + 25)):
+                    t0 = time.perf_counter_ns()
+                    r = solve(name, prep, T[i], q0[i], st[name])
+                    t[name].append((time.perf_counter_ns() - t0) * 1e-3)
+                    ok[name] += r.success
+        row = {name: {"call_us": stats(t[name]), "success": ok[name] / n} for name in st}
+        row["trac_ik_over_ours"] = row["trac_ik"]["call_us"]["p50"] / row["analytic"]["call_us"]["p50"]
+        out[robot] = row
+        print(f"7R {robot:16s} ours {row['analytic']['success']:.3f} in {row['analytic']['call_us']['p50']:7.1f} us | "
+              f"TRAC-IK {row['trac_ik']['success']:.3f} in {row['trac_ik']['call_us']['p50']:7.1f} us | "
+              f"TRAC-IK / ours {row['trac_ik_over_ours']:.1f}x")
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--poses", type=int, default=2000)
+    ap.add_argument("--batch", type=int, default=200000)
+    ap.add_argument("--only", default="eaik,batch,search,seven")
+    ap.add_argument("--json")
+    a = ap.parse_args(argv)
+    only = set(a.only.split(","))
+    res = {}
+    if "eaik" in only:
+        res["eaik"] = section_eaik(a.poses)
+    if "batch" in only:
+        res["batch"] = section_batch(a.batch)
+    if "search" in only:
+        res["search"] = section_search(a.poses)
+    if "seven" in only:
+        res["seven"] = section_seven(max(25, a.poses // 4))
+    if a.json:
+        Path(a.json).write_text(json.dumps(res, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,617 @@
+"""``analytic``: closed-form IK by subproblem decomposition, found from the arm's geometry.
+
+Whatever the robot file's form, the joint axes at the zero pose decide the family
+(:func:`pipeline.kinematics.geometry.classify`; ``python -m pipeline robot FILE`` prints it with its
+evidence) and :mod:`pipeline.solvers.subproblems` solves it:
+
+- 6R, spherical wrist (or spherical shoulder, read from the tool back): all (up to 8) solutions;
+- 6R, three parallel axes with the last two meeting (UR family, or reversed): up to 8;
+- 6R, axes 5 and 6 meeting (or 1 and 2) with a position case for the other end: a one-dimensional
+  search over joint 4 (``search_samples`` grid points, sign changes of each branch's residual
+  refined by regula falsi): up to 16 (the offset-wrist arms);
+- 7R: one joint (chosen from the geometry, or ``free_joint``) held at ``free_samples`` values
+  evenly spread over its limits, plus the start's own value; the other six by the 6R closed form
+  of their family. Solutions outside the joint limits are dropped (revolute joints moved by 2π
+  into them where they fit).
+
+Every candidate is checked by the forward kinematics of the joint lines (base and tool included)
+against ``verify_position`` / ``verify_rotation``; ``solutions`` holds the valid ones, nearest to the
+start first (wrapped joint distance, sum of squares); ``q`` is the first, unwrapped to lie within
+π of ``q_start`` per joint for 6R arms (within the limits for 7R). At a singular wrist the free
+angle is the start's. No valid candidate: ``NO_SOLUTION`` with ``q = q_start``. The trace has two
+rows, the document's error ``[‖e‖, e, |Δp|]`` at ``q_start`` and at ``q``.
+
+A robot whose geometry fits no family is refused in one line naming the geometry (e.g. "axes 4,
+5 and 6 do not meet (closest common point 12.3 mm off) ...").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from pipeline.kinematics import geometry
+from pipeline.solvers import subproblems as sp
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, now_ns
+from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, check_pack, finish_packed,
+                                   fused_inputs, setting)
+from pipeline.solvers.timing import clock_ns
+from pipeline.solvers.driver import run_of
+from pipeline.solvers.registry import Solver, register
+
+SOURCE = ("Paden (1985) and Kahan's subproblems 1-4, as extended by IK-Geo (Elias & Wen 2022) and EAIK "
+          "(Ostermeier, Külz & Althoff 2025); the decomposition found from the joint axes")
+
+
+@dataclass(frozen=True)
+class AnalyticSettings(Settings):
+    geometry_tol: float = setting(1e-9, "axes meet when their closest distance is at most this times the arm's reach "
+                                  "(the sum of its link lengths), and are parallel within this angle [rad]",
+                                  above=0.0, maximum=1e-2)
+    clip: float = setting(1e-9, "a cosine beyond ±1 by at most this is rounding at a boundary (clipped), beyond "
+                          "it the branch does not exist", minimum=0.0, maximum=1e-3)
+    search_samples: int = setting(64, "one-dimensional search (offset wrists): grid points over one turn of the "
+                                  "searched joint (4 or 6)", minimum=8, maximum=65536)
+    free_samples: int = setting(16, "7R arms: values of the free joint swept over its limits (the start's value "
+                                "is tried too)", minimum=1, maximum=4096)
+    refine: int = setting(8, "a one-dimensional search (6R) or a sweep (7R) that finds no solution within the "
+                          "limits is run once more on a grid this many times finer (1 = never)", minimum=1, maximum=64)
+    max_solutions: int = setting(16, "solutions returned per goal at most, the nearest to the start (a 7R sweep "
+                                 "finds up to 8 per value of the free joint)", minimum=1, maximum=4096)
+    free_joint: int = setting(0, "7R arms: the joint held as the free parameter (1-based); 0 = chosen from the "
+                              "geometry", minimum=0, maximum=7)
+    verify_position: float = setting(1e-9, "FK check of each closed-form solution: |Δp|", unit="m", above=0.0,
+                                     length=True)
+    verify_rotation: float = setting(1e-9, "FK check of each closed-form solution: rotation angle", unit="rad",
+                                     above=0.0)
+
+
+def decomposition(prep: Prepared, s: AnalyticSettings) -> geometry.Decomposition:
+    """The arm's family under ``s`` (once per job and settings)."""
+    order = None if s.free_joint == 0 else [s.free_joint - 1]
+    return prep.memo(("decomposition", s.geometry_tol, s.free_joint),
+                     lambda: geometry.classify(prep.model.chain, s.geometry_tol, prep.unit, order))
+
+
+def applies_to(prep: Prepared) -> str | None:
+    """One-line reason why no closed form fits the arm's geometry (default settings), or None."""
+    d = decomposition(prep, AnalyticSettings())
+    return None if d.family else d.reason
+
+
+FAMILY_CODE = {"spherical_wrist": sp.FAM_SPH, "three_parallel": sp.FAM_3P, "two_intersecting_search": sp.FAM_SEARCH}
+
+
+@dataclass(frozen=True)
+class Packed:
+    """The arm and the settings for the kernels: ``ints`` = n, family, position case, reversed, free
+    joint (−1 for 6R), search samples, free samples, searched joint; ``G`` = the joint lines H (n, 3)
+    and P (n, 3), the home pose RM (3, 3) and pM (3,), (clip, verify_position, verify_rotation) and
+    the limits (n, 2), then (6, 2) of ±inf, flattened (:func:`unpack` gives the views)."""
+
+    ints: np.ndarray
+    G: np.ndarray
+
+
+def packed(prep: Prepared, s: AnalyticSettings) -> Packed:
+    d = decomposition(prep, s)
+    if d.family is None:
+        from pipeline.solvers.base import NotApplicableError
+
+        raise NotApplicableError(f"analytic: {d.reason}")
+    L = geometry.joint_lines(prep.model.chain)
+    ints = np.array([L.n, FAMILY_CODE[d.family], d.position_case, int(d.reversed),
+                     -1 if d.free_joint is None else d.free_joint, s.search_samples, s.free_samples, d.searched,
+                     s.max_solutions, s.refine], np.int64)
+    G = np.concatenate([L.h.ravel(), L.p.ravel(), L.M[:3, :3].ravel(), L.M[:3, 3],
+                        [s.clip, s.verify_position, s.verify_rotation], np.asarray(prep.limits, float).ravel(),
+                        np.tile([-np.inf, np.inf], 6)])
+    return Packed(ints, np.ascontiguousarray(G))
+
+
+# ---- compiled: one pose ---------------------------------------------------------------------------
+@numba.njit(cache=True)
+def fk_linesz(H, P, RM, pM, Z, R, p):
+    """Pose of the POE chain ``E_1(θ_1) ... E_n(θ_n) M`` into R (3, 3), p (3,) from each joint's
+    e^{iθ} (the closed form's own cosines and sines: no trig), no allocation."""
+    a00, a01, a02, a10, a11, a12, a20, a21, a22 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
+    tx = ty = tz = 0.0
+    for i in range(H.shape[0]):
+        x, y, z = H[i, 0], H[i, 1], H[i, 2]
+        c, s_ = Z[i].real, Z[i].imag
+        C = 1.0 - c
+        r00, r01, r02 = c + x * x * C, x * y * C - z * s_, x * z * C + y * s_
+        r10, r11, r12 = y * x * C + z * s_, c + y * y * C, y * z * C - x * s_
+        r20, r21, r22 = z * x * C - y * s_, z * y * C + x * s_, c + z * z * C
+        px, py, pz = P[i, 0], P[i, 1], P[i, 2]
+        ux = px - (r00 * px + r01 * py + r02 * pz)
+        uy = py - (r10 * px + r11 * py + r12 * pz)
+        uz = pz - (r20 * px + r21 * py + r22 * pz)
+        tx, ty, tz = (a00 * ux + a01 * uy + a02 * uz + tx, a10 * ux + a11 * uy + a12 * uz + ty,
+                      a20 * ux + a21 * uy + a22 * uz + tz)
+        a00, a01, a02 = a00 * r00 + a01 * r10 + a02 * r20, a00 * r01 + a01 * r11 + a02 * r21, a00 * r02 + a01 * r12 + a02 * r22
+        a10, a11, a12 = a10 * r00 + a11 * r10 + a12 * r20, a10 * r01 + a11 * r11 + a12 * r21, a10 * r02 + a11 * r12 + a12 * r22
+        a20, a21, a22 = a20 * r00 + a21 * r10 + a22 * r20, a20 * r01 + a21 * r11 + a22 * r21, a20 * r02 + a21 * r12 + a22 * r22
+    for k in range(3):
+        m0, m1, m2 = RM[0, k], RM[1, k], RM[2, k]
+        R[0, k] = a00 * m0 + a01 * m1 + a02 * m2
+        R[1, k] = a10 * m0 + a11 * m1 + a12 * m2
+        R[2, k] = a20 * m0 + a21 * m1 + a22 * m2
+    p[0] = a00 * pM[0] + a01 * pM[1] + a02 * pM[2] + tx
+    p[1] = a10 * pM[0] + a11 * pM[1] + a12 * pM[2] + ty
+    p[2] = a20 * pM[0] + a21 * pM[1] + a22 * pM[2] + tz
+
+
+@numba.njit(cache=True)
+def fk_lines(H, P, RM, pM, th, R, p, cs):
+    """Pose of the POE chain ``E_1(θ_1) ... E_n(θ_n) M`` into R (3, 3), p (3,).
+
+    ``cs`` (n, 3) keeps each joint's last angle with its cosine and sine: a joint whose angle is
+    bitwise the last one reuses them."""
+    n = H.shape[0]
+    Z = np.empty(n, np.complex128)
+    for i in range(n):
+        if th[i] != cs[i, 0]:
+            cs[i, 0], cs[i, 1], cs[i, 2] = th[i], math.cos(th[i]), math.sin(th[i])
+        Z[i] = complex(cs[i, 1], cs[i, 2])
+    fk_linesz(H, P, RM, pM, Z, R, p)
+
+
+@numba.njit(cache=True)
+def pose_err(R, p, Tg):
+    """|Δp| and the rotation angle between (R, p) and ``Tg`` (angle from the Frobenius distance:
+    ‖R − Rg‖ = 2√2 sin(θ/2), accurate near 0)."""
+    dp = math.sqrt((p[0] - Tg[0, 3]) ** 2 + (p[1] - Tg[1, 3]) ** 2 + (p[2] - Tg[2, 3]) ** 2)
+    f = 0.0
+    for r in range(3):
+        for k in range(3):
+            f += (R[r, k] - Tg[r, k]) ** 2
+    x = math.sqrt(f) / (2.0 * math.sqrt(2.0))
+    return dp, 2.0 * math.asin(min(1.0, x))
+
+
+@numba.njit(cache=True)
+def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
+    """Candidates of a 6R chain of family ``fam`` into Q (complex (16, 6): rows of e^{iθ} of THIS
+    chain's joints); ``pref`` (6,) the angles [rad] taken where one is free; ``lim6`` (6, 2) the
+    limits a spherical-wrist branch must fit (±inf: every solution)."""
+    if rev == 0:
+        if fam == sp.FAM_SPH:
+            return sp.solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim6)
+        if fam == sp.FAM_3P:
+            return sp.solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q)
+        return sp.solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q)
+    # read from the tool back: lines moved by M⁻¹ in reverse order, home M⁻¹, goal T⁻¹, angles −θ
+    Hr = np.empty((6, 3))
+    Pr = np.empty((6, 3))
+    for i in range(6):
+        j = 5 - i
+        hv = sp.matTvec(RM, (H[j, 0], H[j, 1], H[j, 2]))
+        pv = sp.matTvec(RM, sp.sub((P[j, 0], P[j, 1], P[j, 2]), (pM[0], pM[1], pM[2])))
+        Hr[i, 0], Hr[i, 1], Hr[i, 2] = hv[0], hv[1], hv[2]
+        Pr[i, 0], Pr[i, 1], Pr[i, 2] = pv[0], pv[1], pv[2]
+    RMr = RM.T.copy()
+    pMv = sp.scl(-1.0, sp.matTvec(RM, (pM[0], pM[1], pM[2])))
+    pMr = np.array([pMv[0], pMv[1], pMv[2]])
+    Rgr = np.empty((3, 3))
+    for r in range(3):
+        for k in range(3):
+            Rgr[r, k] = Rg[k, r]
+    pgr = sp.scl(-1.0, sp.matTvec3(Rg, pg))
+    prefr = np.empty(6)
+    limr = np.empty((6, 2))
+    for i in range(6):
+        prefr[i] = -pref[5 - i]
+        limr[i, 0], limr[i, 1] = -lim6[5 - i, 1], -lim6[5 - i, 0]
+    Qr = np.empty_like(Q)
+    if fam == sp.FAM_SPH:
+        k = sp.solve_sph(case, Hr, Pr, RMr, pMr, Rgr, pgr, clip, prefr, Qr, limr)
+    elif fam == sp.FAM_3P:
+        k = sp.solve_3p(Hr, Pr, RMr, pMr, Rgr, pgr, clip, prefr, Qr)
+    else:
+        k = sp.solve_search(mode, case, Hr, Pr, RMr, pMr, Rgr, pgr, clip, prefr, samples, Qr)
+    for r in range(min(k, Q.shape[0])):
+        for i in range(6):
+            Q[r, i] = Qr[r, 5 - i].conjugate()
+    return k
+
+
+@numba.njit(cache=True)
+def _fix(H, P, RM, pM, k, v, H6, P6, RM6, pM6):
+    """The 6R chain with joint k held at v (lines after k and M moved by E_k(v))."""
+    hk = (H[k, 0], H[k, 1], H[k, 2])
+    pk = (P[k, 0], P[k, 1], P[k, 2])
+    c, s_ = math.cos(v), math.sin(v)
+    r = 0
+    for i in range(H.shape[0]):
+        if i == k:
+            continue
+        h = (H[i, 0], H[i, 1], H[i, 2])
+        p = (P[i, 0], P[i, 1], P[i, 2])
+        if i > k:
+            h = sp.rot(hk, c, s_, h)
+            p = sp.add(pk, sp.rot(hk, c, s_, sp.sub(p, pk)))
+        H6[r, 0], H6[r, 1], H6[r, 2] = h[0], h[1], h[2]
+        P6[r, 0], P6[r, 1], P6[r, 2] = p[0], p[1], p[2]
+        r += 1
+    for j in range(3):
+        col = sp.rot(hk, c, s_, (RM[0, j], RM[1, j], RM[2, j]))
+        RM6[0, j], RM6[1, j], RM6[2, j] = col[0], col[1], col[2]
+    pm = sp.add(pk, sp.rot(hk, c, s_, sp.sub((pM[0], pM[1], pM[2]), pk)))
+    pM6[0], pM6[1], pM6[2] = pm[0], pm[1], pm[2]
+
+
+@numba.njit(cache=True)
+def _doc_row(Tg, R, p, out):
+    for r in range(3):
+        out[1 + r] = Tg[r, 3] - p[r]
+    ox = oy = oz = 0.0
+    for i in range(3):
+        cx, cy, cz = R[0, i], R[1, i], R[2, i]
+        dx, dy, dz = Tg[0, i], Tg[1, i], Tg[2, i]
+        ox += cy * dz - cz * dy
+        oy += cz * dx - cx * dz
+        oz += cx * dy - cy * dx
+    out[4], out[5], out[6] = 0.5 * ox, 0.5 * oy, 0.5 * oz
+    out[7] = math.sqrt(out[1] ** 2 + out[2] ** 2 + out[3] ** 2)
+    s = 0.0
+    for r in range(6):
+        s += out[1 + r] ** 2
+    out[0] = math.sqrt(s)
+
+
+@numba.njit(cache=True, inline="always")
+def unpack(ints, G):
+    """Views of the packed geometry ``G`` (:func:`packed`): H (n, 3), P (n, 3), RM (3, 3), pM (3,),
+    par (3,), lim (n, 2)."""
+    n = ints[0]
+    o = 6 * n
+    return (G[0:3 * n].reshape((n, 3)), G[3 * n:o].reshape((n, 3)), G[o:o + 9].reshape((3, 3)), G[o + 9:o + 12],
+            G[o + 12:o + 15], G[o + 15:o + 15 + 2 * n].reshape((n, 2)))
+
+
+@numba.njit(cache=True)
+def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
+    """The FK-valid solutions of one pose, nearest to ``q_start`` first (wrapped joint distance, sum of
+    squares), at most ``max_solutions`` into ``S``; ``q`` the chosen one. ``Sc`` (:func:`capacity`
+    rows) holds the candidates: 6R, every closed-form candidate wrapped to (−π, π]; 7R, every
+    candidate of every swept value moved into the joint limits (those that do not fit are dropped).
+    Candidates are FK-checked nearest first until ``max_solutions`` pass or none is left, so a 7R
+    sweep checks about as many as it returns. Returns (solutions, candidates, solve time [ns])."""
+    t0 = now_ns(clk)
+    H, P, RM, pM, par, lim = unpack(ints, G)
+    n, fam, case, rev, free, samples, nfree, mode = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5], ints[6], ints[7]
+    max_sol = min(ints[8], S.shape[0])
+    clip, tolp, tolr = par[0], par[1], par[2]
+    Rg = Tg  # its rotation block is read
+    pg = (Tg[0, 3], Tg[1, 3], Tg[2, 3])
+    Q = np.empty((sp.MAX_SOL, 6), np.complex128)
+    R = np.empty((3, 3))
+    p = np.empty(3)
+    cap = Sc.shape[0]
+    dist = np.empty(cap)
+    cs = np.full((n, 3), math.nan)
+    nc = 0  # candidates in Sc
+    tried = 0
+    refine = ints[9]
+    inlim = 0
+    nolim = G[8 * n + 15:8 * n + 27].reshape((6, 2))  # ±inf: a 6R arm's closed form keeps every branch
+    lim6 = nolim
+    if n == 7:
+        lim6 = np.empty((6, 2))
+        r_ = 0
+        for i in range(7):
+            if i != free:
+                lim6[r_, 0], lim6[r_, 1] = lim[i, 0], lim[i, 1]
+                r_ += 1
+    for attempt in range(2):
+        if attempt == 1:
+            # nothing within the limits: the search (6R) or the sweep (7R) once more on a finer grid
+            if inlim > 0 or refine <= 1 or (n == 6 and fam != sp.FAM_SEARCH):
+                break
+            samples *= refine
+            nfree *= refine
+            nc = 0  # a 6R search finds its earlier candidates again; a 7R sweep kept none
+        inlim = 0
+        if n == 6:
+            # every candidate is checked (in the order the closed form gives them: shared angles reuse
+            # their sine and cosine); the valid ones compete by distance below
+            k = min(core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, q_start, samples, Q, nolim),
+                    sp.MAX_SOL)
+            tried += k
+            for r in range(k):
+                if nc >= cap:
+                    break
+                fk_linesz(H, P, RM, pM, Q[r], R, p)  # the check from the closed form's own cos/sin
+                dp, ang = pose_err(R, p, Tg)
+                if not (dp <= tolp and ang <= tolr):
+                    continue
+                inside = True
+                for j in range(6):
+                    x = math.atan2(Q[r, j].imag, Q[r, j].real)
+                    Sc[nc, j] = x
+                    if not sp.into_limits(x, lim[j, 0], lim[j, 1])[1]:
+                        inside = False
+                d = 0.0
+                for j in range(6):
+                    e = sp.wrap(Sc[nc, j] - q_start[j])
+                    d += e * e
+                dist[nc] = d
+                nc += 1
+                inlim += inside
+        else:
+            H6 = np.empty((6, 3))
+            P6 = np.empty((6, 3))
+            RM6 = np.empty((3, 3))
+            pM6 = np.empty(3)
+            pref = np.empty(6)
+            r_ = 0
+            for i in range(n):
+                if i != free:
+                    pref[r_] = q_start[i]
+                    r_ += 1
+            lo, hi = lim[free, 0], lim[free, 1]
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                lo, hi = -math.pi, math.pi
+            if hi - lo > 2.0 * math.pi:  # one turn: v and v + 2π give the same solutions
+                hi = lo + 2.0 * math.pi
+            for it in range(nfree + 1):
+                v = q_start[free] if it == 0 else lo + (hi - lo) * (it - 0.5) / nfree
+                if attempt == 1 and it == 0:
+                    continue
+                _fix(H, P, RM, pM, free, v, H6, P6, RM6, pM6)
+                k = min(core6(fam, case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6),
+                        sp.MAX_SOL)
+                tried += k
+                for r in range(k):
+                    if nc >= cap:
+                        break
+                    c_ = 0
+                    inside = True
+                    d = 0.0
+                    for j in range(n):
+                        if j == free:
+                            x = v
+                        else:
+                            x = math.atan2(Q[r, c_].imag, Q[r, c_].real)
+                            c_ += 1
+                        x, ok = sp.into_limits(sp.wrap(x), lim[j, 0], lim[j, 1])
+                        if not ok:
+                            inside = False
+                            break
+                        Sc[nc, j] = x
+                        e = x - q_start[j]
+                        d += e * e
+                    if inside:
+                        dist[nc] = d
+                        nc += 1
+                        inlim += 1
+    # nearest first: select, FK-check, keep, until max_solutions pass
+    m = 0
+    for _ in range(nc):
+        if m >= max_sol:
+            break
+        best = -1
+        bd = math.inf
+        for r in range(nc):
+            if dist[r] < bd:
+                bd = dist[r]
+                best = r
+        if best < 0:
+            break
+        dist[best] = math.inf
+        if n != 6:  # 7R: checked here, nearest first (6R candidates were checked above)
+            fk_lines(H, P, RM, pM, Sc[best], R, p, cs)
+            dp, ang = pose_err(R, p, Tg)
+        if n == 6 or (dp <= tolp and ang <= tolr):
+            for j in range(n):
+                S[m, j] = Sc[best, j]
+            m += 1
+    for a_ in range(m, S.shape[0]):
+        for j in range(n):
+            S[a_, j] = math.nan
+    if m == 0:
+        for j in range(n):
+            q[j] = q_start[j]
+    elif n == 6:
+        for j in range(n):
+            q[j] = q_start[j] + sp.wrap(S[0, j] - q_start[j])
+    else:
+        for j in range(n):
+            q[j] = S[0, j]
+    ns = now_ns(clk) - t0
+    fk_lines(H, P, RM, pM, q_start, R, p, cs)
+    _doc_row(Tg, R, p, trace[0])
+    if m == 0:
+        for c in range(TRACE_COLS):
+            trace[1, c] = trace[0, c]
+    else:
+        fk_lines(H, P, RM, pM, q, R, p, cs)
+        _doc_row(Tg, R, p, trace[1])
+    return m, tried, ns
+
+
+@numba.njit(cache=True, parallel=True)
+def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, nsol, tried, ns, cap):
+    """:func:`solve_pose` for every row, on every core: work items of 32 poses, one scratch each;
+    every pose writes only its own rows (results independent of the thread count)."""
+    N = goals.shape[0]
+    chunk = 32
+    for c in numba.prange((N + chunk - 1) // chunk):
+        clk = np.zeros(2, np.int64)
+        Sc = np.empty((cap, ints[0]))
+        for i in range(c * chunk, min(N, (c + 1) * chunk)):
+            m, t, dt = solve_pose(ints, G, goals[i], starts[i], Sc, S[i], Qo[i], traces[i], clk)
+            nsol[i] = m
+            tried[i] = t
+            ns[i] = dt
+
+
+@numba.njit(cache=True)
+def _capacity(ints):
+    """Scratch rows per pose: 16 for 6R, 16 per swept value for 7R."""
+    return sp.MAX_SOL if ints[0] == 6 else sp.MAX_SOL * (ints[6] + 1)
+
+
+def capacity(k: Packed) -> int:
+    """:func:`_capacity` of a packed arm."""
+    return int(_capacity(k.ints))
+
+
+_MESSAGES = ["no valid closed-form solution"] + [f"{m} FK-verified solutions" for m in range(1, 4097)]
+
+
+def _info(m: int, tried: int, doc: float, family: str) -> dict:
+    return {"n_solutions": m, "candidates": tried, "nfev": tried, "njev": 0, "doc_error": doc, "family": family,
+            "message": _MESSAGES[m]}
+
+
+def _family(prep: Prepared, s: AnalyticSettings) -> str:
+    d = decomposition(prep, s)
+    return d.family if d.free_joint is None else f"{d.family}, joint {d.free_joint + 1} free"
+
+
+def bind(prep: Prepared, s: AnalyticSettings):
+    """``run1(T_goal, q_start, seed) -> Raw`` with the geometry packed once."""
+    k = packed(prep, s)
+    n, cap, fam = int(k.ints[0]), capacity(k), _family(prep, s)
+    args = (k.ints, k.G)
+
+    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        Sc = np.empty((cap, n))
+        S = np.empty((s.max_solutions, n))
+        q = np.empty(n)
+        trace = np.empty((2, TRACE_COLS))
+        clk = np.zeros(2, np.int64)
+        m, tried, ns = solve_pose(*args, np.ascontiguousarray(T_goal, dtype=float),
+                                  np.ascontiguousarray(q_start, dtype=float), Sc, S, q, trace, clk)
+        return Raw(q=q, code=SUCCESS if m else NO_SOLUTION, iterations=1, solve_ns=ns, trace=trace,
+                   solutions=S[:m], info=_info(m, tried, float(trace[1, 0]), fam))
+
+    return run1
+
+
+def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
+    """N poses in one compiled call on every core (each pose writes only its own rows)."""
+    k = packed(prep, s)
+    n, cap, fam = int(k.ints[0]), capacity(k), _family(prep, s)
+    goals = np.ascontiguousarray(goals, dtype=float)
+    starts = np.ascontiguousarray(starts, dtype=float)
+    N = goals.shape[0]
+    S = np.empty((N, s.max_solutions, n))
+    Q = np.empty((N, n))
+    traces = np.empty((N, 2, TRACE_COLS))
+    nsol = np.zeros(N, np.int64)
+    tried = np.zeros(N, np.int64)
+    ns = np.zeros(N, np.int64)
+    solve_batch_kernel(k.ints, k.G, goals, starts, S, Q, traces, nsol, tried, ns, cap)
+    doc = traces[:, 1, 0].copy()
+    rows = traces.reshape(2 * N, TRACE_COLS) if keep_traces else None
+    offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces else None
+    info = InfoRows(N, lambda i: _info(int(nsol[i]), int(tried[i]), float(doc[i]), fam))
+    code = np.where(nsol > 0, SUCCESS, NO_SOLUTION).astype(np.int64)
+    return BatchRaw(q=Q, code=code, iterations=np.ones(N, np.int64), solve_ns=ns, ik_ns=np.zeros(N, np.int64),
+                    trace_rows=rows, trace_offsets=offsets, solutions=S, n_solutions=nsol, info=info)
+
+
+@numba.njit(cache=True)
+def call_pose(ints, GC, Tg, q_start, S, q, trace):
+    """The whole public single call in one compiled call: :func:`solve_pose`, then the result rule of
+    every finish (:func:`pipeline.solvers.base.finish_packed`: the independent FK check of the chosen
+    ``q`` by the dual-quaternion FK, the limit record, the stop reason; without ``require_limits``).
+    ``GC`` = :func:`packed`'s ``G`` followed by :func:`~pipeline.solvers.base.check_pack`."""
+    clk = np.zeros(2, np.int64)
+    n = ints[0]
+    ng = 8 * n + 27
+    Sc = np.empty((_capacity(ints), n))
+    m, tried, ns = solve_pose(ints, GC[:ng], Tg, q_start, Sc, S, q, trace, clk)
+    code, claimed, success, dp, ang, inside = finish_packed(GC[ng:], q, Tg, SUCCESS if m > 0 else NO_SOLUTION)
+    return m, tried, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
+
+
+def bind_call(prep: Prepared, s: AnalyticSettings):
+    """The public single call fused (``Solver.bind_call``): closed form, independent FK check and limit
+    record in one compiled call, the result built positionally; None under ``require_limits`` (the
+    generic path then chooses among the solutions within the limits). Same values as ``bind`` +
+    :func:`~pipeline.solvers.base.finish`, timings aside."""
+    if s.require_limits:
+        return None
+    k = packed(prep, s)
+    ints, GC = k.ints, np.concatenate([k.G, check_pack(prep, s)])
+    n, cap, ms, fam = int(k.ints[0]), capacity(k), s.max_solutions, _family(prep, s)
+    inputs, unit, pos_only = fused_inputs(prep), prep.unit, s.criterion == "position"
+    nan, empty = math.nan, np.empty
+
+    ndarray, f64, plain = np.ndarray, np.dtype(np.float64), prep.goal_scale == 1.0
+    shape_T, shape_q, messages = (4, 4), (n,), _MESSAGES
+
+    def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
+        if (plain and type(T_goal) is ndarray and type(q_start) is ndarray and T_goal.dtype is f64
+                and q_start.dtype is f64 and T_goal.shape == shape_T and q_start.shape == shape_q
+                and T_goal.flags.c_contiguous and q_start.flags.c_contiguous):
+            Tg, q0 = T_goal, q_start  # already what the kernel takes (it writes into neither)
+        else:
+            Tg, q0 = inputs(T_goal, q_start)
+        S = empty((ms, n))
+        q = empty(n)
+        trace = empty((2, TRACE_COLS))
+        m, tried, ns, code, claimed, success, dp, ang, inside, doc = call_pose(ints, GC, Tg, q0, S, q, trace)
+        res = IKResult(q, success, code, 1, trace, ns * 1e-9, 0.0, dp, nan if pos_only else ang, claimed, inside,
+                       nan, unit, S[:m], {"n_solutions": m, "candidates": tried, "nfev": tried, "njev": 0,
+                                          "doc_error": doc, "family": fam, "message": messages[m]})
+        res.call_time_s = (clock_ns() - t0) * 1e-9
+        return res
+
+    return call
+
+
+run = run_of(bind)
+
+
+def as_analytic(s: Settings) -> AnalyticSettings:
+    """``s`` (another closed form's settings, already in the working unit) as this solver's: the base
+    fields and the FK check's tolerances carried over, the rest at their defaults."""
+    from dataclasses import fields
+
+    names = {f.name for f in fields(AnalyticSettings)}
+    return AnalyticSettings(**{f.name: getattr(s, f.name) for f in fields(s) if f.name in names})
+
+
+def alias_hooks(family: str, what: str, own_reason, own_bind, own_batch, own_bind_call) -> dict:
+    """``applies_to``, ``bind``, ``batch`` and ``bind_call`` for a document's own closed form that runs
+    its transcription where its DH test passes (the studies' tables) and this solver wherever else
+    the joint axes give ``family``, whatever the robot file's form. A refusal names the geometry."""
+
+    def own(prep: Prepared) -> bool:
+        return prep.memo(("own_dh", what), lambda: own_reason(prep) is None)
+
+    def applies(prep: Prepared) -> str | None:
+        if own(prep):
+            return None
+        d = decomposition(prep, AnalyticSettings())
+        if d.family == family and d.free_joint is None:
+            return None
+        if d.family is None:
+            return f"not a {what} arm: {d.reason}"
+        return f"not a {what} arm: its joint axes give {d.reason} (the solver `analytic` takes it)"
+
+    def bind_(prep, s):
+        return own_bind(prep, s) if own(prep) else bind(prep, as_analytic(s))
+
+    def batch_(prep, s, goals, starts, seeds, keep_traces):
+        if own(prep):
+            return own_batch(prep, s, goals, starts, seeds, keep_traces)
+        return batch(prep, as_analytic(s), goals, starts, seeds, keep_traces)
+
+    def bind_call_(prep, s):
+        return own_bind_call(prep, s) if own(prep) else bind_call(prep, as_analytic(s))
+
+    return {"applies_to": applies, "bind": bind_, "batch": batch_, "bind_call": bind_call_, "run": run_of(bind_)}
+
+register(Solver("analytic", "closed-form IK by subproblem decomposition found from the joint axes (spherical wrist, "
+                "three parallel axes, offset wrists by a 1-D search; 7R arms through a swept free joint): every "
+                "solution, nearest to the start", "analytic", AnalyticSettings, run, applies_to=applies_to,
+                source=SOURCE, bind=bind, batch=batch, bind_call=bind_call))

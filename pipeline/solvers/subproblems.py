@@ -1,0 +1,736 @@
+"""Compiled Paden-Kahan subproblems and the closed-form families built on them.
+
+Pure numerics (numba, no allocation in the hot path): vectors are 3-tuples of floats, an arm is
+its joint lines at the zero pose (:mod:`pipeline.kinematics.geometry`): directions ``H`` (6, 3),
+points ``P`` (6, 3) and the tool pose ``M`` (rotation ``RM`` (3, 3), position ``pM`` (3,)), so
+``T(q) = E_1(q_1) ... E_6(q_6) M`` with ``E_i`` the rotation by ``q_i`` about line i.
+
+Angles are unit complex numbers ``z = e^{iθ}`` (``cis``) everywhere inside: a rotation takes
+``z.real``, ``z.imag`` as its cosine and sine, a subproblem returns a normalised vector pair or an
+``acos`` branch as a product of unit complex numbers, and −θ is ``z.conjugate()``. No sine, cosine
+or arctangent is evaluated inside the closed forms; the caller turns solutions into angles (one
+``atan2`` per joint) and checks them by FK from the same cosines and sines.
+
+Subproblems (written from their definitions: Paden 1985; the forms of IK-Geo, Elias & Wen 2022):
+
+``sp1(k, p, q, d)``          e^{iθ} with ``rot(k, θ) p = q`` (least squares: the projections on the
+                             plane ⟂ k); e^{i d} when p or q lies on the axis
+``sp2pair(ka, kb, u, v, ..)`` both (e^{iθa}, e^{iθb}) with ``u = rot(ka, θa) rot(kb, θb) v`` (|u| = |v|)
+``sp3(k, p, q, d, s, ..)``   e^{iθ} with ``|rot(k, θ) p − q| = d`` (in the plane ⟂ k when ``planar``),
+                             branch s = ±1
+``sp4(h, k, p, d, s, ..)``   e^{iθ} with ``h · rot(k, θ) p = d``, branch s = ±1
+
+Every "± acos" is clipped when its argument is beyond ±1 by at most ``clip`` (a rounding at a
+boundary: the stretched elbow, a wrist on its cylinder) and is invalid beyond.
+
+Families (codes :data:`FAM_SPH`, :data:`FAM_3P`, :data:`FAM_SEARCH`; position cases 1-4 as
+:data:`pipeline.kinematics.geometry.POSITION_CASES`):
+
+spherical wrist
+    wrist centre ``c`` (axes 4-6 meet), ``w = T M⁻¹ c = E_1 E_2 E_3 c`` solved by the position case
+    (2 × 2 branches), then ``R_4 R_5 R_6 = (R_1 R_2 R_3)ᵀ R_goal R_Mᵀ`` by sp2 (2 branches) and sp1.
+three parallel
+    axes 2-4 parallel, 5-6 meet at ``c``: θ1 by sp4 (the component of ``E_1⁻¹ w`` along h2 is fixed),
+    (θ5, θ6) by sp2 from ``h2ᵀ N = h2ᵀ R_5 R_6``, θ2 + θ3 + θ4 by sp1, then the planar 2R by
+    sp3 and sp1.
+two intersecting, searched
+    mode 4: axes 5-6 meet at ``c``; for each θ4 on a grid, ``E_1 E_2 E_3 (E_4 c) = w`` by the
+    position case (4 branches), residual ``h5 · (R_1 R_2 R_3 R_4)ᵀ g − h5 · h6`` with
+    ``g = R_goal R_Mᵀ h6`` (zero exactly when ``R_5 R_6`` can make the remaining rotation); mode 6:
+    axes 4-5 meet, θ6 searched, the same with the roles turned. Sign changes along each branch are
+    bracketed (also up to the grid point where a branch stops existing, whose edge is found by
+    bisection), a cell where the branch's joints 1-3 turn fast is sampled 8 times finer, a dip of
+    |f| between grid points is searched by golden section (a close pair of roots), and each bracket
+    is refined by regula falsi (Illinois); the last two angles then by sp1.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+FAM_SPH, FAM_3P, FAM_SEARCH = 1, 2, 3
+MAX_SOL = 16
+
+
+# ---- 3-vectors as tuples ------------------------------------------------------------------------
+@numba.njit(cache=True, inline="always")
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@numba.njit(cache=True, inline="always")
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@numba.njit(cache=True, inline="always")
+def sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@numba.njit(cache=True, inline="always")
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@numba.njit(cache=True, inline="always")
+def scl(s, a):
+    return (s * a[0], s * a[1], s * a[2])
+
+
+@numba.njit(cache=True, inline="always")
+def perp(k, a):
+    """``a`` minus its component along the unit vector ``k``."""
+    t = dot(k, a)
+    return (a[0] - t * k[0], a[1] - t * k[1], a[2] - t * k[2])
+
+
+@numba.njit(cache=True, inline="always")
+def rot(k, c, s, v):
+    """``rot(k, θ) v`` at cos θ = c, sin θ = s (Rodrigues)."""
+    kv = cross(k, v)
+    t = dot(k, v) * (1.0 - c)
+    return (c * v[0] + s * kv[0] + t * k[0], c * v[1] + s * kv[1] + t * k[1], c * v[2] + s * kv[2] + t * k[2])
+
+
+@numba.njit(cache=True, inline="always")
+def rotz(k, z, v):
+    """``rot(k, θ) v`` for the unit complex ``z = e^{iθ}``."""
+    return rot(k, z.real, z.imag, v)
+
+
+@numba.njit(cache=True, inline="always")
+def cis(t):
+    """``e^{it}`` (an angle as the unit complex the subproblems compute with)."""
+    return complex(math.cos(t), math.sin(t))
+
+
+@numba.njit(cache=True, inline="always")
+def row(A, i):
+    return (A[i, 0], A[i, 1], A[i, 2])
+
+
+@numba.njit(cache=True, inline="always")
+def matvec(R, v):
+    return (R[0, 0] * v[0] + R[0, 1] * v[1] + R[0, 2] * v[2],
+            R[1, 0] * v[0] + R[1, 1] * v[1] + R[1, 2] * v[2],
+            R[2, 0] * v[0] + R[2, 1] * v[1] + R[2, 2] * v[2])
+
+
+@numba.njit(cache=True, inline="always")
+def matTvec(R, v):
+    return (R[0, 0] * v[0] + R[1, 0] * v[1] + R[2, 0] * v[2],
+            R[0, 1] * v[0] + R[1, 1] * v[1] + R[2, 1] * v[2],
+            R[0, 2] * v[0] + R[1, 2] * v[1] + R[2, 2] * v[2])
+
+
+@numba.njit(cache=True, inline="always")
+def matTvec3(T, v):
+    """``Rᵀ v`` for the rotation block of a 3 × 3 or 4 × 4 array."""
+    return (T[0, 0] * v[0] + T[1, 0] * v[1] + T[2, 0] * v[2],
+            T[0, 1] * v[0] + T[1, 1] * v[1] + T[2, 1] * v[2],
+            T[0, 2] * v[0] + T[1, 2] * v[1] + T[2, 2] * v[2])
+
+
+@numba.njit(cache=True, inline="always")
+def any_perp(k):
+    """A unit vector ⟂ the unit vector ``k``."""
+    if abs(k[0]) < 0.9:
+        a = cross(k, (1.0, 0.0, 0.0))
+    else:
+        a = cross(k, (0.0, 1.0, 0.0))
+    n = math.sqrt(dot(a, a))
+    return scl(1.0 / n, a)
+
+
+# ---- subproblems --------------------------------------------------------------------------------
+@numba.njit(cache=True, inline="always")
+def sp1(k, p, q, default):
+    """e^{iθ} with rot(k, θ) p = q in the plane ⟂ k; e^{i default} (``default`` an angle [rad]) when p
+    or q lies on the axis."""
+    pp = perp(k, p)
+    qp = perp(k, q)
+    x = dot(pp, qp)
+    y = dot(k, cross(pp, qp))
+    r2 = x * x + y * y
+    if r2 < 1e-28 * (dot(p, p) * dot(q, q) + 1e-300):
+        return cis(default)
+    r = math.sqrt(r2)
+    return complex(x / r, y / r)
+
+
+@numba.njit(cache=True, inline="always")
+def acos_branch(x, y, D, s, clip):
+    """e^{iθ} with x cos θ + y sin θ = D, branch s = ±1 (θ = atan2(y, x) ± acos(D / ρ)), and validity
+    (the cosine clipped within ``clip`` of ±1)."""
+    rho = math.sqrt(x * x + y * y)
+    if rho <= 0.0:
+        return complex(1.0, 0.0), False
+    c = D / rho
+    if c > 1.0:
+        if c > 1.0 + clip:
+            return complex(1.0, 0.0), False
+        c = 1.0
+    elif c < -1.0:
+        if c < -1.0 - clip:
+            return complex(1.0, 0.0), False
+        c = -1.0
+    sa = s * math.sqrt(max(0.0, 1.0 - c * c))
+    return complex(x / rho, y / rho) * complex(c, sa), True
+
+
+@numba.njit(cache=True, inline="always")
+def sp4(h, k, p, d, s, clip):
+    """e^{iθ} with h · rot(k, θ) p = d (branch s = ±1)."""
+    return acos_branch(dot(h, perp(k, p)), dot(h, cross(k, p)), d - dot(h, k) * dot(k, p), s, clip)
+
+
+@numba.njit(cache=True, inline="always")
+def sp3(k, p, q, d, s, clip, planar):
+    """e^{iθ} with |rot(k, θ) p − q| = d (in the plane ⟂ k when ``planar``), branch s = ±1."""
+    pp = perp(k, p)
+    qp = perp(k, q)
+    dz = dot(k, p) - dot(k, q)
+    extra = 0.0 if planar else dz * dz
+    D = 0.5 * (dot(pp, pp) + dot(qp, qp) + extra - d * d)
+    return acos_branch(dot(pp, qp), dot(cross(k, pp), qp), D, s, clip)
+
+
+@numba.njit(cache=True, inline="always")
+def sp2pair(ka, kb, u, v, clip, def_a):
+    """(za, zb) = (e^{iθa}, e^{iθb}) with u = rot(ka, θa) rot(kb, θb) v (|u| = |v|), both branches:
+    (za+, zb+, za−, zb−, ok); ``def_a`` [rad] for θa when it is free."""
+    c = dot(ka, kb)
+    den = 1.0 - c * c
+    a1 = dot(ka, u)
+    a2 = dot(kb, v)
+    al = (a1 - c * a2) / den
+    be = (a2 - c * a1) / den
+    n = cross(ka, kb)
+    y0 = add(scl(al, ka), scl(be, kb))
+    g2 = (dot(u, u) - dot(y0, y0)) / den
+    scale = dot(u, u) + 1e-300
+    if g2 < 0.0:
+        if g2 < -clip * scale:
+            one = complex(1.0, 0.0)
+            return one, one, one, one, False
+        g2 = 0.0
+    g = math.sqrt(g2)
+    yp = add(y0, scl(g, n))
+    ym = add(y0, scl(-g, n))
+    return (sp1(ka, u, yp, -def_a).conjugate(), sp1(kb, v, yp, 0.0), sp1(ka, u, ym, -def_a).conjugate(),
+            sp1(kb, v, ym, 0.0), True)
+
+
+# ---- lines ------------------------------------------------------------------------------------------
+@numba.njit(cache=True, inline="always")
+def meet_point(h1, p1, h2, p2):
+    """Midpoint of the common normal of two non-parallel lines."""
+    r = sub(p2, p1)
+    b = dot(h1, h2)
+    d1 = dot(h1, r)
+    d2 = dot(h2, r)
+    den = 1.0 - b * b
+    t1 = (d1 - b * d2) / den
+    t2 = (b * d1 - d2) / den
+    return scl(0.5, add(add(p1, scl(t1, h1)), add(p2, scl(t2, h2))))
+
+
+@numba.njit(cache=True, inline="always")
+def apply_E(H, P, i, z, x):
+    """E_i(θ) x: rotation by θ (``z = e^{iθ}``) about line i."""
+    pi = row(P, i)
+    return add(pi, rotz(row(H, i), z, sub(x, pi)))
+
+
+@numba.njit(cache=True, inline="always")
+def apply_Einv(H, P, i, z, x):
+    return apply_E(H, P, i, z.conjugate(), x)
+
+
+# ---- position of a point by joints 1-3 ----------------------------------------------------------
+@numba.njit(cache=True)
+def pos3pair(case, H, P, o, x, w, sa, clip, pref):
+    """(z1, z2, z3) = e^{iθ} of joints 1-3 with E_1 E_2 E_3 x = w, for position case ``case`` (1: axes
+    1-2 meet at ``o``; 2: 2-3 meet at ``o``; 3: 1 ∥ 2; 4: 2 ∥ 3): the first stage on branch ``sa``,
+    both second-stage branches: (z1, z2, z3, ok) for +1, then for −1. ``pref`` [rad] the angles used
+    where one is free."""
+    h1, h2, h3 = row(H, 0), row(H, 1), row(H, 2)
+    p1, p2, p3 = row(P, 0), row(P, 1), row(P, 2)
+    one = complex(1.0, 0.0)
+    z = (one, one, one, False, one, one, one, False)
+    if case == 1:
+        d = math.sqrt(dot(sub(w, o), sub(w, o)))
+        t3, ok = sp3(h3, sub(x, p3), sub(o, p3), d, sa, clip, False)
+        if not ok:
+            return z
+        x3 = apply_E(H, P, 2, t3, x)
+        a1, a2, b1, b2, ok = sp2pair(h1, h2, sub(w, o), sub(x3, o), clip, pref[0])
+        return a1, a2, t3, ok, b1, b2, t3, ok
+    if case == 2:
+        d = math.sqrt(dot(sub(x, o), sub(x, o)))
+        tm, ok = sp3(h1, sub(w, p1), sub(o, p1), d, sa, clip, False)
+        if not ok:
+            return z
+        t1 = tm.conjugate()
+        w1 = apply_Einv(H, P, 0, t1, w)
+        a2, a3, b2, b3, ok = sp2pair(h2, h3, sub(w1, o), sub(x, o), clip, pref[1])
+        return t1, a2, a3, ok, t1, b2, b3, ok
+    if case == 3:
+        t3, ok = sp4(h1, h3, sub(x, p3), dot(h1, w) - dot(h1, p3), sa, clip)
+        if not ok:
+            return z
+        x3 = apply_E(H, P, 2, t3, x)
+        dw = perp(h1, sub(w, p1))
+        dd = math.sqrt(dot(dw, dw))
+        t2a, oka = sp3(h2, sub(x3, p2), sub(p1, p2), dd, 1.0, clip, True)
+        t2b, okb = sp3(h2, sub(x3, p2), sub(p1, p2), dd, -1.0, clip, True)
+        t1a = sp1(h1, sub(apply_E(H, P, 1, t2a, x3), p1), sub(w, p1), pref[0]) if oka else one
+        t1b = sp1(h1, sub(apply_E(H, P, 1, t2b, x3), p1), sub(w, p1), pref[0]) if okb else one
+        return t1a, t2a, t3, oka, t1b, t2b, t3, okb
+    tm, ok = sp4(h2, h1, sub(w, p1), dot(h2, x) - dot(h2, p1), sa, clip)
+    if not ok:
+        return z
+    t1 = tm.conjugate()
+    w1 = apply_Einv(H, P, 0, t1, w)
+    dw = perp(h2, sub(w1, p2))
+    dd = math.sqrt(dot(dw, dw))
+    t3a, oka = sp3(h3, sub(x, p3), sub(p2, p3), dd, 1.0, clip, True)
+    t3b, okb = sp3(h3, sub(x, p3), sub(p2, p3), dd, -1.0, clip, True)
+    t2a = sp1(h2, sub(apply_E(H, P, 2, t3a, x), p2), sub(w1, p2), pref[1]) if oka else one
+    t2b = sp1(h2, sub(apply_E(H, P, 2, t3b, x), p2), sub(w1, p2), pref[1]) if okb else one
+    return t1, t2a, t3a, oka, t1, t2b, t3b, okb
+
+
+@numba.njit(cache=True)
+def case_point(case, H, P):
+    """The meeting point the position case needs (zeros when it needs none)."""
+    if case == 1:
+        return meet_point(row(H, 0), row(P, 0), row(H, 1), row(P, 1))
+    if case == 2:
+        return meet_point(row(H, 1), row(P, 1), row(H, 2), row(P, 2))
+    return (0.0, 0.0, 0.0)
+
+
+@numba.njit(cache=True, inline="always")
+def gm(Rg, RM, v):
+    """``R_goal R_Mᵀ v`` (``Rg`` may be the 4 × 4 goal: only its rotation block is read)."""
+    x = matTvec(RM, v)
+    return (Rg[0, 0] * x[0] + Rg[0, 1] * x[1] + Rg[0, 2] * x[2],
+            Rg[1, 0] * x[0] + Rg[1, 1] * x[1] + Rg[1, 2] * x[2],
+            Rg[2, 0] * x[0] + Rg[2, 1] * x[1] + Rg[2, 2] * x[2])
+
+
+@numba.njit(cache=True, inline="always")
+def back3(H, z1, z2, z3, v):
+    """``(R_1 R_2 R_3)ᵀ v``."""
+    v = rotz(row(H, 0), z1.conjugate(), v)
+    v = rotz(row(H, 1), z2.conjugate(), v)
+    return rotz(row(H, 2), z3.conjugate(), v)
+
+
+@numba.njit(cache=True, inline="always")
+def wrist_target(Rg, pg, RM, pM, c):
+    """w = T M⁻¹ c."""
+    local = matTvec(RM, sub(c, (pM[0], pM[1], pM[2])))
+    return (Rg[0, 0] * local[0] + Rg[0, 1] * local[1] + Rg[0, 2] * local[2] + pg[0],
+            Rg[1, 0] * local[0] + Rg[1, 1] * local[1] + Rg[1, 2] * local[2] + pg[1],
+            Rg[2, 0] * local[0] + Rg[2, 1] * local[1] + Rg[2, 2] * local[2] + pg[2])
+
+
+# ---- the families ---------------------------------------------------------------------------------
+@numba.njit(cache=True)
+def wrap(x):
+    """Angle wrapped to (-π, π]."""
+    if -3.0 < x < 3.0:  # the formula below returns x itself here (floor of a value in (0, 1)); skip it
+        return x
+    y = x - 2.0 * math.pi * math.floor((x + math.pi) / (2.0 * math.pi))
+    if y <= -math.pi:
+        return y + 2.0 * math.pi
+    return y
+
+
+@numba.njit(cache=True, inline="always")
+def into_limits(x, lo, hi):
+    """(x moved by 2π multiples into [lo, hi] where that fits, else x; whether the result lies within
+    the limits, 1e-12 rad of slack). Unbounded limits keep x."""
+    if lo <= x <= hi or not (math.isfinite(lo) and math.isfinite(hi)):
+        return x, lo <= x <= hi
+    w = lo + ((x - lo) % (2.0 * math.pi))
+    if w <= hi:
+        return w, True
+    return x, lo - 1e-12 <= x <= hi + 1e-12
+
+
+@numba.njit(cache=True, inline="always")
+def fits(z, lim, j):
+    """The angle of ``z``, moved by 2π multiples, lies within ``lim[j]`` (±inf: always, no atan2)."""
+    lo, hi = lim[j, 0], lim[j, 1]
+    if lo == -math.inf and hi == math.inf:
+        return True
+    return into_limits(math.atan2(z.imag, z.real), lo, hi)[1]
+
+
+@numba.njit(cache=True)
+def solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
+    """Spherical wrist: up to 8 candidate solutions into Q; returns their count. A branch whose
+    joints 1-3 (then 4-5) fall outside ``lim`` (6, 2) is dropped before the rest is computed (a 7R
+    sweep passes the limits; a 6R arm ±inf: every solution)."""
+    c = meet_point(row(H, 3), row(P, 3), row(H, 4), row(P, 4))
+    w = wrist_target(Rg, pg, RM, pM, c)
+    o = case_point(case, H, P)
+    h4, h5, h6 = row(H, 3), row(H, 4), row(H, 5)
+    e6 = any_perp(h6)
+    gh6 = gm(Rg, RM, h6)
+    ge6 = gm(Rg, RM, e6)
+    n = 0
+    for sa in (1.0, -1.0):
+        r = pos3pair(case, H, P, o, c, w, sa, clip, pref)
+        for sb in range(2):
+            t1, t2, t3, ok = (r[0], r[1], r[2], r[3]) if sb == 0 else (r[4], r[5], r[6], r[7])
+            if not ok or not (fits(t1, lim, 0) and fits(t2, lim, 1) and fits(t3, lim, 2)):
+                continue
+            u = back3(H, t1, t2, t3, gh6)  # R4 R5 h6 = (R1 R2 R3)ᵀ R_goal R_Mᵀ h6
+            y0 = back3(H, t1, t2, t3, ge6)
+            a4, a5, b4, b5, ok2 = sp2pair(h4, h5, u, h6, clip, pref[3])
+            if not ok2:
+                continue
+            for sc in range(2):
+                t4, t5 = (a4, a5) if sc == 0 else (b4, b5)
+                if not (fits(t4, lim, 3) and fits(t5, lim, 4)):
+                    continue
+                y = rotz(h5, t5.conjugate(), rotz(h4, t4.conjugate(), y0))  # rot(h6, θ6) e6 = R5ᵀ R4ᵀ Rw e6
+                t6 = sp1(h6, e6, y, pref[5])
+                if n < Q.shape[0]:
+                    Q[n, 0], Q[n, 1], Q[n, 2], Q[n, 3], Q[n, 4], Q[n, 5] = t1, t2, t3, t4, t5, t6
+                n += 1
+    return n
+
+
+@numba.njit(cache=True)
+def solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q):
+    """Three parallel axes (2-4) and axes 5-6 meeting: up to 8 candidates."""
+    h1, h2, h5, h6 = row(H, 0), row(H, 1), row(H, 4), row(H, 5)
+    p1, p2, p4 = row(P, 0), row(P, 1), row(P, 3)
+    s3 = 1.0 if dot(row(H, 2), h2) > 0 else -1.0
+    s4 = 1.0 if dot(row(H, 3), h2) > 0 else -1.0
+    c = meet_point(h5, row(P, 4), h6, row(P, 5))
+    w = wrist_target(Rg, pg, RM, pM, c)
+    e2 = any_perp(h2)
+    n = 0
+    for sa in (1.0, -1.0):
+        tm, ok = sp4(h2, h1, sub(w, p1), dot(h2, c) - dot(h2, p1), sa, clip)
+        if not ok:
+            continue
+        t1 = tm.conjugate()
+        w1 = add(p1, rotz(h1, tm, sub(w, p1)))
+        # N = R1ᵀ RgM; v = Nᵀ h2
+        v = matvec(RM, matTvec3(Rg, rotz(h1, t1, h2)))
+        a5, a6, b5, b6, ok2 = sp2pair(h5, h6, h2, v, clip, pref[4])
+        if not ok2:
+            continue
+        for sb in range(2):
+            t5, t6 = (a5, a6) if sb == 0 else (b5, b6)
+            # R234 e2 = N R6ᵀ R5ᵀ e2
+            y = rotz(h5, t5.conjugate(), e2)
+            y = rotz(h6, t6.conjugate(), y)
+            y = rotz(h1, tm, gm(Rg, RM, y))
+            t234 = sp1(h2, e2, y, 0.0)
+            # E2 E3 p4 = w1 − R234 (c − p4)
+            tgt = sub(w1, rotz(h2, t234, sub(c, p4)))
+            dw = perp(h2, sub(tgt, p2))
+            dd = math.sqrt(dot(dw, dw))
+            for ic in range(2):
+                t3, ok3 = sp3(row(H, 2), sub(p4, row(P, 2)), sub(p2, row(P, 2)), dd, 1.0 - 2.0 * ic, clip, True)
+                if not ok3:
+                    continue
+                x3 = apply_E(H, P, 2, t3, p4)
+                t2 = sp1(h2, sub(x3, p2), sub(tgt, p2), pref[1])
+                # θ4 = s4 (θ234 − θ2 − s3 θ3)
+                t4 = t234 * t2.conjugate() * (t3.conjugate() if s3 > 0 else t3)
+                if s4 < 0:
+                    t4 = t4.conjugate()
+                if n < Q.shape[0]:
+                    Q[n, 0], Q[n, 1], Q[n, 2], Q[n, 3], Q[n, 4], Q[n, 5] = t1, t2, t3, t4, t5, t6
+                n += 1
+    return n
+
+
+@numba.njit(cache=True)
+def _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, t, clip, pref, F, V, TH):
+    """The four branches at the searched angle ``t``: residual F[b], validity V[b], (θ1, θ2, θ3) TH[b].
+
+    mode 4: axes 5-6 meet at ``c``, θ4 = t searched, ``w = T M⁻¹ c``, ``g = R_goal R_Mᵀ h6``,
+            residual ``(R_1 R_2 R_3 R_4 h5) · g − h5 · h6``;
+    mode 6: axes 4-5 meet at ``c``, θ6 = t searched, ``w = T M⁻¹ E_6(−t) c``,
+            residual ``h4 · (R_1 R_2 R_3)ᵀ R_goal R_Mᵀ R_6ᵀ h5 − h4 · h5``.
+    """
+    zt = cis(t)
+    if mode == 4:
+        p4 = row(P, 3)
+        x = add(p4, rotz(row(H, 3), zt, sub(c, p4)))
+        wt = w
+    else:
+        x = c
+        p6 = row(P, 5)
+        wt = wrist_target(Rg, pg, RM, pM, add(p6, rotz(row(H, 5), zt.conjugate(), sub(c, p6))))
+        gv = gm(Rg, RM, rotz(row(H, 5), zt.conjugate(), row(H, 4)))
+    b = 0
+    for sa in (1.0, -1.0):
+        r = pos3pair(case, H, P, o, x, wt, sa, clip, pref)
+        for sb in range(2):
+            t1, t2, t3, ok = (r[0], r[1], r[2], r[3]) if sb == 0 else (r[4], r[5], r[6], r[7])
+            V[b] = ok
+            if ok:
+                if mode == 4:
+                    v = rotz(row(H, 3), zt, row(H, 4))
+                    v = rotz(row(H, 2), t3, v)
+                    v = rotz(row(H, 1), t2, v)
+                    v = rotz(row(H, 0), t1, v)
+                    F[b] = dot(v, g) - hh
+                else:
+                    v = back3(H, t1, t2, t3, gv)
+                    F[b] = dot(row(H, 3), v) - hh
+                TH[b, 0], TH[b, 1], TH[b, 2] = t1, t2, t3
+            b += 1
+
+
+@numba.njit(cache=True)
+def _dip(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, clip, pref, b, lo, hi, sg, F1, V1, TH):
+    """Golden-section search for the minimum of ``sg · f_b`` on [lo, hi] (both ends of sign ``sg``),
+    stopped as soon as it goes below 0: (found, where, f there). A close pair of roots (or one
+    near a branch's edge) leaves no sign change on the grid; this finds the point between them."""
+    gr = 0.6180339887498949
+    x1 = hi - gr * (hi - lo)
+    x2 = lo + gr * (hi - lo)
+    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, x1, clip, pref, F1, V1, TH)
+    y1 = sg * F1[b] if V1[b] else 1e300
+    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, x2, clip, pref, F1, V1, TH)
+    y2 = sg * F1[b] if V1[b] else 1e300
+    for _ in range(24):
+        if min(y1, y2) < 0.0:
+            break
+        if y1 < y2:
+            hi, x2, y2 = x2, x1, y1
+            x1 = hi - gr * (hi - lo)
+            _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, x1, clip, pref, F1, V1, TH)
+            y1 = sg * F1[b] if V1[b] else 1e300
+        else:
+            lo, x1, y1 = x1, x2, y2
+            x2 = lo + gr * (hi - lo)
+            _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, x2, clip, pref, F1, V1, TH)
+            y2 = sg * F1[b] if V1[b] else 1e300
+    if y1 < y2:
+        return y1 < 0.0, x1, sg * y1
+    return y2 < 0.0, x2, sg * y2
+
+
+@numba.njit(cache=True)
+def solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q):
+    """Position case for joints 1-3 and a one-dimensional search: mode 4, axes 5-6 meet and θ4 is
+    searched; mode 6, axes 4-5 meet and θ6 is searched (see :func:`_search_eval`). Up to 16."""
+    h4, h5, h6 = row(H, 3), row(H, 4), row(H, 5)
+    if mode == 4:
+        c = meet_point(h5, row(P, 4), h6, row(P, 5))
+        hh = dot(h5, h6)
+    else:
+        c = meet_point(h4, row(P, 3), h5, row(P, 4))
+        hh = dot(h4, h5)
+    w = wrist_target(Rg, pg, RM, pM, c)
+    o = case_point(case, H, P)
+    g = gm(Rg, RM, h6)
+    e6 = any_perp(h6)
+    e5 = any_perp(h5)
+    N = samples
+    Fs = np.empty((N + 1, 4))
+    Vs = np.zeros((N + 1, 4), np.bool_)
+    TH = np.empty((4, 3), np.complex128)
+    THs = np.empty((N + 1, 4, 3), np.complex128)
+    F1 = np.empty(4)
+    V1 = np.zeros(4, np.bool_)
+    step = 2.0 * math.pi / N
+    for i in range(N):
+        _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, -math.pi + i * step, clip, pref, Fs[i], Vs[i],
+                     THs[i])
+    for b in range(4):
+        Fs[N, b] = Fs[0, b]
+        Vs[N, b] = Vs[0, b]
+        for j in range(3):
+            THs[N, b, j] = THs[0, b, j]
+    # brackets (lo, f(lo), hi, f(hi)) of sign changes per branch
+    BR = np.empty((64, 4))
+    BB = np.empty(64, np.int64)
+    nb = 0
+    for b in range(4):
+        for i in range(N):
+            a0 = -math.pi + i * step
+            a1 = a0 + step
+            v0, v1 = Vs[i, b], Vs[i + 1, b]
+            if not v0 and not v1:
+                continue
+            f0, f1 = Fs[i, b], Fs[i + 1, b]
+            if v0 != v1:  # the branch ends inside: find its edge by bisection, evaluate there
+                good, bad = (a0, a1) if v0 else (a1, a0)
+                fg = f0 if v0 else f1
+                for _ in range(16):
+                    m = 0.5 * (good + bad)
+                    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, m, clip, pref, F1, V1, TH)
+                    if V1[b]:
+                        good = m
+                        fg = F1[b]
+                    else:
+                        bad = m
+                if v0:
+                    a1, f1 = good, fg
+                else:
+                    a0, f0 = good, fg
+            if f0 * f1 <= 0.0:
+                if nb < 64 and not (f1 == 0.0 and v1 and i + 1 < N):  # a zero on a grid point: once
+                    BR[nb, 0], BR[nb, 1], BR[nb, 2], BR[nb, 3] = a0, f0, a1, f1
+                    BB[nb] = b
+                    nb += 1
+                continue
+            if not (v0 and v1):
+                continue
+            # the branch's joints 1-3 turn fast across this cell (a near-singular position sub-problem):
+            # the residual may cross zero and back between grid points; sample the cell finer
+            fast = 0.0
+            for j in range(3):
+                fast = max(fast, abs(THs[i + 1, b, j] - THs[i, b, j]))
+            if fast > 0.35:
+                xa, fa_ = a0, f0
+                for kk in range(1, 9):
+                    xb = a0 + step * kk / 8.0
+                    if kk < 8:
+                        _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, xb, clip, pref, F1, V1, TH)
+                        if not V1[b]:
+                            break
+                        fb_ = F1[b]
+                    else:
+                        fb_ = f1
+                    if fa_ * fb_ < 0.0 and nb < 64:
+                        BR[nb, 0], BR[nb, 1], BR[nb, 2], BR[nb, 3] = xa, fa_, xb, fb_
+                        BB[nb] = b
+                        nb += 1
+                    xa, fa_ = xb, fb_
+    # no sign change on the grid: a close pair of roots (or a pair near a branch's edge) hides where
+    # |f| has a local minimum; look there when the parabola through the neighbours says it may cross
+    for b in range(4):
+        for i in range(N):
+            if not Vs[i, b]:
+                continue
+            fi = Fs[i, b]
+            il, ir = (i - 1) % N, i + 1
+            vl, vr = Vs[il, b], Vs[ir, b]
+            fl, fr = Fs[il, b], Fs[ir, b]
+            if (vl and fl * fi <= 0.0) or (vr and fr * fi <= 0.0) or (not vl and not vr):
+                continue
+            if (vl and abs(fl) < abs(fi)) or (vr and abs(fr) < abs(fi)):
+                continue
+            if vl and vr:
+                curv = fr - 2.0 * fi + fl
+                if curv == 0.0:
+                    continue
+                fv = fi - (fr - fl) ** 2 / (8.0 * curv)
+                if fv * fi > 0.0 and abs(fv) > 0.5 * abs(fi):
+                    continue
+            sg = 1.0 if fi > 0.0 else -1.0
+            ai = -math.pi + i * step
+            found, xm, fm = _dip(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, clip, pref, b, ai - step,
+                                 ai + step, sg, F1, V1, TH)
+            if not found or nb + 2 > 64:
+                continue
+            # one root between a_i and xm; the other between xm and the far side (its grid point, or
+            # the branch's last valid point before its edge)
+            far = ai + step if xm > ai else ai - step
+            vf = vr if xm > ai else vl
+            ff = fr if xm > ai else fl
+            if not vf:
+                good, bad = xm, far
+                ff = fm
+                for _ in range(16):
+                    mm = 0.5 * (good + bad)
+                    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, mm, clip, pref, F1, V1, TH)
+                    if V1[b]:
+                        good = mm
+                        ff = F1[b]
+                    else:
+                        bad = mm
+                far = good
+            BR[nb, 0], BR[nb, 1], BR[nb, 2], BR[nb, 3] = ai, fi, xm, fm
+            BB[nb] = b
+            nb += 1
+            if ff * fm <= 0.0:
+                BR[nb, 0], BR[nb, 1], BR[nb, 2], BR[nb, 3] = xm, fm, far, ff
+                BB[nb] = b
+                nb += 1
+    t = np.zeros(6, np.complex128)
+    n = 0
+    for kb in range(nb):
+        b = BB[kb]
+        a0, f0, a1, f1 = BR[kb, 0], BR[kb, 1], BR[kb, 2], BR[kb, 3]
+        if True:
+            if f0 == 0.0:
+                root = a0
+            elif f1 == 0.0:
+                root = a1
+            else:
+                # Illinois regula falsi on [a0, a1]
+                a, fa, bb, fb = a0, f0, a1, f1
+                root = bb
+                for _ in range(60):
+                    m = bb - fb * (bb - a) / (fb - fa)
+                    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, m, clip, pref, F1, V1, TH)
+                    if not V1[b]:
+                        m = 0.5 * (a + bb)
+                        _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, m, clip, pref, F1, V1, TH)
+                        if not V1[b]:
+                            break
+                    fm = F1[b]
+                    if fm * fb < 0.0:
+                        a, fa = bb, fb
+                    else:
+                        fa *= 0.5
+                    bb, fb = m, fm
+                    root = m
+                    if abs(fm) < 1e-15 or abs(bb - a) < 1e-14:
+                        break
+            _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, root, clip, pref, F1, V1, TH)
+            if not V1[b]:
+                continue
+            t1, t2, t3 = TH[b, 0], TH[b, 1], TH[b, 2]
+            t[0], t[1], t[2] = t1, t2, t3
+            zr = cis(root)
+            if mode == 4:
+                t[3] = zr
+                # R5 R6 = (R1..R4)ᵀ RgM: θ5 from h6, θ6 from e6
+                nh6 = rotz(h4, zr.conjugate(), back3(H, t1, t2, t3, g))
+                t[4] = sp1(h5, h6, nh6, pref[4])
+                y = rotz(h4, zr.conjugate(), back3(H, t1, t2, t3, gm(Rg, RM, e6)))
+                y = rotz(h5, t[4].conjugate(), y)
+                t[5] = sp1(h6, e6, y, pref[5])
+            else:
+                t[5] = zr
+                # R4 R5 = (R1 R2 R3)ᵀ RgM R6ᵀ: θ4 from h5, θ5 from e5
+                nh5 = back3(H, t1, t2, t3, gm(Rg, RM, rotz(h6, zr.conjugate(), h5)))
+                t[3] = sp1(h4, h5, nh5, pref[3])
+                y = back3(H, t1, t2, t3, gm(Rg, RM, rotz(h6, zr.conjugate(), e5)))
+                y = rotz(h4, t[3].conjugate(), y)
+                t[4] = sp1(h5, e5, y, pref[4])
+            # a root on a grid point is found from both of its intervals: keep it once
+            dup = False
+            for k in range(min(n, Q.shape[0])):
+                dd = 0.0
+                for j in range(6):
+                    dd += abs(Q[k, j] - t[j])
+                if dd < 1e-9:
+                    dup = True
+            if not dup:
+                if n < Q.shape[0]:
+                    for j in range(6):
+                        Q[n, j] = t[j]
+                n += 1
+    return n
