@@ -6,12 +6,19 @@ from its own ``q_start``): this is how path following and trajectory warm starts
 as problem sets. With ``repetitions`` > 1 each problem is solved that many times from the same
 start (for timing); the chain continues from the first repetition's result.
 
+Every solve's CPU time is measured beside its wall time: ``process_time_ns`` (CPU time of the whole
+process, every thread: TRAC-IK's two racing threads both count) read around each call, or around a
+batch kernel's call and shared out over its problems in proportion to their kernel-measured solve
+times. On a quiet core CPU time equals wall time; on a loaded machine wall time grows and CPU time
+does not, which is what the benchmark ranks by (``BatchResult.cpu_times_s``).
+
 Stochastic solvers get a per-(problem, repetition) seed derived from the set's seed, so that a
 job's archive does not depend on which problems another job solved.
 """
 
 from __future__ import annotations
 
+import time
 from typing import Iterator
 
 import numpy as np
@@ -84,12 +91,14 @@ def solve_set_batches(method: str, settings: Settings, model: RobotModel, ps: Pr
             # random restarts draw from it): a solve does not depend on its place in the batch, so
             # an archived solve can be re-run alone (pipeline.io.archive.derive)
             seeds = np.array([problem_seed(set_seed, ps.problem_id[i], 0) for i in part], dtype=np.int64)
+            c0 = time.process_time_ns()
             res = solve_batch(method, prep, T_goals[part], ps.q_start[part], settings, seeds=seeds, threads=threads)
+            res.cpu_times_s = _shared((time.process_time_ns() - c0) * 1e-9, res.solve_time_s)
             yield part, np.zeros(len(part), np.int64), ps.q_start[part], res
         return
     b = bind(method, prep, settings)
     last: dict[int, np.ndarray] = {}
-    rows, reps, starts, results = [], [], [], []
+    rows, reps, starts, results, cpu = [], [], [], [], []
     for i in idx:
         ch = int(ps.chain[i])
         q0 = ps.q_start[i]
@@ -97,19 +106,29 @@ def solve_set_batches(method: str, settings: Settings, model: RobotModel, ps: Pr
             q0 = last[ch]
         first = None
         for r in range(repetitions):
-            res = b.solve(T_goals[i], q0, problem_seed(set_seed, ps.problem_id[i], r))
+            seed = problem_seed(set_seed, ps.problem_id[i], r)
+            c0 = time.process_time_ns()
+            res = b.solve(T_goals[i], q0, seed)
+            cpu.append((time.process_time_ns() - c0) * 1e-9)
             first = first or res
             rows.append(int(i)), reps.append(r), starts.append(q0), results.append(res)
         if ch >= 0:
             last[ch] = first.q
         if len(results) >= BATCH:
-            yield _batch_of(rows, reps, starts, results, prep.unit)
-            rows, reps, starts, results = [], [], [], []
+            yield _batch_of(rows, reps, starts, results, cpu, prep.unit)
+            rows, reps, starts, results, cpu = [], [], [], [], []
     if results:
-        yield _batch_of(rows, reps, starts, results, prep.unit)
+        yield _batch_of(rows, reps, starts, results, cpu, prep.unit)
 
 
-def _batch_of(rows, reps, starts, results, unit) -> tuple:
+def _shared(total_s: float, weights: np.ndarray) -> np.ndarray:
+    """``total_s`` shared out over the problems of a batch in proportion to ``weights`` (N,) [s]."""
+    w = np.maximum(np.nan_to_num(np.asarray(weights, dtype=float)), 0.0)
+    return total_s * w / w.sum() if w.sum() > 0 else np.full(len(w), total_s / max(1, len(w)))
+
+
+def _batch_of(rows, reps, starts, results, cpu, unit) -> tuple:
     res = stack(results, unit, traces=True)
     res.call_time_s = float(np.sum(res.call_times_s))
+    res.cpu_times_s = np.array(cpu, dtype=float)
     return np.array(rows, dtype=np.int64), np.array(reps, dtype=np.int64), np.array(starts, dtype=float), res

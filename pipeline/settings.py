@@ -159,7 +159,7 @@ class SolverEntry:
 
     def as_dict(self) -> dict:
         """``{"method": ..., **settings}`` (what the archive and the rule parameters record)."""
-        return {"method": self.method, **self.settings.as_dict()}
+        return {**self.settings.as_dict(), "method": self.method}  # the registered name, never a setting
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parent.parent
 STUDY_FILE = ROOT / "data/studies/nepomuceno2024.yaml"
 ROBOT = ROOT / "data/robots/ur5_nepomuceno.yaml"
 METHODS = ["pinv", "lbfgsb", "nelder_mead", "analytic"]
-TIMING = {"solve_time_s", "ik_time_s", "call_time_s"}
+TIMING = {"solve_time_s", "ik_time_s", "call_time_s", "cpu_time_s"}
 
 
 def _make(out: Path, motion: str) -> Path:

@@ -124,8 +124,10 @@ SOLVE_FIELDS = (
     (18, "n_solutions", "<i4", 15),    # analytic methods: number of solutions (on /ik/solutions)
     (21, "joints", "<u4", 7),          # one value: joints per row
     (22, "info_json", None, 9),        # strict JSON array of the solves' info objects
-    (23, "labels_json", None, 9))      # only when a solve's robot/solver/method/length_unit is not the
+    (23, "labels_json", None, 9),      # only when a solve's robot/solver/method/length_unit is not the
                                        # metadata's: strict JSON object of per-solve string columns
+    (24, "cpu_time_ns", "<u8", 6))     # per solve, when measured: CPU time of the process during the call
+                                       # (all its threads); absent in archives written before it
 SOLVE_MESSAGE = "ik_pipeline.SolveBatch"
 MESSAGES = {SOLVE_TOPIC: (SOLVE_MESSAGE, SOLVE_FIELDS, "ik_pipeline/solve_batch.proto"),
             TRACE_TOPIC: (TRACE_MESSAGE, TRACE_FIELDS, "ik_pipeline/trace_batch.proto"),
@@ -549,6 +551,8 @@ def _solve_message(cols: dict, count: int, inline_goals: bool, meta: dict | None
         out["goal_position"], out["goal_orientation"] = g[:, :3], g[:, 3:]
     if cols.get("n_solutions") is not None:
         out["n_solutions"] = np.asarray(cols["n_solutions"], dtype="<i4")
+    if cols.get("cpu_time_s") is not None:
+        out["cpu_time_ns"] = _ns(cols["cpu_time_s"])
     out["flags"] = flags.astype("<u4")
     out["info_json"] = orjson.dumps(list(cols["info"]), option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
     labels = {k: [cols[k]] * count if isinstance(cols[k], str) else [str(v) for v in cols[k]]
@@ -612,6 +616,7 @@ def batch_columns(problem_id, repetition, chain, robot: str, solver: str, length
         "stop_reason": res.stop_reason, "iterations": res.iterations, "solve_time_s": res.solve_time_s,
         "ik_time_s": res.ik_time_s,
         "call_time_s": res.call_times_s if res.call_times_s is not None else np.full(n, res.call_time_s / max(1, n)),
+        "cpu_time_s": getattr(res, "cpu_times_s", None),
         "within_limits": res.within_limits, "initial_error": np.full(n, np.nan), "final_error": np.full(n, np.nan),
         "position_error": res.position_error, "orientation_error": res.orientation_error,
         "q_start": np.ascontiguousarray(q_start, dtype=float), "q_solution": np.ascontiguousarray(res.q, dtype=float),
@@ -891,6 +896,9 @@ def _expand(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[dic
     sv = (b["solve_time_ns"] * 1e-9).tolist()
     ik = (b["ik_time_ns"] * 1e-9).tolist()
     ct = (b["call_time_ns"] * 1e-9).tolist()
+    if len(b["cpu_time_ns"]) not in (0, n):
+        raise ArchiveError(f"{where}: field 'cpu_time_ns' does not hold one value per solve")
+    cpu = (b["cpu_time_ns"] * 1e-9).tolist() if len(b["cpu_time_ns"]) else [math.nan] * n
     rep, ch, sr, it = b["repetition"].tolist(), b["chain"].tolist(), b["stop_reason"].tolist(), b["iterations"].tolist()
     fl = flags.tolist()
     ql = q.tolist()
@@ -903,6 +911,7 @@ def _expand(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[dic
                **({k: v[i] for k, v in labels.items()} if labels else {}),
                "success": bool(f & F_SUCCESS), "claimed_success": bool(f & F_CLAIMED), "stop_reason": sr[i],
                "iterations": it[i], "solve_time_s": sv[i], "ik_time_s": ik[i], "call_time_s": ct[i],
+               "cpu_time_s": cpu[i],
                "within_limits": bool(f & F_WITHIN), "initial_error": errs["initial_error"][i],
                "final_error": errs["final_error"][i], "position_error": errs["position_error"][i],
                "orientation_error": errs["orientation_error"][i], "q_start": q_start[i], "q_solution": ql[i],

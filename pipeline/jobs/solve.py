@@ -93,6 +93,7 @@ def solve_to_archive(study, problem_set: str, entry, robot_path, problems_path, 
     from pipeline.provenance import file_sha256
     from pipeline.robots import LENGTH_UNITS, load_robot
     from pipeline.runner import solve_set_batches
+    from pipeline.solvers import get
 
     spec = problem_set_spec(study, problem_set)
     model = load_robot(robot_path)
@@ -111,7 +112,7 @@ def solve_to_archive(study, problem_set: str, entry, robot_path, problems_path, 
     meta = run_metadata(
         study=study.id, robot=model.name, solver=entry.label, settings=entry.as_dict(), seed=spec["seed"],
         settings_hash=study.solver_hash(problem_set, entry.label, scale), problem_set=problem_set,
-        method=entry.method, reading=entry.reading, scale=scale, problems=len(ids), repetitions=reps,
+        method=entry.method, library=get(entry.method).library, reading=entry.reading, scale=scale, problems=len(ids), repetitions=reps,
         problem_file=Path(problems_path).name, problem_sha256=file_sha256(problems_path)[:16],
         problem_path=os.path.relpath(Path(problems_path).resolve(), here),
         robot_file=str(robot_path), robot_sha256=file_sha256(robot_path)[:16],
@@ -119,7 +120,8 @@ def solve_to_archive(study, problem_set: str, entry, robot_path, problems_path, 
         robot_repairs="; ".join(model.repairs) if model.repairs else None, length_unit=unit,
         deterministic=str(deterministic(entry.method, settings)).lower(),
         timing="solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "
-               "solve() call (pipeline/solvers/timing.py)",
+               "solve() call (pipeline/solvers/timing.py); cpu_time_s = the process's CPU time during the call "
+               "(pipeline/runner.py)",
         traces=policy.describe(), **(extra_meta or {}))
     t0 = time.monotonic()
     n_ok = done = 0

@@ -25,6 +25,13 @@ from numba.extending import intrinsic
 
 from pipeline.io.layout import TRACE_COLS, StopReason
 
+# ---- the one joint-limit tolerance -------------------------------------------------------------
+LIMIT_TOL = 1e-6
+"""[rad or length unit] A returned joint value counts as within its limits up to this far beyond them,
+for every method alike. Peer libraries that keep joint values in float32 (TRAC-IK's KDL limits pass
+through float32 in pytracik) return solutions on a limit rounded 5e-9 to 1e-7 beyond it; 1e-6 rad
+(0.2 arc-second; 1 µm on a prismatic joint) admits them and is far below any encoder's resolution."""
+
 # ---- the one table of codes the compiled kernels use -------------------------------------------
 # Stop codes: the values of pipeline.io.layout.StopReason as plain ints (numba compiles a module
 # global int as a constant; every method module imports these names, none defines its own).

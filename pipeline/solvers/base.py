@@ -41,7 +41,7 @@ from pipeline.kinematics.fkcheck import check_model, check_one
 from pipeline.io.layout import STOP_REASONS, TRACE_COLS, StopReason  # noqa: F401  (re-exported)
 from pipeline.robots import LENGTH_UNITS, RobotModel
 from pipeline.solvers._kin import CRITERIA, CRITERION_CODE  # noqa: F401  (re-exported: the one success-test code)
-from pipeline.solvers._kin import FK_CHECK_FAILED, NON_FINITE, OUT_OF_LIMITS, SUCCESS, TRACE_DP
+from pipeline.solvers._kin import FK_CHECK_FAILED, LIMIT_TOL, NON_FINITE, OUT_OF_LIMITS, SUCCESS, TRACE_DP
 
 
 class SettingsError(ValueError):
@@ -444,6 +444,8 @@ class BatchResult:
     solutions, n_solutions, info : see :class:`BatchRaw`
     call_times_s : ndarray, shape (N,), optional [s]  per-problem call times when the problems were
                                                       solved one call at a time (else None)
+    cpu_times_s : ndarray, shape (N,), optional [s]   per-problem CPU time of the process (all threads)
+                                                      when the caller measured it (the runner does)
     """
 
     q: np.ndarray
@@ -464,6 +466,7 @@ class BatchResult:
     n_solutions: np.ndarray | None = None
     info: list | None = None
     call_times_s: np.ndarray | None = None
+    cpu_times_s: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.q.shape[0])
@@ -580,8 +583,9 @@ def _within(q, limits, prismatic, tol):
     return True
 
 
-def within_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray, tol: float = 1e-9) -> bool:
-    """True when every joint lies within its limits; a revolute joint may first be wrapped by 2 pi.
+def within_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray, tol: float = LIMIT_TOL) -> bool:
+    """True when every joint lies within its limits (up to ``tol``, by default the one tolerance
+    :data:`pipeline.solvers._kin.LIMIT_TOL`); a revolute joint may first be wrapped by 2 pi.
 
     A wrapped value just below ``lo + 2 pi`` (within ``tol``) counts as ``lo``. Compiled (called
     once per solve).
@@ -719,7 +723,7 @@ def _result(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, code, require_limit
     joint-limit record and :func:`final_code`. Returns (code, claimed, success, |dp|, angle, within)."""
     K, axis, offset, limits, _ = _unpack(F, q.shape[0])
     ok, dp, ang, _ = check_one(K, axis, offset, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, buf)
-    inside = _within(q, limits, prism, 1e-9)
+    inside = _within(q, limits, prism, LIMIT_TOL)
     code, claimed, success = final_code(code, ok, dp, q, inside, require_limits)
     return code, claimed, success, dp, ang, inside
 

@@ -269,7 +269,8 @@ class RtbSettings(Settings):
 class RtbLMSettings(RtbSettings):
     k: float = setting(1.0, "gain of the damping matrix W_n (chan: k E I; wampler: k I; sugihara: E I + k I) "
                        "(rtb default 1.0)", above=0.0)
-    method: str = setting("chan", "damping of ik_LM (rtb default chan)", choices=("chan", "wampler", "sugihara"))
+    damping: str = setting("chan", "damping rule of ik_LM, its argument 'method' (rtb default chan); named damping "
+                                   "here because 'method' names the registered solver", choices=("chan", "wampler", "sugihara"))
 
 
 @dataclass(frozen=True)
@@ -364,7 +365,7 @@ def _rtb_run(method: str):
         ets = prep.memo(("peers", "rtb_ets"), lambda: _rtb_ets(prep))
         Tm = m.goal(T_goal)
         q0 = m.q_in(q_start)
-        extra = ({"k": float(s.k), "method": s.method} if method == "ik_LM"
+        extra = ({"k": float(s.k), "method": s.damping} if method == "ik_LM"
                  else {"pinv": bool(s.pinv), "pinv_damping": float(s.pinv_damping)})
         if s.slimit > 1:
             _srand(seed)
@@ -392,7 +393,8 @@ for _name, _method, _cls, _what in (
         ("rtb_ik_gn", "ik_GN", RtbPinvSettings, "Gauss-Newton")):
     register(Solver(_name, f"Robotics Toolbox (Python) ETS.{_method}, C++ {_what}, one search from the start by "
                     f"default (peer baseline; {TIME})", "local", _cls, _rtb_run(_method),
-                    applies_to=_rtb_applies, source=SOURCE_RTB))
+                    applies_to=_rtb_applies, source=SOURCE_RTB,
+                    library="roboticstoolbox-python"))
 
 
 # ---- TRAC-IK ---------------------------------------------------------------------------------
@@ -480,7 +482,7 @@ def _tracik_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Trac
 
 register(Solver("trac_ik", f"TRAC-IK via pytracik: KDL Newton-Raphson restarts and NLopt SQP racing on two threads "
                 f"within a time budget (not deterministic; peer baseline; {TIME})", "global", TracIKSettings,
-                _tracik_run, applies_to=_tracik_applies, source=SOURCE_TRACIK))
+                _tracik_run, applies_to=_tracik_applies, source=SOURCE_TRACIK, library="pytracik"))
 
 
 # ---- Pinocchio CLIK --------------------------------------------------------------------------
@@ -562,7 +564,7 @@ def _pin_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Pinocch
 
 register(Solver("pinocchio_clik", "Pinocchio CLIK (damped least squares on log6, the library's example loop written "
                 f"in Python around its C++ calls; peer baseline; {TIME}, Python loop included)", "local",
-                PinocchioCLIKSettings, _pin_run, applies_to=_pin_applies, source=SOURCE_PIN))
+                PinocchioCLIKSettings, _pin_run, applies_to=_pin_applies, source=SOURCE_PIN, library="pin"))
 
 
 # ---- ur_analytic_ik --------------------------------------------------------------------------
@@ -634,4 +636,4 @@ def _ur_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: URAnalyt
 
 register(Solver("ur_analytic_ik", f"ur_analytic_ik closed form of UR arms (built-in vendor models), all solutions, "
                 f"nearest to the start (peer baseline; {TIME})", "analytic", URAnalyticIKSettings, _ur_run,
-                applies_to=_ur_applies, source=SOURCE_UR))
+                applies_to=_ur_applies, source=SOURCE_UR, library="ur-analytic-ik"))

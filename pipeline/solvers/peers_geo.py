@@ -268,7 +268,7 @@ def _eaik_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: EAIKSe
 
 register(Solver("eaik", f"EAIK (subproblem decomposition detected from the geometry: closed form or 1-D/2-D search), "
                 f"all solutions, nearest to the start (peer baseline; {TIME})", "analytic", EAIKSettings, _eaik_run,
-                applies_to=_eaik_applies, source=SOURCE_EAIK))
+                applies_to=_eaik_applies, source=SOURCE_EAIK, library="eaik"))
 
 
 # ---- IK-Geo ------------------------------------------------------------------------------------
@@ -429,4 +429,4 @@ def _ikgeo_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: IKGeo
 
 register(Solver("ik_geo", f"IK-Geo (subproblem decomposition picked from the arm's geometry: closed form or 1-D/2-D "
                 f"search), all solutions, nearest to the start (peer baseline; {TIME})", "analytic", IKGeoSettings,
-                _ikgeo_run, applies_to=_ikgeo_applies, source=SOURCE_IKGEO))
+                _ikgeo_run, applies_to=_ikgeo_applies, source=SOURCE_IKGEO, library="ik-geo"))

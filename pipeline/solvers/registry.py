@@ -10,6 +10,7 @@ timing of the whole call), for one problem and for N.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Callable
 
@@ -46,6 +47,9 @@ class Solver:
     batch : callable, optional      ``batch(prep, settings, goals, starts, seeds, threads, traces) ->
                                     BatchRaw``: N problems in one compiled call (see
                                     :func:`solve_batch`); without it a batch runs ``run`` per problem
+    library : str                   "ours" (this package's own implementation) or the peer library's
+                                    package name (tables and figures read it from here or from the
+                                    archive's metadata, never from a setting)
     bind_call : callable, optional  ``bind_call(prep, settings) -> call(T_goal, q_start, seed, t0) ->
                                     IKResult`` or None: the whole public call fused (kernel, FK check,
                                     limits and result in one compiled call; ``T_goal`` in the robot
@@ -67,6 +71,12 @@ class Solver:
     bind: Callable | None = None
     batch: Callable | None = None
     bind_call: Callable | None = None
+    library: str = "ours"
+
+    @property
+    def peer(self) -> bool:
+        """A peer library's method (a baseline), not this package's own implementation."""
+        return self.library != "ours"
 
     def refusal(self, prep: Prepared) -> str | None:
         """Why this solver does not apply to the prepared robot, or None."""
@@ -83,6 +93,8 @@ def register(solver: Solver) -> Solver:
         raise ValueError(f"solver {solver.name}: kind {solver.kind!r} not in {KINDS}")
     if solver.name in _REGISTRY:
         raise ValueError(f"solver {solver.name!r} registered twice")
+    if "method" in {f.name for f in dataclasses.fields(solver.settings)}:
+        raise ValueError(f"solver {solver.name}: a setting may not be called 'method' (it names the registered solver)")
     _REGISTRY[solver.name] = solver
     return solver
 

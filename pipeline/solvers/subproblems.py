@@ -51,6 +51,8 @@ import math
 import numba
 import numpy as np
 
+from pipeline.solvers._kin import LIMIT_TOL
+
 FAM_SPH, FAM_3P, FAM_SEARCH = 1, 2, 3
 MAX_SOL = 16
 
@@ -356,13 +358,13 @@ def wrap(x):
 @numba.njit(cache=True, inline="always")
 def into_limits(x, lo, hi):
     """(x moved by 2π multiples into [lo, hi] where that fits, else x; whether the result lies within
-    the limits, 1e-12 rad of slack). Unbounded limits keep x."""
+    the limits up to the one joint-limit tolerance ``LIMIT_TOL``). Unbounded limits keep x."""
     if lo <= x <= hi or not (math.isfinite(lo) and math.isfinite(hi)):
         return x, lo <= x <= hi
     w = lo + ((x - lo) % (2.0 * math.pi))
     if w <= hi:
         return w, True
-    return x, lo - 1e-12 <= x <= hi + 1e-12
+    return x, lo - LIMIT_TOL <= x <= hi + LIMIT_TOL
 
 
 @numba.njit(cache=True, inline="always")

@@ -14,7 +14,15 @@
     The whole :func:`pipeline.solvers.solve` call as a user sees it: settings lookup, unit
     conversion, the kernel, the FK check and building the result.
 
-Every archive's ``/ik/solve`` records carry all three; tables say which one they use.
+``cpu_time_s``
+    The CPU time of the process (every thread) during the call, read by the runner around each call
+    (or around a batch kernel and shared out over its problems by their solve times): the time that
+    machine load does not move. Σ cpu / Σ call over a job is its CPU share; below 0.9 the job did
+    not get a core to itself and its wall-clock times (and any wall-clock budget, TRAC-IK's) are
+    suspect (:mod:`pipeline.studies.arm_benchmark` flags it).
+
+Every archive's ``/ik/solve`` records carry all four (``cpu_time_s`` from format 5's field 24 on;
+older archives read NaN); tables say which one they use.
 """
 
 from __future__ import annotations

@@ -11,13 +11,25 @@ import pandas as pd
 from pipeline.io.archive import Archive
 
 
+def archive_method(a: Archive) -> tuple[str, str]:
+    """(registered method, library) of an archive: the metadata's ``method`` and ``library`` fields (older
+    archives: the settings' ``method``, and the registry's library for it), never a solver setting."""
+    method = a.metadata.get("method") or json.loads(a.metadata["settings"]).get("method", a.metadata["solver"])
+    library = a.metadata.get("library")
+    if not library:
+        from pipeline.solvers import registry
+
+        library = registry.get(method).library if method in registry.names() else "ours"
+    return method, library
+
+
 def solves_frame(archives: list[Archive]) -> pd.DataFrame:
-    """All solve records of several archives, with ``solver``, ``method`` and settings columns."""
+    """All solve records of several archives, with ``solver``, ``method`` and ``library`` columns
+    (:func:`archive_method`)."""
     frames = []
     for a in archives:
         df = a.frame()
-        settings = json.loads(a.metadata["settings"])
-        df["method"] = settings.get("method", a.metadata["solver"])
+        df["method"], df["library"] = archive_method(a)
         df["archive"] = str(a.path)
         frames.append(df)
     return pd.concat(frames, ignore_index=True)
