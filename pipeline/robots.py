@@ -352,14 +352,30 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
                       tuple(names), tuple(repairs))
 
 
+ROBOT_FILES = Path(__file__).resolve().parent / "robot_files"
+"""The robot files shipped with the package (``data/robots`` of the checkout; a wheel holds a copy)."""
+
+
+def shipped_robots() -> list[str]:
+    """Names of the robot files shipped with the package (``load_robot(name)`` loads one)."""
+    return sorted(p.stem for p in ROBOT_FILES.glob("*.yaml"))
+
+
 def load_robot(path: str | Path) -> RobotModel:
-    """Read and validate ``data/robots/<name>.yaml``.
+    """Read and validate a robot file: a path, or the bare name of a shipped one (``"ur5e"``, ``"franka_panda"``:
+    :func:`shipped_robots`; data/robots/CATALOGUE.md describes them).
 
     Raises
     ------
     RobotFileError
         Missing file, YAML syntax error, or any invalid field (one line, file + joint + field).
     """
+    if isinstance(path, str) and path and "/" not in path and "." not in path and not Path(path).exists():
+        shipped = ROBOT_FILES / f"{path}.yaml"
+        if not shipped.is_file():
+            raise RobotFileError(f"{path}: no such robot file, and not the name of a shipped robot "
+                                 f"({', '.join(shipped_robots())})")
+        path = shipped
     path = Path(path)
     try:
         doc = load_yaml(path, "robot file")

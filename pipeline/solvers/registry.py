@@ -151,6 +151,30 @@ def bind(name: str, robot: RobotModel | Prepared, settings: Settings | dict | No
     return b
 
 
+_BY_VALUE: dict = {}  # (name, id(robot), settings items) -> (robot, Bound): solve() with a mapping, cached
+_BY_VALUE_MAX = 64
+
+
+def _bound_by_value(name: str, robot, settings) -> Bound:
+    """:func:`bind` for ``solve(name, robot, T, q0, {...})``: the binding of a robot object and a settings
+    mapping (or None) is kept, keyed by the robot's identity and the mapping's items, so the call a user
+    writes first costs what a bound call costs after its first use. A mapping with unhashable values
+    (lists) is bound afresh each call. Robot models are treated as immutable (they are frozen)."""
+    try:
+        key = (name, id(robot), None if settings is None else tuple(sorted(settings.items())))
+        hash(key)
+    except TypeError:
+        return bind(name, robot, settings)
+    hit = _BY_VALUE.get(key)
+    if hit is not None and hit[0] is robot:
+        return hit[1]
+    b = bind(name, robot, settings)
+    if len(_BY_VALUE) >= _BY_VALUE_MAX:
+        _BY_VALUE.pop(next(iter(_BY_VALUE)))
+    _BY_VALUE[key] = (robot, b)
+    return b
+
+
 def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: np.ndarray,
           settings: Settings | dict | None = None, *, seed: int = 0) -> IKResult:
     """Solve one IK problem with a registered method.
@@ -158,9 +182,9 @@ def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: 
     Parameters
     ----------
     name : str                          a registered solver (``python -m pipeline solvers``)
-    robot : RobotModel or Prepared      a Prepared robot (from :func:`prepare`) together with a
-                                        Settings object makes repeated calls cheap (the binding
-                                        of :func:`bind` is cached)
+    robot : RobotModel or Prepared      the binding of :func:`bind` is cached, so repeated calls
+                                        are cheap: for a Prepared robot with a Settings object,
+                                        and for a robot model with a settings mapping or None
     T_goal : ndarray, shape (4, 4)      goal pose in the robot file's length unit
     q_start : ndarray, shape (n,)       start joint values [rad | robot file's length unit]
     settings : Settings, mapping or None
@@ -184,6 +208,8 @@ def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: 
         hit = robot._bound.get((name, id(settings)))
         if hit is not None and hit.settings is settings:
             return hit.call(T_goal, q_start, seed, t0)
+    if settings is None or type(settings) is dict:
+        return _bound_by_value(name, robot, settings).call(T_goal, q_start, seed, t0)
     return bind(name, robot, settings).call(T_goal, q_start, seed, t0)
 
 
