@@ -15,7 +15,8 @@ inspect           summarise an archive per solver (counts, success, times with u
 replay            re-run archived problems into a Foxglove-viewable MCAP (arm, goal, joints per iteration)
 reproduce         re-run an archive's solves, report bit-identical and differing ones with both environments
 verify            recompute every table from the archives, check archives and report (exit 1 on a difference)
-import_urdf       write a robot file (general joint form) from a URDF chain (also: import-urdf)
+import_urdf       write a robot file (general joint form) from a URDF or xacro chain (also: import-urdf)
+benchmark_arm     benchmark one arm alone (arm_benchmark on that robot only) and its report (also: benchmark-arm)
 export_urdf       write a robot file as a URDF, base_link ... tool0, metres (also: export-urdf)
 """
 
@@ -108,7 +109,21 @@ def cmd_plot_figures(args) -> None:
 def cmd_import_urdf(args) -> None:
     from pipeline.jobs.robot_files import import_urdf
 
-    print(import_urdf(args.urdf, args.base, args.tip, args.out, name=args.name, length_unit=args.length_unit))
+    xargs = {}
+    for item in args.xacro_arg or []:
+        key, sep, value = item.partition(":=")
+        if not sep or not key:
+            raise CLIError(f"--xacro-arg {item!r}: expected NAME:=VALUE")
+        xargs[key] = value
+    print(import_urdf(args.urdf, args.base, args.tip, args.out, name=args.name, length_unit=args.length_unit,
+                      xacro_args=xargs))
+
+
+def cmd_benchmark_arm(args) -> None:
+    from pipeline.jobs.arm import benchmark_arm
+
+    print(benchmark_arm(args.robot, scale=args.scale, cores=args.cores, results=args.results, data=args.data,
+                        dry_run=args.dry_run))
 
 
 def cmd_export_urdf(args) -> None:
@@ -308,13 +323,26 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("import_urdf", aliases=["import-urdf"],
                        help="write a robot file (general joint form) from a URDF chain")
-    p.add_argument("urdf", help="the URDF file")
+    p.add_argument("urdf", help="the URDF file, or a xacro file (*.xacro or xmlns:xacro: expanded with the xacro "
+                   "package first)")
+    p.add_argument("--xacro-arg", action="append", metavar="NAME:=VALUE", help="a xacro argument (repeatable)")
     p.add_argument("--base", required=True, help="base link of the chain")
     p.add_argument("--tip", required=True, help="tip link of the chain (below --base)")
     p.add_argument("--out", required=True, help="robot file to write, data/robots/<name>.yaml")
     p.add_argument("--name", help="robot name (default and required: the --out file stem)")
     p.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m", help="the robot file's length unit")
     p.set_defaults(func=cmd_import_urdf)
+
+    p = sub.add_parser("benchmark_arm", aliases=["benchmark-arm"],
+                       help="benchmark one arm alone: study arm_benchmark on that robot file only, and its report")
+    p.add_argument("robot", help="the robot file (data/robots/<name>.yaml, e.g. from import-urdf)")
+    p.add_argument("--scale", choices=["quick", "full"], default="full",
+                   help="full: 2 000 goals per set (the catalogue's protocol); quick: 50, a smoke run")
+    p.add_argument("--cores", type=int, default=2, help="cores Snakemake may use (default 2)")
+    p.add_argument("--results", help="results folder (default results/arm_<name>)")
+    p.add_argument("--data", default="data", help="data folder holding studies/arm_benchmark.yaml and published/")
+    p.add_argument("--dry-run", action="store_true", help="write the study and print the Snakemake command only")
+    p.set_defaults(func=cmd_benchmark_arm)
 
     p = sub.add_parser("export_urdf", aliases=["export-urdf"],
                        help="write a robot file as a URDF (links base_link ... tool0, metres)")

@@ -117,11 +117,54 @@ def _raw_origins(root) -> dict:
     return out
 
 
-def _load(path: Path):
-    """Parse the URDF (lxml for the XML check and the written origins, yourdfpy for the model)."""
+def is_xacro(path: Path) -> bool:
+    """A xacro file: named ``*.xacro`` or using the xacro namespace (``xmlns:xacro``)."""
+    if str(path).endswith(".xacro"):
+        return True
+    try:
+        with open(path, "rb") as fh:
+            return b"xmlns:xacro" in fh.read(65536)
+    except OSError:
+        return False
+
+
+def expand_xacro(path: Path, args: dict | None = None) -> str:
+    """The URDF text of a xacro file (the ``xacro`` package: macros, properties, ``$(arg ...)`` with
+    ``args``). ``$(find pkg)`` needs a ROS package path and is refused with one line naming the file."""
+    import contextlib
+    import io
+
+    import xacro
+
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err):
+            doc = xacro.process_file(str(path), mappings={str(k): str(v) for k, v in (args or {}).items()})
+    except Exception as exc:  # noqa: BLE001  xacro raises its own XacroException, and KeyError/OSError
+        msg = (str(exc) or type(exc).__name__).splitlines()[0]
+        if "find" in msg or "package" in msg.lower():
+            msg += " (a $(find pkg) include needs that ROS package; expand the file with ROS's xacro first)"
+        raise _fail(path, f"xacro cannot expand the file ({msg})") from None
+    return doc.toprettyxml(indent="  ")
+
+
+def _load(path: Path, xacro_args: dict | None = None):
+    """Parse the URDF (lxml for the XML check and the written origins, yourdfpy for the model); a xacro
+    file is expanded first (:func:`expand_xacro`)."""
+    import tempfile
+
     from lxml import etree
     import yourdfpy
 
+    if is_xacro(path) and Path(path).is_file():
+        text = expand_xacro(path, xacro_args)
+        with tempfile.TemporaryDirectory() as tmp:
+            expanded = Path(tmp) / (Path(path).name.removesuffix(".xacro") or "robot.urdf")
+            expanded.write_text(text, encoding="utf-8")
+            try:
+                return _load(expanded)
+            except URDFImportError as exc:  # name the user's file, not the temporary one
+                raise URDFImportError(str(exc).replace(str(expanded), f"{path} (expanded by xacro)")) from None
     try:
         root = etree.parse(str(path), etree.XMLParser(remove_blank_text=True)).getroot()
     except OSError as exc:
@@ -145,9 +188,13 @@ def _load(path: Path):
 
 def _chain_joints(robot, path: Path, base_link: str, tip_link: str) -> list:
     links = {lk.name for lk in robot.links}
-    for lk in (base_link, tip_link):
+    children = {j.child for j in robot.joints}
+    parents = {j.parent for j in robot.joints}
+    for lk, flag, pool in ((base_link, "--base", sorted(links - children)), (tip_link, "--tip", sorted(links - parents))):
         if lk not in links:
-            raise _fail(path, "unknown link", link=lk)
+            raise _fail(path, f"unknown link {lk!r} given as {flag}; candidates: {', '.join(pool) or '-'} "
+                        f"({'roots' if flag == '--base' else 'leaves'} of the tree); every link: "
+                        f"{', '.join(sorted(links))}")
     parent_joint = {}
     for j in robot.joints:
         if j.child in parent_joint:
@@ -163,7 +210,8 @@ def _chain_joints(robot, path: Path, base_link: str, tip_link: str) -> list:
     return chain[::-1]
 
 
-def import_urdf(path, base_link: str, tip_link: str, name: str | None = None, length_unit: str = "m") -> dict:
+def import_urdf(path, base_link: str, tip_link: str, name: str | None = None, length_unit: str = "m",
+                xacro_args: dict | None = None) -> dict:
     """A robot-file document (general form) for the URDF chain from ``base_link`` to ``tip_link``.
 
     Parameters
@@ -189,7 +237,7 @@ def import_urdf(path, base_link: str, tip_link: str, name: str | None = None, le
     path = Path(path)
     if length_unit not in LENGTH_UNITS:
         raise _fail(path, f"unknown length unit {length_unit!r} (allowed: {', '.join(LENGTH_UNITS)})")
-    robot, raw = _load(path)
+    robot, raw = _load(path, xacro_args)
     joints_urdf = _chain_joints(robot, path, base_link, tip_link)
     f = _unit_factor("m", length_unit)
     pending, folded_names, joints, folds = _EYE, [], [], []
@@ -330,9 +378,10 @@ def import_header(path, base_link: str, tip_link: str, length_unit: str = "m") -
             "fixed joints are folded into the next joint's origin (into `tool` after the last moving joint).")
 
 
-def imported_yaml(path, base_link: str, tip_link: str, name: str | None = None, length_unit: str = "m") -> str:
+def imported_yaml(path, base_link: str, tip_link: str, name: str | None = None, length_unit: str = "m",
+                  xacro_args: dict | None = None) -> str:
     """:func:`import_urdf` written as a robot file (header comment + :func:`robot_yaml`)."""
-    doc = import_urdf(path, base_link, tip_link, name=name, length_unit=length_unit)
+    doc = import_urdf(path, base_link, tip_link, name=name, length_unit=length_unit, xacro_args=xacro_args)
     return robot_yaml(doc, import_header(path, base_link, tip_link, length_unit))
 
 

@@ -185,13 +185,19 @@ def _cases(keys) -> list[str]:
 
 
 def _build() -> str:
-    """The libraries and machine the snapshot is bit-exact for (last bits may differ on another build)."""
+    """The libraries and machine the snapshot is bit-exact for (last bits may differ on another build):
+    the versions, and the CPU the code runs on: numba compiles for the host CPU (LLVM's name for it,
+    e.g. znver3 or skylake-avx512: other FMA and vector choices) and OpenBLAS picks its kernels by CPU."""
     import platform
 
+    import llvmlite.binding as llvm
     import numba
     import scipy
+    from threadpoolctl import threadpool_info
 
-    return f"numpy {np.__version__}, numba {numba.__version__}, scipy {scipy.__version__}, {platform.machine()}"
+    blas = ",".join(sorted({str(i.get("architecture")) for i in threadpool_info() if i.get("internal_api") == "openblas"}))
+    return (f"numpy {np.__version__}, numba {numba.__version__}, scipy {scipy.__version__}, {platform.machine()}, "
+            f"cpu {llvm.get_host_cpu_name()}, openblas {blas}")
 
 
 @pytest.fixture(scope="module")

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -214,8 +216,8 @@ def _one_line(exc, path):
         ("world", "finger", "mimic joint in the chain (it follows joint 'j2'"),
         ("tip", "world", "tip link 'world' is not below base link 'tip' (link 'world')"),
         ("c", "a", "is not below base link 'c' (link 'a')"),
-        ("world", "nowhere", "unknown link (link 'nowhere')"),
-        ("base_link", "tip", "unknown link (link 'base_link')"),
+        ("world", "nowhere", "unknown link 'nowhere' given as --tip; candidates: "),
+        ("base_link", "tip", "unknown link 'base_link' given as --base; candidates: world (roots of the tree)"),
         ("d", "tip", "no revolute, continuous or prismatic joint between links 'd' and 'tip' (link 'tip')"),
         ("tip", "tip", "no revolute, continuous or prismatic joint"),
     ],
@@ -286,7 +288,7 @@ def test_cli_export_then_import(tmp_path, capsys, spelling):
     "args,expect",
     [
         (["--base", "world", "--tip", "camera"], "error: URDFImportError: {urdf}: floating joint in the chain"),
-        (["--base", "world", "--tip", "nowhere"], "error: URDFImportError: {urdf}: unknown link (link 'nowhere')"),
+        (["--base", "world", "--tip", "nowhere"], "error: URDFImportError: {urdf}: unknown link 'nowhere' given as --tip"),
         (["--base", "world", "--tip", "tip", "--name", "other"], "error: --name 'other': a robot file's name must"),
     ],
 )
@@ -304,3 +306,42 @@ def test_cli_export_error_is_one_line(tmp_path, capsys):
     assert main(["export-urdf", str(tmp_path / "nope.yaml"), "--out", str(tmp_path / "x.urdf")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and "\n" not in err and not (tmp_path / "x.urdf").exists()
+
+
+def test_xacro_file_expands_and_imports_like_its_urdf(tmp_path):
+    """A xacro file (macro, properties, an argument) imports to the same chain as the URDF it expands to."""
+    from pipeline.robots import load_robot, parse_robot
+    from pipeline.urdf import import_urdf, is_xacro
+
+    src = Path(__file__).parent / "data" / "xacro" / "my_ur5e.urdf.xacro"
+    assert is_xacro(src)
+    model = parse_robot(import_urdf(src, "base_link", "tool0"), str(src))
+    ref = load_robot("ur5e_urdf")  # the same UR description values, written out as a URDF
+    rng = np.random.default_rng(3)
+    for q in rng.uniform(-3, 3, (20, 6)):
+        np.testing.assert_allclose(fk_htm(model.chain, q), fk_htm(ref.chain, q), atol=1e-8)
+    left = parse_robot(import_urdf(src, "left_base_link", "left_tool0", name="my_ur5e",
+                                   xacro_args={"prefix": "left_"}), str(src))
+    np.testing.assert_allclose(fk_htm(left.chain, np.ones(6)), fk_htm(model.chain, np.ones(6)), atol=1e-12)
+
+
+def test_xacro_errors_name_the_file(tmp_path):
+    from pipeline.urdf import URDFImportError, import_urdf
+
+    bad = tmp_path / "arm.urdf.xacro"
+    bad.write_text('<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="a">'
+                   '<xacro:include filename="$(find my_description)/urdf/arm.xacro"/></robot>')
+    with pytest.raises(URDFImportError, match=rf"^{re.escape(str(bad))}: xacro cannot expand the file"):
+        import_urdf(bad, "base_link", "tool0")
+    src = Path(__file__).parent / "data" / "xacro" / "my_ur5e.urdf.xacro"
+    with pytest.raises(URDFImportError, match=r"unknown link 'tool' given as --tip; candidates: tool0 \(leaves"):
+        import_urdf(src, "base_link", "tool")
+
+
+def test_unseen_arm_urdf_imports():
+    from pipeline.robots import parse_robot
+    from pipeline.urdf import import_urdf
+
+    src = Path(__file__).parent / "data" / "unseen_arm.urdf"
+    model = parse_robot(import_urdf(src, "base_link", "flange"), str(src))
+    assert model.n == 6

@@ -343,40 +343,69 @@ def test_report_opens_with_the_answer(built):
     html = (built / "report.html").read_text()
     assert html.index('id="answer"') < html.index('id="cerbaro2019"')
     ans = pd.read_csv(built / "arm_benchmark" / "tables" / "answer.csv")
-    assert len(ans) == 2 * 13 and ans["answer"].str.contains("solves the most goals").all()
+    assert len(ans) == 2 * 13 and ans["answer"].str.contains(": use ").all()
+    assert ans["smoke run"].all() and ans["answer"].str.contains("Smoke run").all()  # quick scale says so
+    assert (ans["success CI low [%]"] <= ans["success [%]"]).all() and (ans["success [%]"] <= ans["success CI high [%]"]).all()
+    assert ans["call"].str.startswith("solvers.solve(").all()
     heat = pd.read_csv(built / "arm_benchmark" / "tables" / "heatmap.csv")
     assert len(heat) == 13
+    for robot in ("ur5", "franka_panda"):
+        key = pd.read_csv(built / "arm_benchmark" / "tables" / f"key_{robot}.csv")
+        assert 1 <= key["solver"].nunique() <= 8
+        full = pd.read_csv(built / "arm_benchmark" / "tables" / f"robot_{robot}.csv")
+        lm = full[full["solver"] == "rtb_ik_lm"]
+        assert len(lm) and (lm["method"] == "rtb_ik_lm").all() and (lm["library"] == "roboticstoolbox-python").all()
+    assert 'href="arm_benchmark/tables/solves.csv.gz"' in html
 
 
-def test_an_unseen_urdf_arm_joins_the_benchmark(tmp_path):
-    """The README's "Bring your own arm" steps on a URDF the project has never seen."""
-    import shutil
-
+def test_per_sample_file_has_one_row_per_solve(built):
+    """The per-sample file of arm_benchmark loads in pandas with one row per archived solve."""
     import pandas as pd
-    import yaml
+
+    from pipeline.io.archive import read_archive
+    from pipeline.studies.generic import SAMPLE_COLUMNS
+
+    df = pd.read_csv(built / "arm_benchmark" / "tables" / "solves.csv.gz")
+    assert list(df.columns) == list(SAMPLE_COLUMNS)
+    archives = sorted((built / "arm_benchmark" / "runs").rglob("*.mcap"))
+    assert len(df) == sum(len(read_archive(a).solves) for a in archives)
+    assert not df.duplicated(["robot", "problem_set", "solver", "problem_id", "repetition"]).any()
+    assert df["cpu_time_us"].gt(0).all() and df["call_time_us"].gt(0).all()
+    assert set(df.loc[df["solver"] == "rtb_ik_lm", "library"]) <= {"roboticstoolbox-python"}
+
+
+def test_an_arm_from_a_xacro_file_is_benchmarked_alone(tmp_path):
+    """The README's "Bring your own arm" steps on a xacro file the project has never built: one command
+    benchmarks that arm alone, and the answer shows its recommendation, interval and call to copy."""
+    import numpy as np
+    import pandas as pd
 
     from pipeline.cli import main
 
-    data = tmp_path / "data"
-    shutil.copytree(ROOT / "data" / "robots", data / "robots")
-    shutil.copytree(ROOT / "data" / "published", data / "published")
-    (data / "studies").mkdir()
-    assert main(["import-urdf", str(ROOT / "tests" / "data" / "unseen_arm.urdf"), "--base", "base_link",
-                 "--tip", "flange", "--out", str(data / "robots" / "unseen_arm.yaml")]) == 0
-    st = yaml.safe_load((ROOT / "data" / "studies" / "arm_benchmark.yaml").read_text())
-    st["robots"] = ["unseen_arm"]  # the README adds it to the list; alone here to keep the test short
-    (data / "studies" / "arm_benchmark.yaml").write_text(yaml.safe_dump(st, sort_keys=False))
+    robot = tmp_path / "robots" / "my_ur5e.yaml"
+    robot.parent.mkdir()
+    assert main(["import-urdf", str(ROOT / "tests" / "data" / "xacro" / "my_ur5e.urdf.xacro"), "--base", "base_link",
+                 "--tip", "tool0", "--out", str(robot)]) == 0
     results = tmp_path / "r"
-    _snakemake(results, config=(f"data_dir={data}", "studies=[arm_benchmark]"))
-    table = pd.read_csv(results / "arm_benchmark" / "tables" / "robot_unseen_arm.csv")
-    best = table.groupby("problem set")["success [%]"].max()
-    assert (best > 90).all(), best
-    assert set(table["library"]) >= {"ours"}
-    refused = pd.read_csv(results / "arm_benchmark" / "tables" / "not_applicable.csv")
-    assert "analytic_ur" in set(refused["solver"])  # its axes are not the UR family ...
-    closed = table[table["solver"].isin(["analytic", "analytic_puma"])]  # ... but a spherical wrist: solved
-    assert len(closed) == 4 and (closed["success [%]"] == 100).all(), closed
-    assert 'id="answer-unseen_arm"' in (results / "report.html").read_text()
+    assert main(["benchmark-arm", str(robot), "--scale", "quick", "--results", str(results)]) == 0
+    assert sorted(p.name for p in (results / "arm_benchmark" / "runs" / "cold").glob("*.mcap"))[0].startswith("my_ur5e__")
+    assert {p.name.split("__")[0] for p in (results / "arm_benchmark" / "runs").rglob("*.mcap")} == {"my_ur5e"}
+    table = pd.read_csv(results / "arm_benchmark" / "tables" / "robot_my_ur5e.csv")
+    closed = table[table["solver"] == "analytic"]
+    assert len(closed) == 2 and (closed["success [%]"] == 100).all(), closed
+    ans = pd.read_csv(results / "arm_benchmark" / "tables" / "answer.csv")
+    assert list(ans["robot"]) == ["my_ur5e", "my_ur5e"] and ans["recommendation"].notna().all()
+    assert (ans["success CI high [%]"] >= ans["success [%]"]).all()
+    env: dict = {}
+    exec("import numpy as np\nfrom pipeline import robots, solvers, kinematics", env)  # noqa: S102
+    arm = env["robots"].load_robot(str(robot))
+    q = np.array([0.4, -1.1, 1.3, -0.6, 1.0, 0.3])
+    env.update(T_goal=env["kinematics"].fk_htm(arm.chain, q), q_start=np.zeros(6))
+    for call in ans["call"]:
+        res = eval(call, env)  # noqa: S307  (the call the report tells the user to copy)
+        assert res.success, call
+    html = (results / "report.html").read_text()
+    assert 'id="answer-my_ur5e"' in html and "budget_my_ur5e" in html and "solvers.solve(" in html
 
 
 def _verify(results):

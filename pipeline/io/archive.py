@@ -126,8 +126,8 @@ SOLVE_FIELDS = (
     (22, "info_json", None, 9),        # strict JSON array of the solves' info objects
     (23, "labels_json", None, 9),      # only when a solve's robot/solver/method/length_unit is not the
                                        # metadata's: strict JSON object of per-solve string columns
-    (24, "cpu_time_ns", "<u8", 6))     # per solve, when measured: CPU time of the process during the call
-                                       # (all its threads); absent in archives written before it
+    (24, "cpu_time_ns", "<u8", 6))     # per solve, when measured: CPU time of the call (pipeline.runner);
+                                       # absent in archives written before it
 SOLVE_MESSAGE = "ik_pipeline.SolveBatch"
 MESSAGES = {SOLVE_TOPIC: (SOLVE_MESSAGE, SOLVE_FIELDS, "ik_pipeline/solve_batch.proto"),
             TRACE_TOPIC: (TRACE_MESSAGE, TRACE_FIELDS, "ik_pipeline/trace_batch.proto"),
@@ -491,9 +491,13 @@ class ArchiveWriter(AtomicMcap):
             c["rows_stored"] += int(rows[keep].sum())
             self._add(self._ch[TRACE_TOPIC], _encode(TRACE_FIELDS, _trace_message(traces, keep)))
 
+    job_timing: dict | None = None  # set by the job before closing: written as the ``job_timing`` record
+
     def close(self) -> None:
         c = self._count
         self._w.add_metadata("traces", {"policy": self.policy.describe(), **{k: str(v) for k, v in c.items()}})
+        if self.job_timing:
+            self._w.add_metadata("job_timing", {k: str(v) for k, v in self.job_timing.items()})
         super().close()
 
 
@@ -660,12 +664,17 @@ class Archive:
         One record per solve (goal and start from the problem file).
     trace_summary : dict[str, str]
         The ``traces`` record: policy and counts of traces and stored traces.
+    job_timing : dict[str, str]
+        The ``job_timing`` record ({} in archives written without it): ``cpu_s`` and ``wall_s``, the
+        process CPU time and the wall time of the job's solving (archiving excluded), and ``cpu_share``
+        = cpu_s / wall_s (below 0.9: the job did not get a core to itself).
     """
 
     path: Path
     metadata: dict[str, str]
     solves: list[dict]
     trace_summary: dict = field(default_factory=dict)
+    job_timing: dict = field(default_factory=dict)
     _trace_index: dict | None = None
     _solutions: dict | None = None
     _by_key: dict | None = None
@@ -1059,12 +1068,14 @@ def read_archive(path: str | Path, problems: str | Path | None = None) -> Archiv
             summary = reader.get_summary()
             if summary is None:
                 raise ArchiveError(f"{path}: truncated archive (no summary section; the job did not finish)")
-            meta, traces = None, {}
+            meta, traces, timing = None, {}, {}
             for rec in reader.iter_metadata():
                 if rec.name == "run":
                     meta = dict(rec.metadata)
                 elif rec.name == "traces":
                     traces = dict(rec.metadata)
+                elif rec.name == "job_timing":
+                    timing = dict(rec.metadata)
     except ArchiveError:
         raise
     except Exception as exc:
@@ -1090,4 +1101,4 @@ def read_archive(path: str | Path, problems: str | Path | None = None) -> Archiv
     if probs.isdigit() and reps.isdigit() and len(solves) != int(probs) * int(reps):
         raise ArchiveError(f"{path}: {len(solves)} solve records, metadata field 'problems' promises "
                            f"{int(probs) * int(reps)}")
-    return Archive(path, meta, solves, traces)
+    return Archive(path, meta, solves, traces, timing)

@@ -106,10 +106,30 @@ def aggregate_tables(study_path, archive_paths, published, out_dir) -> str:
     archives = [read_archive(p) for p in archive_paths]
     tables = build_study_tables(study, archives, Path(published))
     write_tables(tables, Path(out_dir))
+    samples = write_samples(study.id, archives, Path(out_dir) / SAMPLES_FILE)
     prov = [{"archive": _results_relative(a.path, study.id), "problems": len(a.solves), **a.metadata}
             for a in archives]
     (Path(out_dir) / "provenance.json").write_text(json.dumps(prov, indent=1))
-    return f"wrote {len(tables)} tables to {out_dir}"
+    return f"wrote {len(tables)} tables and {samples} per-solve rows ({SAMPLES_FILE}) to {out_dir}"
+
+
+SAMPLES_FILE = "solves.csv.gz"
+
+
+def write_samples(study_id: str, archives, path: Path) -> int:
+    """The per-sample file of a study: one CSV row per solve (:data:`pipeline.studies.generic.SAMPLE_COLUMNS`),
+    gzip-compressed without a timestamp (the same archives give the same bytes); returns the row count."""
+    import gzip
+
+    from pipeline.studies.generic import samples_frame
+
+    df = samples_frame(study_id, archives)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(path.name + ".partial")
+    with open(partial, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0, filename="") as fh:
+        fh.write(df.to_csv(index=False, float_format="%.9g", lineterminator="\n").encode())
+    partial.replace(path)
+    return len(df)
 
 
 

@@ -25,7 +25,8 @@ def _write_checked(out: Path, text: str, check) -> None:
 
 
 
-def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, length_unit: str = "m") -> str:
+def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, length_unit: str = "m",
+                xacro_args: dict | None = None) -> str:
     """Write ``out`` (a robot file, general joint form) from the URDF chain ``base`` ... ``tip``; returns what to print."""
     from pipeline.robots import load_robot
     from pipeline.urdf import URDFImportError, imported_yaml
@@ -36,7 +37,7 @@ def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, leng
         raise UsageError(f"--name {name!r}: a robot file's name must equal its file name; use --out "
                        f"{out.with_name(name + (out.suffix or '.yaml'))}")
     try:
-        text = imported_yaml(urdf, base, tip, name=name, length_unit=length_unit)
+        text = imported_yaml(urdf, base, tip, name=name, length_unit=length_unit, xacro_args=xacro_args)
     except URDFImportError as exc:
         raise UsageError(f"URDFImportError: {exc}") from None
     _write_checked(out, text, load_robot)

@@ -73,9 +73,12 @@ def _fmt(x) -> str:
 
 
 def _cell(x) -> str:
+    """A table cell: 4 significant digits, but no e-notation from 1 000 on (times in µs: 12,345)."""
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "—"
-    return f"{x:.4g}" if isinstance(x, float) else str(x)
+    if isinstance(x, float):
+        return f"{x:,.0f}" if abs(x) >= 1000 else f"{x:.4g}"
+    return str(x)
 
 
 def _text_px(text: str, bold: bool = False) -> float:
@@ -152,13 +155,14 @@ def archive_host(record: dict) -> str:
 def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | None:
     """The at-a-glance answer of a benchmark study (``tables/answer.csv``), or None.
 
-    Per robot: the answer sentences, its table ``robot_<name>`` and its figures (``extra.robot``);
-    the heat maps (``extra.answer``) go first.
+    Per robot: the recommendation sentences and calls to copy, its key table ``key_<name>`` (shown),
+    its full table ``robot_<name>`` (folded) and its figures (``extra.robot``); the heat maps
+    (``extra.answer``) go first.
     """
     f = folder / "tables" / "answer.csv"
     if not f.is_file():
         return None
-    ans = pd.read_csv(f)
+    ans = pd.read_csv(f, keep_default_na=False)
     if ans.empty or "answer" not in ans:
         return None
     by_name = {t["name"]: t for t in tables}
@@ -167,9 +171,20 @@ def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | Non
         table = by_name.get(f"robot_{robot}")
         if table is None:
             continue
-        robots.append({"robot": robot, "sentences": list(g["answer"]), "table": table,
+        calls = []
+        if "call" in g:
+            for pset, call in zip(g["problem set"], g["call"]):
+                if call and call not in [c for _, c in calls]:
+                    calls.append((pset, call))
+        robots.append({"robot": robot, "sentences": list(g["answer"]), "table": table, "calls": calls,
+                       "key": by_name.get(f"key_{robot}"),
                        "figures": [x for x in figures if x.get("extra", {}).get("robot") == robot]})
-    return {"robots": robots, "figures": [x for x in figures if x.get("extra", {}).get("answer")]}
+    samples = folder / "tables" / SAMPLES_NAME
+    return {"robots": robots, "figures": [x for x in figures if x.get("extra", {}).get("answer")],
+            "samples": f"{folder.name}/tables/{SAMPLES_NAME}" if samples.is_file() else ""}
+
+
+SAMPLES_NAME = "solves.csv.gz"  # the per-sample file aggregate_tables writes (pipeline.jobs.build.SAMPLES_FILE)
 
 
 HEAD_TABLES = ("claims", "not_reproduced")  # pipeline.studies.claims: shown first in a study's section
@@ -214,7 +229,8 @@ def study_context(study: Study, results: Path) -> dict:
     answer = _answer(folder, tables, figures)
     if answer:
         answer["id"] = study.id  # shown at the top of the report; the study's section keeps the rest
-        shown = {id(x) for r in answer["robots"] for x in (r["table"], *r["figures"])} | {id(f) for f in answer["figures"]}
+        shown = ({id(x) for r in answer["robots"] for x in (r["table"], r["key"], *r["figures"]) if x is not None}
+                 | {id(f) for f in answer["figures"]})
         tables = [t for t in tables if id(t) not in shown and t["name"] != "answer"]
         figures = [f for f in figures if id(f) not in shown]
     head = [t for t in tables if t["name"] in HEAD_TABLES]  # claims and not-reproduced: top of the section
@@ -227,6 +243,7 @@ def study_context(study: Study, results: Path) -> dict:
         "solvers_html": solvers_html,
         "interpretations": study.doc["interpretations"], "tables": tables, "figures": figures,
         "provenance": provenance, "benchmarks": benchmarks,
+        "samples": f"{study.id}/tables/{SAMPLES_NAME}" if (folder / "tables" / SAMPLES_NAME).is_file() else "",
         # machines the solves ran on (a cluster run): timings of different machines are not comparable
         "hosts": sorted({p["host"] for p in provenance} - {""}),
     }

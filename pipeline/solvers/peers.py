@@ -482,7 +482,8 @@ def _tracik_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Trac
 
 register(Solver("trac_ik", f"TRAC-IK via pytracik: KDL Newton-Raphson restarts and NLopt SQP racing on two threads "
                 f"within a time budget (not deterministic; peer baseline; {TIME})", "global", TracIKSettings,
-                _tracik_run, applies_to=_tracik_applies, source=SOURCE_TRACIK, library="pytracik"))
+                _tracik_run, applies_to=_tracik_applies, source=SOURCE_TRACIK, library="pytracik",
+                own_threads=True))
 
 
 # ---- Pinocchio CLIK --------------------------------------------------------------------------

@@ -47,6 +47,8 @@ class Solver:
     batch : callable, optional      ``batch(prep, settings, goals, starts, seeds, threads, traces) ->
                                     BatchRaw``: N problems in one compiled call (see
                                     :func:`solve_batch`); without it a batch runs ``run`` per problem
+    own_threads : bool              the method runs threads of its own (TRAC-IK's two racing solvers): its
+                                    CPU time is the process's, not the calling thread's
     library : str                   "ours" (this package's own implementation) or the peer library's
                                     package name (tables and figures read it from here or from the
                                     archive's metadata, never from a setting)
@@ -72,6 +74,7 @@ class Solver:
     batch: Callable | None = None
     bind_call: Callable | None = None
     library: str = "ours"
+    own_threads: bool = False
 
     @property
     def peer(self) -> bool:

@@ -15,9 +15,10 @@
     conversion, the kernel, the FK check and building the result.
 
 ``cpu_time_s``
-    The CPU time of the process (every thread) during the call, read by the runner around each call
-    (or around a batch kernel and shared out over its problems by their solve times): the time that
-    machine load does not move. Σ cpu / Σ call over a job is its CPU share; below 0.9 the job did
+    The CPU time of the calling thread during the call (of the whole process for a method with
+    threads of its own, TRAC-IK), read by the runner around each call (or the process's around a
+    batch kernel, shared out over its problems by their solve times): the time that machine load
+    does not move. Σ cpu / Σ call over a job is its CPU share; below 0.9 the job did
     not get a core to itself and its wall-clock times (and any wall-clock budget, TRAC-IK's) are
     suspect (:mod:`pipeline.studies.arm_benchmark` flags it).
 

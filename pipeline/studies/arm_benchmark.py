@@ -2,25 +2,35 @@
 catalogue arm, cold and warm starts, computed from the archives alone.
 
 Tables
-    ``answer`` — one sentence per robot and problem set: the method that solves the most goals and
-    the fastest among those within 1 percentage point of it (median solve time).
-    ``robot_<name>`` — one table per robot: per solver label and problem set, success, returned
-    solutions within the limits, median and p95 solve time, median iterations, p99 position and
-    orientation error of the successes.
+    ``answer`` — one row per robot and problem set: the recommendation (label, method, library,
+    settings, success with its Wilson 95 % interval, median CPU time) and the Python call to copy.
+    ``key_<robot>`` — at most 8 key labels per robot (the recommendation, best closed form of ours
+    and of a peer, best single search, best with restarts, TRAC-IK, the Robotics Toolbox's LM), both
+    problem sets, with intervals, time percentiles and the joint distance to the start.
+    ``robot_<name>`` — every label on that robot, both problem sets, in one table.
     ``heatmap`` — the robots x methods success rates behind the heat map.
     ``not_applicable`` — every (robot, solver) pair the study skipped, with the solver's reason.
 Figures
-    ``heatmap_<set>`` — success rate, robots x solver labels; ``tradeoff_<robot>`` — success versus
-    median solve time, one point per method (ours circles, peers squares; cold filled, warm open).
+    ``heatmap_<set>`` — success rate, robots x solver labels; ``budget_<robot>`` — per key label, the
+    share of goals solved within a time budget (10 µs to 10 ms) and the distributions of CPU time and
+    of the position error of the successes.
 
-A solver label's *search* is "single" or "restarts (<= N)" from its archived settings; the peers'
-time is their whole library call, ours the method's own computation (the archive's ``timing``
-metadata); call time (the whole ``pipeline.solvers.solve`` call, FK check included) is shown for both.
+The rule (written once, here, and quoted in the tables' notes)
+    Labels compete on a problem set when they ran at least ``MIN_SHARE`` of its goals and their job
+    got at least ``MIN_CPU_SHARE`` of a core (CPU time / wall time over its solves; a starved job is
+    flagged and not ranked). The best is the label with the highest success rate. A label is *not
+    significantly worse* when, on the goals both ran (paired), the one-sided exact McNemar test does
+    not find it worse at the 5 % level (:func:`worse_p`); every rate is shown with its Wilson 95 %
+    interval. Among those, a closed form (registry kind ``analytic``) wins; the
+    recommendation is then the fastest by median CPU time of the whole call, the time machine load
+    does not move. Method and library come from the registry (archived as metadata), never from a
+    setting.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -29,9 +39,34 @@ import pandas as pd
 from pipeline.studies import FigureSpec, TableSpec
 from pipeline.studies.generic import runs_frame
 
-PEERS = ("rtb_ik_lm", "rtb_ik_nr", "rtb_ik_gn", "trac_ik", "pinocchio_clik", "ur_analytic_ik", "eaik", "ik_geo")
-CLOSE_PP = 1.0  # "within 1 percentage point" of the best success rate
 MIN_SHARE = 0.1  # labels run on at least this share of a set's goals compete for the answer
+MIN_CPU_SHARE = 0.9  # a job whose solves got less CPU than this share of their wall time is starved
+Z95 = 1.959963984540054  # two-sided 95 % normal quantile (Wilson interval)
+ALPHA = 0.05  # a label is significantly worse than the best when the one-sided McNemar p-value is below this
+SMOKE_GOALS = 200  # below this many goals per set the answer is a smoke run, not a recommendation
+KEY_ROWS = 8
+BUDGETS_US = np.logspace(1, 4, 61)  # 10 µs .. 10 ms
+
+
+def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion k / n, as fractions (NaN, NaN when n = 0)."""
+    if n <= 0:
+        return math.nan, math.nan
+    p = k / n
+    den = 1 + z * z / n
+    mid = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return (0.0 if k == 0 else max(0.0, mid - half)), (1.0 if k == n else min(1.0, mid + half))
+
+
+def worse_p(only_best: int, only_other: int) -> float:
+    """One-sided exact McNemar p-value that a label is worse than the best on the goals both ran:
+    ``only_best`` goals the best solved and the label did not, ``only_other`` the reverse; under
+    "equally good" each such goal is a fair coin, so p = P(X >= only_best), X ~ Binomial(sum, 1/2)."""
+    n = only_best + only_other
+    if only_best == 0:
+        return 1.0
+    return sum(math.comb(n, i) for i in range(only_best, n + 1)) / 2.0 ** n
 
 
 def _p(x, q) -> float:
@@ -40,58 +75,187 @@ def _p(x, q) -> float:
     return float(np.percentile(x, q)) if x.size else float("nan")
 
 
-def _labels_meta(archives) -> dict:
-    """Solver label -> (method, search) from the archives' settings."""
+def _kind(method: str) -> str:
+    from pipeline.solvers import registry
+
+    return registry.get(method).kind if method in registry.names() else "local"
+
+
+def _joint_distance(g: pd.DataFrame) -> np.ndarray:
+    """Per solve: |q_solution - q_start| (Euclidean over the joints [rad | length unit]), revolute
+    differences wrapped into (-pi, pi] so a 2 pi turn is no distance."""
+    q = np.array(g["q_solution"].tolist(), dtype=float)
+    q0 = np.array(g["q_start"].tolist(), dtype=float)
+    if q.ndim != 2 or q.shape != q0.shape:
+        return np.full(len(g), np.nan)
+    d = (q - q0 + np.pi) % (2 * np.pi) - np.pi
+    return np.sqrt((d * d).sum(axis=1))
+
+
+def label_settings(archives) -> dict:
+    """Solver label -> (method, non-default settings as a dict) from the archives' settings."""
+    from pipeline.solvers import registry
+
     out = {}
     for a in archives:
+        label = a.metadata["solver"]
+        if label in out:
+            continue
         s = json.loads(a.metadata["settings"])
-        r = int(s.get("restarts", 0) or 0)
-        out[a.metadata["solver"]] = (s.get("method", a.metadata["solver"]), f"restarts (<= {r})" if r else "single")
+        method = a.metadata.get("method") or s.get("method", label)
+        s.pop("method", None)
+        try:
+            defaults = registry.get(method).settings().as_dict()
+        except Exception:  # noqa: BLE001  (a method this machine does not register: keep every setting)
+            defaults = {}
+        out[label] = (method, {k: v for k, v in s.items() if k not in defaults or defaults[k] != v})
     return out
 
 
-def method_table(df: pd.DataFrame, meta: dict) -> pd.DataFrame:
-    """One row per (robot, problem set, solver label)."""
+def job_timing(archives) -> dict:
+    """Archive path -> (CPU s, wall s) of its job's solving (the archive's ``job_timing`` record)."""
+    out = {}
+    for a in archives:
+        t = a.job_timing or {}
+        try:
+            out[str(a.path)] = (float(t["cpu_s"]), float(t["wall_s"]))
+        except (KeyError, ValueError):
+            continue
+    return out
+
+
+def method_table(df: pd.DataFrame, meta: dict, timing: dict | None = None) -> pd.DataFrame:
+    """One row per (robot, problem set, solver label); ``timing``: :func:`job_timing` (the CPU share of
+    a label is its jobs' CPU / wall time of solving; without it, its solves' CPU / call time)."""
     rows = []
     for (robot, pset, label), g in df.groupby(["robot", "problem_set", "solver"], sort=False):
-        method, search = meta.get(label, (g["method"].iloc[0], "single"))
+        method = g["method"].iloc[0]
+        library = g["library"].iloc[0] if "library" in g else "ours"
+        settings = meta.get(label, (method, {}))[1]
+        r = int(settings.get("restarts", 0) or 0)
         ok = g[g["success"].astype(bool)]
+        k, n = int(g["success"].astype(bool).sum()), len(g)
+        lo, hi = wilson(k, n)
+        cpu = g["cpu_time_s"].to_numpy(dtype=float) if "cpu_time_s" in g else np.full(n, np.nan)
+        call = g["call_time_s"].to_numpy(dtype=float)
+        jobs = [timing[a] for a in g["archive"].unique() if a in (timing or {})]
+        if jobs:
+            share = sum(c for c, _ in jobs) / max(sum(w for _, w in jobs), 1e-12)
+        elif np.isfinite(cpu).any() and np.nansum(call) > 0:
+            share = float(np.nansum(cpu) / np.nansum(call))
+        else:
+            share = math.nan
         rows.append({
-            "robot": robot, "problem set": pset, "solver": label, "method": method,
-            "library": "peer" if method in PEERS else "ours", "search": search, "problems": len(g),
-            "success [%]": 100 * g["success"].astype(bool).mean(),
+            "robot": robot, "problem set": pset, "solver": label, "method": method, "library": library,
+            "kind": _kind(method), "search": f"restarts (<= {r})" if r else "single", "problems": n,
+            "success [%]": 100 * k / n, "success CI low [%]": 100 * lo, "success CI high [%]": 100 * hi,
             "within limits [%]": 100 * g["within_limits"].astype(bool).mean(),
+            "CPU time p50 [µs]": 1e6 * _p(cpu, 50), "CPU time p95 [µs]": 1e6 * _p(cpu, 95),
+            "call time p50 [µs]": 1e6 * _p(call, 50), "call time p95 [µs]": 1e6 * _p(call, 95),
             "solve time p50 [µs]": 1e6 * _p(g["solve_time_s"], 50),
-            "solve time p95 [µs]": 1e6 * _p(g["solve_time_s"], 95),
-            "call time p50 [µs]": 1e6 * _p(g["call_time_s"], 50),
+            "CPU share [%]": 100 * share,
             "iterations p50": _p(g["iterations"], 50),
+            "joint distance to start p50, successes [rad]": _p(_joint_distance(ok), 50) if len(ok) else math.nan,
             "position error p99, successes [mm]": _p(ok["position_error_mm"], 99),
             "orientation error p99, successes [rad]": _p(ok["orientation_error"], 99),
         })
-    return pd.DataFrame(rows)
+    out = pd.DataFrame(rows)
+    out["starved"] = out["CPU share [%]"] < 100 * MIN_CPU_SHARE  # NaN (not measured) is not starved
+    out["rank time p50 [µs]"] = out["CPU time p50 [µs]"].fillna(out["call time p50 [µs]"])
+    return out
 
 
-def answers(mt: pd.DataFrame) -> pd.DataFrame:
-    """Per (robot, problem set), among the labels run on at least ``MIN_SHARE`` of the goals: the one
-    that solves the most goals (ties: faster) and the fastest label within 1 percentage point of it, both by median *call* time (the
-    whole ``solve()`` call, the one time measured the same way for our methods and the peers)."""
+def _ids(df: pd.DataFrame) -> dict:
+    """(robot, problem set, label) -> Series success indexed by problem id (first repetition)."""
+    out = {}
+    for key, g in df[df["repetition"] == 0].groupby(["robot", "problem_set", "solver"], sort=False):
+        out[key] = pd.Series(g["success"].astype(bool).to_numpy(), index=g["problem_id"].to_numpy())
+    return out
+
+
+def python_call(robot: str, method: str, settings: dict, robot_file: str = "") -> str:
+    """The call a user copies: ``pipeline.solvers.solve`` with the label's non-default settings."""
+    from pipeline.robots import ROBOT_FILES
+
+    where = robot if (ROBOT_FILES / f"{robot}.yaml").is_file() or not robot_file else robot_file
+    args = ", ".join(f"{k!r}: {v!r}" for k, v in sorted(settings.items()))
+    return (f"solvers.solve({method!r}, robots.load_robot({where!r}), T_goal, q_start"
+            + (f", {{{args}}})" if args else ")"))
+
+
+def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", robot_files: dict | None = None
+            ) -> pd.DataFrame:
+    """One recommendation per (robot, problem set) by the module's rule (see the module docstring)."""
+    succ = _ids(df)
     rows = []
     for (robot, pset), g in mt.groupby(["robot", "problem set"], sort=False):
-        g = g[g["problems"] >= MIN_SHARE * g["problems"].max()]  # not the slow labels capped to a few goals
-        g = g.sort_values(["success [%]", "problems", "call time p50 [µs]"],
-                                             ascending=[False, False, True])
-        top = g.iloc[0]
-        near = g[g["success [%]"] >= top["success [%]"] - CLOSE_PP].sort_values("call time p50 [µs]")
-        fast = near.iloc[0]
-        text = (f"{robot}, {pset} starts: {top['solver']} solves the most goals ({top['success [%]']:.1f} % of "
-                f"{int(top['problems'])}); the fastest within {CLOSE_PP:g} point of it is {fast['solver']} "
-                f"({fast['success [%]']:.1f} % of {int(fast['problems'])}, median {fast['call time p50 [µs]']:.0f} µs "
-                f"per call).")
-        rows.append({"robot": robot, "problem set": pset, "most goals": top["solver"],
-                     "success [%]": top["success [%]"], "goals": int(top["problems"]),
-                     "fastest within 1 point": fast["solver"], "its success [%]": fast["success [%]"],
-                     "its call time p50 [µs]": fast["call time p50 [µs]"], "answer": text})
+        starved = g[g["starved"]]
+        cand = g[(g["problems"] >= MIN_SHARE * g["problems"].max()) & ~g["starved"]]
+        base = {"robot": robot, "problem set": pset, "goals": int(g["problems"].max()),
+                "starved labels": ", ".join(starved["solver"])}
+        if cand.empty:
+            rows.append({**base, "recommendation": "", "answer": (
+                f"{robot}, {pset} starts: no recommendation: every label's job got less than "
+                f"{MIN_CPU_SHARE:.0%} of a core ({', '.join(starved['solver'])}); rebuild on a quiet machine.")})
+            continue
+        best = cand.sort_values(["success [%]", "problems", "rank time p50 [µs]"], ascending=[False, False, True]).iloc[0]
+        b = succ.get((robot, pset, best["solver"]))
+        ok_rows = []
+        for _, c in cand.iterrows():
+            s = succ.get((robot, pset, c["solver"]))
+            common = s.index.intersection(b.index) if s is not None and b is not None else []
+            if len(common) == 0:
+                continue
+            sc, sb = s.loc[common].to_numpy(), b.loc[common].to_numpy()
+            if worse_p(int((sb & ~sc).sum()), int((sc & ~sb).sum())) >= ALPHA:
+                ok_rows.append(c)
+        pool = pd.DataFrame(ok_rows)
+        closed = pool[pool["kind"] == "analytic"]
+        pick = (closed if len(closed) else pool).sort_values(["rank time p50 [µs]", "success [%]"],
+                                                              ascending=[True, False]).iloc[0]
+        method, settings = meta.get(pick["solver"], (pick["method"], {}))
+        call = python_call(robot, method, settings, (robot_files or {}).get(robot, ""))
+        smoke = scale == "quick" or int(g["problems"].max()) < SMOKE_GOALS
+        text = (f"{robot}, {pset} starts: use {pick['solver']} ({method}, {pick['library']}"
+                f"{', ' + ', '.join(f'{k}={v}' for k, v in sorted(settings.items())) if settings else ''}): "
+                f"{pick['success [%]']:.1f} % of {int(pick['problems'])} goals "
+                f"(95 % CI {pick['success CI low [%]']:.1f}-{pick['success CI high [%]']:.1f}), median "
+                f"{pick['rank time p50 [µs]']:.0f} µs CPU per call; the best rate is {best['solver']}'s "
+                f"{best['success [%]']:.1f} %, and {len(pool)} label(s) are not significantly worse"
+                f"{' (a closed form among them wins)' if len(closed) else ''}.")
+        if smoke:
+            text += (f" Smoke run ({int(g['problems'].max())} goals at most, scale {scale or '?'}): the intervals "
+                     f"are wide and most labels tie; not a recommendation.")
+        if len(starved):
+            text += f" Not ranked (job starved of CPU): {', '.join(starved['solver'])}."
+        rows.append({**base, "recommendation": pick["solver"], "method": method, "library": pick["library"],
+                     "settings": json.dumps(settings, sort_keys=True),
+                     "success [%]": pick["success [%]"], "success CI low [%]": pick["success CI low [%]"],
+                     "success CI high [%]": pick["success CI high [%]"], "its goals": int(pick["problems"]),
+                     "CPU time p50 [µs]": pick["rank time p50 [µs]"], "best rate label": best["solver"],
+                     "best rate [%]": best["success [%]"], "not significantly worse": ", ".join(pool["solver"]),
+                     "smoke run": smoke, "call": call, "answer": text})
     return pd.DataFrame(rows)
+
+
+def key_labels(mt: pd.DataFrame, ans: pd.DataFrame, robot: str) -> list[str]:
+    """At most :data:`KEY_ROWS` labels of one robot: the recommendations, then the best (success, then
+    CPU time, on the cold set where it ran) of each group: closed form ours / peer, single search,
+    restarts, TRAC-IK, the Robotics Toolbox's LM (single and restarts), Pinocchio's CLIK."""
+    g = mt[mt["robot"] == robot]
+    order = g.assign(_cold=g["problem set"] != "cold").sort_values(
+        ["_cold", "success [%]", "rank time p50 [µs]"], ascending=[True, False, True])
+    picks = [x for x in ans.loc[ans["robot"] == robot, "recommendation"] if isinstance(x, str) and x]
+    ours = order["library"] == "ours"
+    groups = [order[ours & (order["kind"] == "analytic")], order[~ours & (order["kind"] == "analytic")],
+              order[ours & (order["kind"] != "analytic") & (order["search"] == "single")],
+              order[ours & (order["kind"] != "analytic") & (order["search"] != "single")],
+              order[order["method"] == "trac_ik"], order[order["solver"] == "rtb_ik_lm"],
+              order[order["solver"] == "rtb_ik_lm_restarts"], order[order["method"] == "pinocchio_clik"]]
+    for grp in groups:
+        if len(grp):
+            picks.append(grp["solver"].iloc[0])
+    return list(dict.fromkeys(picks))[:KEY_ROWS]
 
 
 def _refusals(study) -> pd.DataFrame:
@@ -110,30 +274,63 @@ def _refusals(study) -> pd.DataFrame:
     return out
 
 
+def _scale(archives) -> str:
+    scales = {a.metadata.get("scale", "") for a in archives}
+    return scales.pop() if len(scales) == 1 else ", ".join(sorted(scales))
+
+
+def _robot_files(archives) -> dict:
+    return {a.metadata["robot"]: a.metadata.get("robot_file", "") for a in archives}
+
+
+RULE = (f"Labels run on at least {MIN_SHARE:.0%} of a set's goals whose job got at least {MIN_CPU_SHARE:.0%} of a "
+        f"core compete; the best is the highest success rate; a label is not significantly worse when, on the "
+        f"goals both ran, a one-sided exact McNemar test does not find it worse at the {ALPHA:.0%} level; "
+        f"intervals are Wilson 95 %; among those a "
+        f"closed form wins, then the fastest by median CPU time of the whole call (the time machine load does "
+        f"not move). Success = pose within 0.1 mm and 1e-3 rad by an independent FK AND the returned angles "
+        f"within the joint limits (revolute joints wrapped by 2 pi; 1e-6 rad tolerance for every method, "
+        f"pipeline.solvers._kin.LIMIT_TOL).")
+
+_FULL_COLUMNS = ["problem set", "solver", "method", "library", "search", "problems", "success [%]",
+                 "success CI low [%]", "success CI high [%]", "within limits [%]", "CPU time p50 [µs]",
+                 "call time p50 [µs]", "call time p95 [µs]", "CPU share [%]", "iterations p50",
+                 "position error p99, successes [mm]", "orientation error p99, successes [rad]"]
+_KEY_COLUMNS = ["solver", "problem set", "library", "problems", "success [%]", "success CI low [%]",
+                "success CI high [%]", "CPU time p50 [µs]", "CPU time p95 [µs]", "call time p50 [µs]",
+                "joint distance to start p50, successes [rad]", "position error p99, successes [mm]"]
+
+
 def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     df = runs_frame(archives)
     refused = _refusals(study)
     if df.empty:
         return [TableSpec("answer", "Answer", pd.DataFrame(), "No solve records in the archives.")]
-    mt = method_table(df, _labels_meta(archives))
-    ans = answers(mt)
-    tables = [TableSpec(
-        "answer", "Which method for which arm (from the archives)", ans,
-        f"Per robot and problem set: the solver label with the highest FK-verified success within the joint "
-        f"limits (ties: faster), and the fastest label among those within {CLOSE_PP:g} "
-        f"percentage point of it, by median call time (the whole pipeline.solvers.solve() call, measured the "
-        f"same way for our methods and the peer libraries). Labels run on at least {MIN_SHARE:.0%} of the set's goals "
-        f"compete (each rate is over the first N goals of the same file, N in the per-robot tables; the slow "
-        f"labels capped to fewer goals by solver_counts are in those tables only).")]
+    meta = label_settings(archives)
+    mt = method_table(df, meta, job_timing(archives))
+    ans = answers(mt, df, meta, _scale(archives), _robot_files(archives))
+    tables = [TableSpec("answer", "Which method for which arm (from the archives)", ans,
+                        f"Per robot and problem set, one recommendation. {RULE} The call column is the "
+                        f"pipeline.solvers.solve() call with the label's settings that differ from the registry's "
+                        f"defaults (T_goal: 4x4 pose in the robot file's unit; q_start: start angles).")]
     for robot, g in mt.groupby("robot", sort=False):
-        g = g.sort_values(["problem set", "success [%]", "solve time p50 [µs]"], ascending=[True, False, True])
+        keys = key_labels(mt, ans, robot)
+        k = g[g["solver"].isin(keys)].copy()
+        k["_o"] = k["solver"].map({s: i for i, s in enumerate(keys)})
+        k = k.sort_values(["_o", "problem set"])[_KEY_COLUMNS]
         tables.append(TableSpec(
-            f"robot_{robot}", f"{robot}: every method, cold and warm starts", g.drop(columns=["robot"]),
-            "Success = pose within 0.1 mm and 1e-3 rad by an independent FK AND the returned angles within the "
-            "joint limits (revolute joints wrapped by 2 pi). Within limits = share of all returned solutions "
-            "inside the limits. Solve time: ours = the method's computation, peers = the whole library call "
-            "(with its Python binding); call time = the whole pipeline.solvers.solve() call for both. "
-            "Errors: 99th percentile over the successes."))
+            f"key_{robot}", f"{robot}: the key methods, with 95 % intervals", k,
+            "At most 8 labels: the recommendation(s), then the best closed form (ours, then a peer's), best single "
+            "search, best with restarts, TRAC-IK (its default 5 ms budget), the Robotics Toolbox's LM and "
+            "Pinocchio's CLIK. CPU time = CPU time of the whole solve() call (the calling thread's; the process's for TRAC-IK, whose two threads both count); joint distance on the "
+            "successes (warm set: the distance to the seed). " + RULE))
+        full = g.sort_values(["problem set", "success [%]", "rank time p50 [µs]"], ascending=[True, False, True])
+        tables.append(TableSpec(
+            f"robot_{robot}", f"{robot}: every method, cold and warm starts", full[_FULL_COLUMNS],
+            "Within limits = share of all returned solutions inside the limits. CPU time = CPU time of the whole "
+            "pipeline.solvers.solve() call (the calling thread's; TRAC-IK: the process's); call time = its wall time (peers: their whole library call "
+            "inside it); CPU share = CPU / wall time over the label's solves (below 90 %: the job was starved). "
+            "Errors: 99th percentile over the successes. " + RULE))
     heat = mt.pivot_table(index="robot", columns=["problem set", "solver"], values="success [%]", sort=False)
     heat.columns = [f"{s} [{p}] success [%]" for p, s in heat.columns]
     tables.append(TableSpec("heatmap", "Success rate, robots x solver labels", heat.reset_index(),
@@ -150,49 +347,83 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     df = runs_frame(archives)
     if df.empty:
         return []
-    mt = method_table(df, _labels_meta(archives))
+    meta = label_settings(archives)
+    mt = method_table(df, meta, job_timing(archives))
+    ans = answers(mt, df, meta, _scale(archives), _robot_files(archives))
     figs = []
     for pset, g in mt.groupby("problem set", sort=False):
         H = g.pivot_table(index="robot", columns="solver", values="success [%]", sort=False)
-        fig, ax = plt.subplots(figsize=(0.42 * H.shape[1] + 3.0, 0.42 * H.shape[0] + 2.6))
+        # sized for the report's text column (about 1 000 px at a 1 400 px window): one inch per ~3.3 labels,
+        # and cell numbers at 9 pt
+        fig, ax = plt.subplots(figsize=(max(9.0, 0.3 * H.shape[1] + 2.5), 0.34 * H.shape[0] + 2.8))
         im = ax.imshow(H.to_numpy(dtype=float), vmin=0, vmax=100, cmap="viridis", aspect="auto")
-        ax.set_xticks(np.arange(H.shape[1]), H.columns, rotation=60, ha="right", fontsize=8)
-        ax.set_yticks(np.arange(H.shape[0]), H.index, fontsize=8)
+        ax.set_xticks(np.arange(H.shape[1]), H.columns, rotation=70, ha="right", fontsize=9)
+        ax.set_yticks(np.arange(H.shape[0]), H.index, fontsize=10)
         for (i, j), v in np.ndenumerate(H.to_numpy(dtype=float)):
             if np.isfinite(v):
-                ax.text(j, i, f"{v:.0f}", ha="center", va="center", fontsize=6, color="w" if v < 60 else "k")
-        fig.colorbar(im, ax=ax, label="FK-verified success within limits [%]")
+                ax.text(j, i, f"{v:.0f}", ha="center", va="center", fontsize=7.5 if v < 100 else 6.5,
+                        color="w" if v < 60 else "k")
+        fig.colorbar(im, ax=ax, label="FK-verified success within limits [%]", fraction=0.03, pad=0.01)
         ax.set_title(f"Success rate, {pset} starts (blank: solver does not apply)")
         fig.tight_layout()
-        figs.append(FigureSpec(save(fig, out_dir, f"heatmap_{pset}"), f"Success rate: robots x methods, {pset} starts",
+        figs.append(FigureSpec(save(fig, out_dir, f"heatmap_{pset}", svg=False),
+                               f"Success rate: robots x methods, {pset} starts",
                                "Share of goals with an FK-verified success within the joint limits, per robot (rows) "
                                "and solver label (columns); blank cells: the solver does not apply to that robot.",
                                extra={"answer": True}))
     for robot, g in mt.groupby("robot", sort=False):
-        fig, ax = plt.subplots(figsize=(8.5, 5.2))
-        for _, r in g.iterrows():
-            peer = r["library"] == "peer"
-            cold = r["problem set"] == "cold"
-            col = "tab:red" if peer else "tab:blue"
-            ax.scatter(r["solve time p50 [µs]"], r["success [%]"], marker="s" if peer else "o", s=36,
-                       facecolors=col if cold else "none", edgecolors=col)
-            ax.annotate(r["solver"], (r["solve time p50 [µs]"], r["success [%]"]), fontsize=6,
-                        xytext=(3, 2), textcoords="offset points")
-        ax.set_xscale("log")
-        ax.set_xlabel("median solve time [µs] (log; peers: whole library call)")
-        ax.set_ylabel("FK-verified success within limits [%]")
-        ax.set_ylim(-3, 103)
-        from matplotlib.lines import Line2D
-
-        handles = [Line2D([], [], marker="o", ls="", color="tab:blue", label="ours"),
-                   Line2D([], [], marker="s", ls="", color="tab:red", label="peer library"),
-                   Line2D([], [], marker="o", ls="", color="k", label="cold starts (filled)"),
-                   Line2D([], [], marker="o", ls="", mfc="none", color="k", label="warm starts (open)")]
-        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-        ax.set_title(f"{robot}: success versus solve time, one point per method and start set")
-        fig.tight_layout()
-        figs.append(FigureSpec(save(fig, out_dir, f"tradeoff_{robot}"), f"{robot}: success versus median solve time",
-                               "One point per solver label and problem set: ours (circles) and peer libraries "
-                               "(squares), cold starts filled and warm starts open. Up and left is better.",
+        keys = key_labels(mt, ans, robot)
+        sets = list(dict.fromkeys(g["problem set"]))
+        fig, axes = plt.subplots(2, 2, figsize=(11, 7.6))
+        colors = {s: plt.cm.tab10(i % 10) for i, s in enumerate(keys)}
+        for ax, pset in zip(axes[0], sets[:2]):
+            for s in keys:
+                h = df[(df["robot"] == robot) & (df["problem_set"] == pset) & (df["solver"] == s)]
+                if h.empty:
+                    continue
+                t = 1e6 * h["call_time_s"].to_numpy(dtype=float)
+                ok = h["success"].astype(bool).to_numpy()
+                share = [(ok & (t <= b)).mean() * 100 for b in BUDGETS_US]
+                peer = h["library"].iloc[0] != "ours"
+                ax.plot(BUDGETS_US, share, color=colors[s], ls="--" if peer else "-", lw=1.6,
+                        label=f"{s} ({h['library'].iloc[0]})")
+            ax.set_xscale("log")
+            ax.set_xlim(BUDGETS_US[0], BUDGETS_US[-1])
+            ax.set_ylim(-2, 102)
+            ax.set_xlabel("time budget b: wall time of the whole call [µs]")
+            ax.set_ylabel("goals solved within b [%]")
+            ax.set_title(f"{pset} starts: solve rate within a time budget", fontsize=10)
+            ax.grid(alpha=0.3, which="both")
+        axes[0][0].legend(fontsize=7.5, loc="upper left", frameon=False)
+        h = df[(df["robot"] == robot) & df["solver"].isin(keys)]
+        data_t, data_e, names = [], [], []
+        for s in keys:
+            x = h[h["solver"] == s]
+            if x.empty:
+                continue
+            t = 1e6 * x["cpu_time_s"].to_numpy(dtype=float) if "cpu_time_s" in x else np.array([])
+            t = t[np.isfinite(t) & (t > 0)]
+            e = x.loc[x["success"].astype(bool), "position_error_mm"].to_numpy(dtype=float)
+            e = np.maximum(e[np.isfinite(e)], 1e-12)
+            data_t.append(t if t.size else [np.nan])
+            data_e.append(e if e.size else [np.nan])
+            names.append(s)
+        for ax, data, label in ((axes[1][0], data_t, "CPU time of the call [µs] (log)"),
+                                (axes[1][1], data_e, "position error of the successes [mm] (log)")):
+            ax.boxplot(data, vert=False, showfliers=False, whis=(5, 95))
+            ax.set_yticks(np.arange(1, len(names) + 1), names, fontsize=8)
+            ax.invert_yaxis()
+            ax.set_xscale("log")
+            ax.set_xlabel(label + "; boxes: quartiles, whiskers 5-95 %")
+            ax.grid(alpha=0.3, axis="x")
+        axes[1][1].set_yticklabels([])
+        fig.suptitle(f"{robot}: the key methods (solid: ours, dashed: peer libraries; both sets pooled below)",
+                     fontsize=11)
+        figs.append(FigureSpec(save(fig, out_dir, f"budget_{robot}"), f"{robot}: solve rate within a time budget, "
+                               "time and error distributions",
+                               "Top: share of the set's goals an FK-verified success within the limits reached within "
+                               "a time budget b (wall time of the whole call; a method's curve ends at its success "
+                               "rate). Bottom: CPU time per call and position error of the successes, cold and warm "
+                               "sets pooled, for the key labels of the key table only.",
                                extra={"robot": robot}))
     return figs

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.studies import FigureSpec, TableSpec
-from pipeline.studies.arm_benchmark import PEERS, _refusals
+from pipeline.studies.arm_benchmark import _refusals
 from pipeline.studies.generic import runs_frame
 
 OURS = "analytic"
@@ -59,7 +59,7 @@ def method_table(df: pd.DataFrame) -> pd.DataFrame:
     for (robot, label), g in df.groupby(["robot", "solver"], sort=False):
         ok = g[g["success"].astype(bool)]
         rows.append({
-            "robot": robot, "solver": label, "library": "peer" if g["method"].iloc[0] in PEERS else "ours",
+            "robot": robot, "solver": label, "library": g["library"].iloc[0],
             "goals": len(g), "success [%]": 100 * g["success"].astype(bool).mean(),
             "solutions per goal": _mean_nsol(g["info"]),
             "solve time p50 [µs]": 1e6 * _p(g["solve_time_s"], 50),

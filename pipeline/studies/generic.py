@@ -32,6 +32,42 @@ def runs_frame(archives: list[Archive]) -> pd.DataFrame:
     return df
 
 
+SAMPLE_COLUMNS = {  # per-sample file column -> its meaning (README "Per-sample data" lists them)
+    "study": "study id", "robot": "robot name", "problem_set": "problem set", "solver": "solver label",
+    "method": "registered method", "library": "ours or the peer library's package", "problem_id": "goal id in the "
+    "problem file", "repetition": "repetition (timing runs)", "success": "FK-verified success (within limits where "
+    "required)", "claimed_success": "the method's own claim", "within_limits": "returned angles within the limits",
+    "stop_reason": "pipeline.solvers.StopReason code", "iterations": "iterations", "position_error_mm":
+    "position error [mm]", "orientation_error_rad": "orientation error [rad]", "solve_time_us": "the method's own "
+    "computation [µs]", "call_time_us": "wall time of the whole solve() call [µs]", "cpu_time_us": "CPU time of "
+    "the call (the calling thread's; the process's for TRAC-IK) [µs]", "joint_distance_rad": "|q_solution - q_start|, revolute differences wrapped [rad]"}
+
+
+def samples_frame(study_id: str, archives: list[Archive]) -> pd.DataFrame:
+    """Every solve of a study as one row of :data:`SAMPLE_COLUMNS` (the per-sample file)."""
+    df = runs_frame(archives)
+    if df.empty:
+        return pd.DataFrame(columns=list(SAMPLE_COLUMNS))
+    q = df["q_solution"].tolist()
+    q0 = df["q_start"].tolist()
+    dist = np.full(len(df), np.nan)
+    for i, (a, b) in enumerate(zip(q, q0)):
+        if len(a) == len(b):
+            d = (np.asarray(a, float) - np.asarray(b, float) + np.pi) % (2 * np.pi) - np.pi
+            dist[i] = float(np.sqrt((d * d).sum()))
+    out = pd.DataFrame({
+        "study": study_id, "robot": df["robot"], "problem_set": df["problem_set"], "solver": df["solver"],
+        "method": df["method"], "library": df.get("library", "ours"), "problem_id": df["problem_id"],
+        "repetition": df["repetition"], "success": df["success"].astype(bool),
+        "claimed_success": df["claimed_success"].astype(bool), "within_limits": df["within_limits"].astype(bool),
+        "stop_reason": df["stop_reason"], "iterations": df["iterations"],
+        "position_error_mm": df["position_error_mm"], "orientation_error_rad": df["orientation_error"],
+        "solve_time_us": 1e6 * df["solve_time_s"].astype(float), "call_time_us": 1e6 * df["call_time_s"].astype(float),
+        "cpu_time_us": 1e6 * df.get("cpu_time_s", pd.Series(np.nan, index=df.index)).astype(float),
+        "joint_distance_rad": dist})
+    return out[list(SAMPLE_COLUMNS)]
+
+
 def _pct(x, q) -> float:
     x = np.asarray(x, dtype=float)
     x = x[np.isfinite(x)]

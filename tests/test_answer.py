@@ -1,0 +1,154 @@
+"""The arm benchmark's recommendation rule (pipeline.studies.arm_benchmark), on synthetic solve frames."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pipeline.studies import arm_benchmark as ab
+
+
+def _frame(rows):
+    """rows: (label, method, library, successes (bool list), cpu µs, archive) -> a runs_frame-like frame."""
+    out = []
+    for label, method, library, ok, cpu, arch in rows:
+        for i, s in enumerate(ok):
+            out.append({"robot": "arm", "problem_set": "cold", "solver": label, "method": method, "library": library,
+                        "problem_id": i, "repetition": 0, "success": bool(s), "within_limits": bool(s),
+                        "solve_time_s": cpu * 1e-6, "call_time_s": cpu * 1e-6, "cpu_time_s": cpu * 1e-6,
+                        "iterations": 1, "position_error_mm": 1e-6, "orientation_error": 1e-9,
+                        "q_solution": [0.1, 0.2], "q_start": [0.0, 0.0], "archive": arch})
+    return pd.DataFrame(out)
+
+
+def _answer(rows, timing=None, scale="full"):
+    df = _frame(rows)
+    meta = {r[0]: (r[1], {}) for r in rows}
+    mt = ab.method_table(df, meta, timing)
+    return ab.answers(mt, df, meta, scale).iloc[0], mt
+
+
+@given(st.integers(0, 400), st.integers(1, 400))
+@settings(max_examples=200, deadline=None)
+def test_wilson_interval_holds_the_rate_and_stays_in_0_1(k, n):
+    k = min(k, n)
+    lo, hi = ab.wilson(k, n)
+    assert 0.0 <= lo <= k / n <= hi <= 1.0
+    assert hi - lo <= ab.wilson(k, n, z=3.0)[1] - ab.wilson(k, n, z=3.0)[0] + 1e-12
+
+
+def test_wilson_matches_a_known_value():
+    lo, hi = ab.wilson(50, 50)  # 50 of 50: the classic 92.9 % lower bound
+    assert math.isclose(lo, 0.928652, abs_tol=1e-6) and hi == 1.0
+
+
+def test_a_closed_form_wins_among_labels_not_significantly_worse():
+    n = 2000
+    rows = [("analytic", "analytic", "ours", [True] * n, 20.0, "a"),
+            ("dls", "dls", "ours", [True] * (n - 4) + [False] * 4, 8.0, "b")]  # 4 lost goals: p = 1/16
+    ans, _ = _answer(rows)
+    assert ans["recommendation"] == "analytic" and "closed form among them wins" in ans["answer"]
+
+
+def test_a_significantly_worse_fast_label_is_not_recommended():
+    n = 2000
+    rows = [("analytic", "analytic", "ours", [True] * n, 20.0, "a"),
+            ("dls", "dls", "ours", [True] * (n - 30) + [False] * 30, 8.0, "b")]  # 98.5 % of 2 000
+    ans, _ = _answer(rows)
+    assert ans["recommendation"] == "analytic"
+    assert ans["not significantly worse"] == "analytic"
+
+
+def test_fastest_wins_among_iterative_labels_that_tie():
+    n = 200
+    rows = [("lm", "levenberg_marquardt", "ours", [True] * n, 50.0, "a"),
+            ("dls_restarts", "dls", "ours", [True] * (n - 1) + [False], 12.0, "b"),
+            ("trac_ik", "trac_ik", "pytracik", [True] * n, 30.0, "c")]
+    ans, _ = _answer(rows)
+    assert ans["recommendation"] == "dls_restarts" and not ans["smoke run"]
+
+
+def test_rates_are_compared_on_the_goals_both_ran():
+    # the best ran 2 000 goals; a label ran only the first 300 (all solved): judged on those 300; one run on
+    # fewer than a tenth of the goals does not compete
+    rows = [("sdls", "sdls", "ours", [True] * 1900 + [False] * 100, 40.0, "a"),
+            ("bfgs", "bfgs", "ours", [True] * 300, 5.0, "b"), ("pso", "pso", "ours", [True] * 100, 1.0, "c")]
+    ans, mt = _answer(rows)
+    assert ans["recommendation"] == "bfgs" and ans["best rate label"] == "bfgs"
+    assert mt.set_index("solver").loc["bfgs", "problems"] == 300
+
+
+def test_mcnemar_p_values():
+    assert ab.worse_p(0, 5) == 1.0 and ab.worse_p(1, 0) == 0.5
+    assert math.isclose(ab.worse_p(5, 0), 1 / 32) and ab.worse_p(4, 0) == 1 / 16
+    assert math.isclose(ab.worse_p(3, 1), 5 / 16)
+
+
+def test_starved_jobs_are_flagged_and_not_ranked():
+    rows = [("analytic", "analytic", "ours", [True] * 300, 20.0, "a"),
+            ("dls", "dls", "ours", [True] * 300, 8.0, "b")]
+    ans, mt = _answer(rows, timing={"a": (1.0, 2.0), "b": (1.0, 1.0)})  # analytic's job: 50 % of a core
+    assert mt.set_index("solver").loc["analytic", "starved"]
+    assert ans["recommendation"] == "dls" and "analytic" in ans["starved labels"]
+    ans, _ = _answer(rows, timing={"a": (1.0, 2.0), "b": (1.0, 3.0)})
+    assert ans["recommendation"] == "" and "no recommendation" in ans["answer"]
+
+
+def test_quick_scale_says_smoke_run():
+    rows = [("analytic", "analytic", "ours", [True] * 50, 20.0, "a")]
+    ans, _ = _answer(rows, scale="quick")
+    assert ans["smoke run"] and "Smoke run" in ans["answer"]
+
+
+def test_library_and_method_come_from_the_frame_not_settings():
+    rows = [("rtb_ik_lm", "rtb_ik_lm", "roboticstoolbox-python", [True] * 10, 80.0, "a")]
+    _, mt = _answer(rows)
+    r = mt.iloc[0]
+    assert r["method"] == "rtb_ik_lm" and r["library"] == "roboticstoolbox-python"
+
+
+def test_python_call_names_a_shipped_arm_or_the_file():
+    assert ab.python_call("ur5e", "analytic", {"require_limits": True}) == \
+        "solvers.solve('analytic', robots.load_robot('ur5e'), T_goal, q_start, {'require_limits': True})"
+    call = ab.python_call("my_arm", "dls", {}, "/x/my_arm.yaml")
+    assert call == "solvers.solve('dls', robots.load_robot('/x/my_arm.yaml'), T_goal, q_start)"
+
+
+def test_registry_refuses_a_setting_named_method():
+    from dataclasses import dataclass
+
+    from pipeline.solvers import registry
+    from pipeline.solvers.base import Settings, setting
+
+    @dataclass(frozen=True)
+    class Bad(Settings):
+        method: str = setting("x", "clashes with the solver name")
+
+    with pytest.raises(ValueError, match="may not be called 'method'"):
+        registry.register(registry.Solver("bad_one", "t", "local", Bad, lambda *a: None))
+    assert "bad_one" not in registry.names()
+
+
+def test_every_peer_has_its_library_and_ours_say_ours():
+    from pipeline.solvers import registry
+
+    libs = {n: registry.get(n).library for n in registry.names()}
+    assert libs["rtb_ik_lm"] == "roboticstoolbox-python" and libs["trac_ik"] == "pytracik"
+    assert libs["eaik"] == "eaik" and libs["ur_analytic_ik"] == "ur-analytic-ik"
+    assert libs["dls"] == "ours" and libs["analytic"] == "ours"
+    assert registry.get("trac_ik").own_threads and not registry.get("dls").own_threads
+
+
+def test_limit_tolerance_admits_float32_rounding_only():
+    from pipeline.solvers.base import within_limits
+
+    lim = np.array([[-1.0, 1.0]])
+    prism = np.array([False])
+    assert within_limits(np.array([1.0 + 1e-7]), lim, prism)
+    assert not within_limits(np.array([1.0 + 1e-5]), lim, prism)
+    assert within_limits(np.array([np.float32(2.8973) + 0.0]), np.array([[-2.8973, 2.8973]]), prism)
