@@ -85,7 +85,7 @@ def cmd_new_study(args) -> None:
     from pipeline.jobs.build import new_study
 
     print(new_study(args.id, args.robots, args.solvers, count=args.count, spread=args.spread, seed=args.seed,
-                    title=args.title, data=args.data, force=args.force))
+                    title=args.title, data=args.data, force=args.force, protocol=args.protocol))
 
 
 def cmd_solvers(args) -> None:
@@ -256,6 +256,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--title", default="")
     p.add_argument("--data", default="data", help="data folder")
     p.add_argument("--force", action="store_true", help="overwrite an existing study file")
+    p.add_argument("--protocol", choices=["warm", "answer"], default="warm",
+                   help="warm: one warm-start set, every solver that fits (default); answer: arm_benchmark's cold and "
+                   "warm sets, labels and recommendation tables on these robots")
     p.set_defaults(func=cmd_new_study)
 
     p = sub.add_parser("solvers", help="list the registered IK solvers with their settings and defaults")

@@ -152,3 +152,26 @@ def test_limit_tolerance_admits_float32_rounding_only():
     assert within_limits(np.array([1.0 + 1e-7]), lim, prism)
     assert not within_limits(np.array([1.0 + 1e-5]), lim, prism)
     assert within_limits(np.array([np.float32(2.8973) + 0.0]), np.array([[-2.8973, 2.8973]]), prism)
+
+
+def test_new_study_writes_the_answers_protocol(tmp_path):
+    """`new_study --protocol answer`: arm_benchmark's sets and labels on other robots, with its tables."""
+    import shutil
+    from pathlib import Path
+
+    from pipeline.cli import main
+    from pipeline.settings import load_study
+    from pipeline.studies import get_study_module
+
+    root = Path(__file__).resolve().parent.parent
+    data = tmp_path / "data"
+    (data / "studies").mkdir(parents=True)
+    shutil.copytree(root / "data" / "robots", data / "robots")
+    shutil.copy(root / "data" / "studies" / "arm_benchmark.yaml", data / "studies")
+    assert main(["new_study", "my_arms", "--robots", "ur5e", "kuka_iiwa14", "--protocol", "answer",
+                 "--data", str(data)]) == 0
+    st = load_study(data / "studies" / "my_arms.yaml")
+    ref = load_study(data / "studies" / "arm_benchmark.yaml")
+    assert st.doc["robots"] == ["ur5e", "kuka_iiwa14"] and set(st.solvers) == set(ref.solvers)
+    assert st.problem_sets == ref.problem_sets
+    assert get_study_module(st.id, st.doc.get("tables_from")) is ab

@@ -343,10 +343,12 @@ def test_report_opens_with_the_answer(built):
     html = (built / "report.html").read_text()
     assert html.index('id="answer"') < html.index('id="cerbaro2019"')
     ans = pd.read_csv(built / "arm_benchmark" / "tables" / "answer.csv")
-    assert len(ans) == 2 * 13 and ans["answer"].str.contains(": use ").all()
+    assert len(ans) == 2 * 13
+    # a recommendation, or (every label's job starved of CPU on a busy machine) the flag that says so
+    assert (ans["answer"].str.contains(": use ") | ans["answer"].str.contains("no recommendation")).all()
     assert ans["smoke run"].all() and ans["answer"].str.contains("Smoke run").all()  # quick scale says so
     assert (ans["success CI low [%]"] <= ans["success [%]"]).all() and (ans["success [%]"] <= ans["success CI high [%]"]).all()
-    assert ans["call"].str.startswith("solvers.solve(").all()
+    assert ans["call"].dropna().str.startswith("solvers.solve(").all()
     heat = pd.read_csv(built / "arm_benchmark" / "tables" / "heatmap.csv")
     assert len(heat) == 13
     for robot in ("ur5", "franka_panda"):
@@ -394,7 +396,8 @@ def test_an_arm_from_a_xacro_file_is_benchmarked_alone(tmp_path):
     closed = table[table["solver"] == "analytic"]
     assert len(closed) == 2 and (closed["success [%]"] == 100).all(), closed
     ans = pd.read_csv(results / "arm_benchmark" / "tables" / "answer.csv")
-    assert list(ans["robot"]) == ["my_ur5e", "my_ur5e"] and ans["recommendation"].notna().all()
+    assert list(ans["robot"]) == ["my_ur5e", "my_ur5e"]
+    ans = ans[ans["answer"].str.contains(": use ")]  # (a set whose every job was starved of CPU says so instead)
     assert (ans["success CI high [%]"] >= ans["success [%]"]).all()
     env: dict = {}
     exec("import numpy as np\nfrom pipeline import robots, solvers, kinematics", env)  # noqa: S102

@@ -10,8 +10,10 @@ from pipeline.errors import UsageError
 
 
 def new_study(id: str, robots: list[str], solvers: list[str] | None = None, *, count: int = 500, spread: float = 0.3,
-              seed: int = 1, title: str = "", data="data", force: bool = False) -> str:
-    """Write ``data/studies/<id>.yaml``: a warm-start problem set on the given robots and solvers; returns what to print."""
+              seed: int = 1, title: str = "", data="data", force: bool = False, protocol: str = "warm") -> str:
+    """Write ``data/studies/<id>.yaml``: a warm-start problem set on the given robots and solvers (``protocol``
+    "warm"), or the answer's protocol (``"answer"``: arm_benchmark's problem sets, labels and rule on these
+    robots, with its recommendation tables); returns what to print."""
     from pipeline.robots import load_robot
     from pipeline.settings import ConfigError, load_study
     from pipeline.solvers import NotApplicableError, get, make_settings, names, prepare
@@ -21,6 +23,10 @@ def new_study(id: str, robots: list[str], solvers: list[str] | None = None, *, c
     out = Path(data) / "studies" / f"{id}.yaml"
     if out.exists() and not force:
         raise UsageError(f"{out}: exists (use --force to overwrite)")
+    if protocol == "answer":
+        return _answer_protocol(id, robots, Path(data), out, title)
+    if protocol != "warm":
+        raise UsageError(f"--protocol {protocol!r}: one of warm, answer")
     models = [load_robot(Path(data) / "robots" / f"{r}.yaml") for r in robots]
     wanted = solvers or names()
     for name in wanted:
@@ -62,6 +68,33 @@ def new_study(id: str, robots: list[str], solvers: list[str] | None = None, *, c
     return "\n".join([f"skipped: {why}" for why in skipped]
                      + [f"wrote {out} ({len(solvers)} solvers); build it with: snakemake --cores 2 --config studies='[{id}]'"])
 
+
+
+def _answer_protocol(id: str, robots: list[str], data: Path, out: Path, title: str) -> str:
+    """``new_study --protocol answer``: arm_benchmark's study file with this id and these robots."""
+    import yaml
+
+    from pipeline.robots import load_robot
+    from pipeline.settings import ConfigError, load_study
+
+    src = data / "studies" / "arm_benchmark.yaml"
+    if not src.is_file():
+        raise UsageError(f"{src}: no such study file (the answer's protocol is read from it)")
+    for r in robots:
+        load_robot(data / "robots" / f"{r}.yaml")
+    doc = yaml.safe_load(src.read_text(encoding="utf-8"))
+    doc.update(study=id, robots=list(robots), tables_from="arm_benchmark",
+               title=title or f"Which IK method for {', '.join(robots)}: the answer's protocol")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(f"# Written by `python -m pipeline new_study {id} --protocol answer`: {src} (problem sets, labels,\n"
+                   f"# interpretations) on robots {robots}; tables and figures as arm_benchmark's (tables_from).\n"
+                   + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=120), encoding="utf-8")
+    try:
+        load_study(out)
+    except ConfigError:
+        out.unlink()
+        raise
+    return f"wrote {out} (the answer's protocol); build it with: snakemake --cores 2 --config studies='[{id}]'"
 
 
 def solver_listing(name: str | None = None, as_json: bool = False) -> str:
@@ -143,6 +176,6 @@ def plot_figures(study_path, archive_paths, out_dir) -> str:
     archives = [read_archive(p) for p in archive_paths]
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    figs = get_study_module(study.id).build_figures(study, archives, out)
+    figs = get_study_module(study.id, study.doc.get("tables_from")).build_figures(study, archives, out)
     write_figure_index(figs, out)
     return f"wrote {len(figs)} figures to {out_dir}"

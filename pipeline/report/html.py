@@ -171,11 +171,12 @@ def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | Non
         table = by_name.get(f"robot_{robot}")
         if table is None:
             continue
-        calls = []
+        calls: dict[str, list[str]] = {}  # one call per distinct call, with the start sets it serves
         if "call" in g:
             for pset, call in zip(g["problem set"], g["call"]):
-                if call and call not in [c for _, c in calls]:
-                    calls.append((pset, call))
+                if call:
+                    calls.setdefault(call, []).append(str(pset))
+        calls = [(" and ".join(sets), call) for call, sets in calls.items()]
         robots.append({"robot": robot, "sentences": list(g["answer"]), "table": table, "calls": calls,
                        "key": by_name.get(f"key_{robot}"),
                        "figures": [x for x in figures if x.get("extra", {}).get("robot") == robot]})

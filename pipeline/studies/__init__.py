@@ -40,8 +40,10 @@ def study_cli_modules() -> list:
     return mods
 
 
-def get_study_module(study_id: str):
-    """The study's own table/figure module, or :mod:`pipeline.studies.generic` for a YAML-only study."""
+def get_study_module(study_id: str, tables_from: str | None = None):
+    """The study's own table/figure module, or :mod:`pipeline.studies.generic` for a YAML-only study;
+    ``tables_from`` (the study file's field) names another study's module instead."""
+    study_id = tables_from or study_id
     name = f"pipeline.studies.{study_id}"
     if study_id == "generic" or importlib.util.find_spec(name) is None:
         return importlib.import_module("pipeline.studies.generic")
@@ -52,7 +54,7 @@ def build_study_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     """The study module's tables, opened by its claims and not-reproduced tables (:mod:`pipeline.studies.claims`)."""
     from pipeline.studies.claims import with_claims
 
-    return with_claims(study, get_study_module(study.id).build_tables(study, archives, published_dir))
+    return with_claims(study, get_study_module(study.id, study.doc.get("tables_from")).build_tables(study, archives, published_dir))
 
 
 def write_tables(tables: list[TableSpec], out_dir: Path) -> None:

@@ -161,6 +161,8 @@ def method_table(df: pd.DataFrame, meta: dict, timing: dict | None = None) -> pd
         })
     out = pd.DataFrame(rows)
     out["starved"] = out["CPU share [%]"] < 100 * MIN_CPU_SHARE  # NaN (not measured) is not starved
+    out["success 95 % CI [%]"] = [f"{lo:.1f}-{hi:.1f}" for lo, hi in
+                                  zip(out["success CI low [%]"], out["success CI high [%]"])]
     out["rank time p50 [µs]"] = out["CPU time p50 [µs]"].fillna(out["call time p50 [µs]"])
     return out
 
@@ -191,12 +193,16 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
     for (robot, pset), g in mt.groupby(["robot", "problem set"], sort=False):
         starved = g[g["starved"]]
         cand = g[(g["problems"] >= MIN_SHARE * g["problems"].max()) & ~g["starved"]]
+        smoke = scale == "quick" or int(g["problems"].max()) < SMOKE_GOALS
         base = {"robot": robot, "problem set": pset, "goals": int(g["problems"].max()),
-                "starved labels": ", ".join(starved["solver"])}
+                "starved labels": ", ".join(starved["solver"]), "smoke run": smoke}
+        smoke_text = (f" Smoke run ({int(g['problems'].max())} goals at most, scale {scale or '?'}): the intervals "
+                      f"are wide and most labels tie; not a recommendation." if smoke else "")
         if cand.empty:
             rows.append({**base, "recommendation": "", "answer": (
                 f"{robot}, {pset} starts: no recommendation: every label's job got less than "
-                f"{MIN_CPU_SHARE:.0%} of a core ({', '.join(starved['solver'])}); rebuild on a quiet machine.")})
+                f"{MIN_CPU_SHARE:.0%} of a core ({', '.join(starved['solver'])}); rebuild on a quiet machine."
+                + smoke_text)})
             continue
         best = cand.sort_values(["success [%]", "problems", "rank time p50 [µs]"], ascending=[False, False, True]).iloc[0]
         b = succ.get((robot, pset, best["solver"]))
@@ -215,7 +221,6 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
                                                               ascending=[True, False]).iloc[0]
         method, settings = meta.get(pick["solver"], (pick["method"], {}))
         call = python_call(robot, method, settings, (robot_files or {}).get(robot, ""))
-        smoke = scale == "quick" or int(g["problems"].max()) < SMOKE_GOALS
         text = (f"{robot}, {pset} starts: use {pick['solver']} ({method}, {pick['library']}"
                 f"{', ' + ', '.join(f'{k}={v}' for k, v in sorted(settings.items())) if settings else ''}): "
                 f"{pick['success [%]']:.1f} % of {int(pick['problems'])} goals "
@@ -223,9 +228,7 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
                 f"{pick['rank time p50 [µs]']:.0f} µs CPU per call; the best rate is {best['solver']}'s "
                 f"{best['success [%]']:.1f} %, and {len(pool)} label(s) are not significantly worse"
                 f"{' (a closed form among them wins)' if len(closed) else ''}.")
-        if smoke:
-            text += (f" Smoke run ({int(g['problems'].max())} goals at most, scale {scale or '?'}): the intervals "
-                     f"are wide and most labels tie; not a recommendation.")
+        text += smoke_text
         if len(starved):
             text += f" Not ranked (job starved of CPU): {', '.join(starved['solver'])}."
         rows.append({**base, "recommendation": pick["solver"], "method": method, "library": pick["library"],
@@ -234,7 +237,7 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
                      "success CI high [%]": pick["success CI high [%]"], "its goals": int(pick["problems"]),
                      "CPU time p50 [µs]": pick["rank time p50 [µs]"], "best rate label": best["solver"],
                      "best rate [%]": best["success [%]"], "not significantly worse": ", ".join(pool["solver"]),
-                     "smoke run": smoke, "call": call, "answer": text})
+                     "call": call, "answer": text})
     return pd.DataFrame(rows)
 
 
@@ -243,8 +246,9 @@ def key_labels(mt: pd.DataFrame, ans: pd.DataFrame, robot: str) -> list[str]:
     CPU time, on the cold set where it ran) of each group: closed form ours / peer, single search,
     restarts, TRAC-IK, the Robotics Toolbox's LM (single and restarts), Pinocchio's CLIK."""
     g = mt[mt["robot"] == robot]
-    order = g.assign(_cold=g["problem set"] != "cold").sort_values(
-        ["_cold", "success [%]", "rank time p50 [µs]"], ascending=[True, False, True])
+    big = g["problems"] >= MIN_SHARE * g.groupby("problem set")["problems"].transform("max")
+    order = g.assign(_cold=g["problem set"] != "cold", _few=~big).sort_values(
+        ["_cold", "_few", "success [%]", "rank time p50 [µs]"], ascending=[True, True, False, True])
     picks = [x for x in ans.loc[ans["robot"] == robot, "recommendation"] if isinstance(x, str) and x]
     ours = order["library"] == "ours"
     groups = [order[ours & (order["kind"] == "analytic")], order[~ours & (order["kind"] == "analytic")],
@@ -292,12 +296,11 @@ RULE = (f"Labels run on at least {MIN_SHARE:.0%} of a set's goals whose job got 
         f"within the joint limits (revolute joints wrapped by 2 pi; 1e-6 rad tolerance for every method, "
         f"pipeline.solvers._kin.LIMIT_TOL).")
 
-_FULL_COLUMNS = ["problem set", "solver", "method", "library", "search", "problems", "success [%]",
-                 "success CI low [%]", "success CI high [%]", "within limits [%]", "CPU time p50 [µs]",
-                 "call time p50 [µs]", "call time p95 [µs]", "CPU share [%]", "iterations p50",
-                 "position error p99, successes [mm]", "orientation error p99, successes [rad]"]
-_KEY_COLUMNS = ["solver", "problem set", "library", "problems", "success [%]", "success CI low [%]",
-                "success CI high [%]", "CPU time p50 [µs]", "CPU time p95 [µs]", "call time p50 [µs]",
+_FULL_COLUMNS = ["problem set", "solver", "library", "problems", "success [%]", "success 95 % CI [%]",
+                 "within limits [%]", "CPU time p50 [µs]", "call time p50 [µs]", "call time p95 [µs]",
+                 "CPU share [%]", "iterations p50", "position error p99, successes [mm]"]
+_KEY_COLUMNS = ["solver", "problem set", "library", "problems", "success [%]", "success 95 % CI [%]",
+                "CPU time p50 [µs]", "CPU time p95 [µs]", "call time p50 [µs]",
                 "joint distance to start p50, successes [rad]", "position error p99, successes [mm]"]
 
 
@@ -317,12 +320,14 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         keys = key_labels(mt, ans, robot)
         k = g[g["solver"].isin(keys)].copy()
         k["_o"] = k["solver"].map({s: i for i, s in enumerate(keys)})
-        k = k.sort_values(["_o", "problem set"])[_KEY_COLUMNS]
+        k = k.sort_values(["_o", "problem set"])[_KEY_COLUMNS].rename(columns={
+            "problem set": "set", "joint distance to start p50, successes [rad]": "joint distance to start p50 [rad]",
+            "position error p99, successes [mm]": "position error p99 [mm]"})
         tables.append(TableSpec(
             f"key_{robot}", f"{robot}: the key methods, with 95 % intervals", k,
             "At most 8 labels: the recommendation(s), then the best closed form (ours, then a peer's), best single "
             "search, best with restarts, TRAC-IK (its default 5 ms budget), the Robotics Toolbox's LM and "
-            "Pinocchio's CLIK. CPU time = CPU time of the whole solve() call (the calling thread's; the process's for TRAC-IK, whose two threads both count); joint distance on the "
+            "Pinocchio's CLIK. Joint distance and position error over the successes. CPU time = CPU time of the whole solve() call (the calling thread's; the process's for TRAC-IK, whose two threads both count); joint distance on the "
             "successes (warm set: the distance to the seed). " + RULE))
         full = g.sort_values(["problem set", "success [%]", "rank time p50 [µs]"], ascending=[True, False, True])
         tables.append(TableSpec(
@@ -352,24 +357,24 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     ans = answers(mt, df, meta, _scale(archives), _robot_files(archives))
     figs = []
     for pset, g in mt.groupby("problem set", sort=False):
-        H = g.pivot_table(index="robot", columns="solver", values="success [%]", sort=False)
-        # sized for the report's text column (about 1 000 px at a 1 400 px window): one inch per ~3.3 labels,
-        # and cell numbers at 9 pt
-        fig, ax = plt.subplots(figsize=(max(9.0, 0.3 * H.shape[1] + 2.5), 0.34 * H.shape[0] + 2.8))
+        # labels as rows, robots as columns: 9 in wide (the report's text column at 1 400 px, shown 1:1), cell
+        # numbers at 8.5 pt, one row per label
+        H = g.pivot_table(index="solver", columns="robot", values="success [%]", sort=False)
+        fig, ax = plt.subplots(figsize=(9.0, 0.24 * H.shape[0] + 2.4))
         im = ax.imshow(H.to_numpy(dtype=float), vmin=0, vmax=100, cmap="viridis", aspect="auto")
-        ax.set_xticks(np.arange(H.shape[1]), H.columns, rotation=70, ha="right", fontsize=9)
-        ax.set_yticks(np.arange(H.shape[0]), H.index, fontsize=10)
+        ax.xaxis.tick_top()
+        ax.set_xticks(np.arange(H.shape[1]), H.columns, rotation=40, ha="left", fontsize=9)
+        ax.set_yticks(np.arange(H.shape[0]), H.index, fontsize=9)
         for (i, j), v in np.ndenumerate(H.to_numpy(dtype=float)):
             if np.isfinite(v):
-                ax.text(j, i, f"{v:.0f}", ha="center", va="center", fontsize=7.5 if v < 100 else 6.5,
-                        color="w" if v < 60 else "k")
-        fig.colorbar(im, ax=ax, label="FK-verified success within limits [%]", fraction=0.03, pad=0.01)
-        ax.set_title(f"Success rate, {pset} starts (blank: solver does not apply)")
+                ax.text(j, i, f"{v:.0f}", ha="center", va="center", fontsize=8.5, color="w" if v < 60 else "k")
+        fig.colorbar(im, ax=ax, label="FK-verified success within limits [%]", fraction=0.04, pad=0.02)
+        ax.set_xlabel(f"Success rate, {pset} starts (blank: the solver does not apply)", fontsize=10)
         fig.tight_layout()
         figs.append(FigureSpec(save(fig, out_dir, f"heatmap_{pset}", svg=False),
-                               f"Success rate: robots x methods, {pset} starts",
-                               "Share of goals with an FK-verified success within the joint limits, per robot (rows) "
-                               "and solver label (columns); blank cells: the solver does not apply to that robot.",
+                               f"Success rate: methods x robots, {pset} starts",
+                               "Share of goals with an FK-verified success within the joint limits, per solver label "
+                               "(rows) and robot (columns); blank cells: the solver does not apply to that robot.",
                                extra={"answer": True}))
     for robot, g in mt.groupby("robot", sort=False):
         keys = key_labels(mt, ans, robot)
@@ -408,13 +413,13 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
             data_t.append(t if t.size else [np.nan])
             data_e.append(e if e.size else [np.nan])
             names.append(s)
-        for ax, data, label in ((axes[1][0], data_t, "CPU time of the call [µs] (log)"),
-                                (axes[1][1], data_e, "position error of the successes [mm] (log)")):
+        for ax, data, label in ((axes[1][0], data_t, "CPU time per call [µs]"),
+                                (axes[1][1], data_e, "position error of the successes [mm]")):
             ax.boxplot(data, vert=False, showfliers=False, whis=(5, 95))
             ax.set_yticks(np.arange(1, len(names) + 1), names, fontsize=8)
             ax.invert_yaxis()
             ax.set_xscale("log")
-            ax.set_xlabel(label + "; boxes: quartiles, whiskers 5-95 %")
+            ax.set_xlabel(label)
             ax.grid(alpha=0.3, axis="x")
         axes[1][1].set_yticklabels([])
         fig.suptitle(f"{robot}: the key methods (solid: ours, dashed: peer libraries; both sets pooled below)",
@@ -423,7 +428,8 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
                                "time and error distributions",
                                "Top: share of the set's goals an FK-verified success within the limits reached within "
                                "a time budget b (wall time of the whole call; a method's curve ends at its success "
-                               "rate). Bottom: CPU time per call and position error of the successes, cold and warm "
-                               "sets pooled, for the key labels of the key table only.",
+                               "rate). Bottom (log scales; boxes: quartiles, whiskers: 5th-95th percentile): CPU time "
+                               "per call and position error of the successes, cold and warm sets pooled, for the "
+                               "labels of the key table only.",
                                extra={"robot": robot}))
     return figs
