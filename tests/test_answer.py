@@ -89,14 +89,27 @@ def test_mcnemar_p_values():
     assert math.isclose(ab.worse_p(3, 1), 5 / 16)
 
 
-def test_starved_jobs_are_flagged_and_not_ranked():
+def test_starved_labels_are_flagged_and_not_ranked():
     rows = [("analytic", "analytic", "ours", [True] * 300, 20.0, "a"),
             ("dls", "dls", "ours", [True] * 300, 8.0, "b")]
-    ans, mt = _answer(rows, timing={"a": (1.0, 2.0), "b": (1.0, 1.0)})  # analytic's job: 50 % of a core
-    assert mt.set_index("solver").loc["analytic", "starved"]
+    df = _frame(rows)
+    df.loc[df["solver"] == "analytic", "call_time_s"] *= 2  # its solves got 50 % of a core
+    meta = {r[0]: (r[1], {}) for r in rows}
+    mt = ab.method_table(df, meta)
+    ans = ab.answers(mt, df, meta, "full").iloc[0]
+    assert mt.set_index("solver").loc["analytic", "starved"] and not mt.set_index("solver").loc["dls", "starved"]
     assert ans["recommendation"] == "dls" and "analytic" in ans["starved labels"]
-    ans, _ = _answer(rows, timing={"a": (1.0, 2.0), "b": (1.0, 3.0)})
+    df["call_time_s"] = df["cpu_time_s"] * 3  # everything starved: no recommendation, and it says why
+    ans = ab.answers(ab.method_table(df, meta), df, meta, "full").iloc[0]
     assert ans["recommendation"] == "" and "no recommendation" in ans["answer"]
+
+
+def test_the_jobs_share_serves_archives_without_per_solve_cpu_time():
+    rows = [("analytic", "analytic", "ours", [True] * 300, 20.0, "a")]
+    df = _frame(rows)
+    df["cpu_time_s"] = np.nan
+    mt = ab.method_table(df, {"analytic": ("analytic", {})}, {"a": (1.0, 2.0)})
+    assert mt.iloc[0]["CPU share [%]"] == 50.0 and mt.iloc[0]["starved"]
 
 
 def test_quick_scale_says_smoke_run():
