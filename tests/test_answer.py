@@ -87,6 +87,7 @@ def test_mcnemar_p_values():
     assert ab.worse_p(0, 5) == 1.0 and ab.worse_p(1, 0) == 0.5
     assert math.isclose(ab.worse_p(5, 0), 1 / 32) and ab.worse_p(4, 0) == 1 / 16
     assert math.isclose(ab.worse_p(3, 1), 5 / 16)
+    assert ab.worse_p(1500, 1500) == pytest.approx(0.5, abs=0.02) and ab.worse_p(3000, 0) == 0.0  # 2 000+ goals
 
 
 def test_starved_labels_are_flagged_and_not_ranked():

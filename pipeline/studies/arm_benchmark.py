@@ -66,7 +66,7 @@ def worse_p(only_best: int, only_other: int) -> float:
     n = only_best + only_other
     if only_best == 0:
         return 1.0
-    return sum(math.comb(n, i) for i in range(only_best, n + 1)) / 2.0 ** n
+    return sum(math.comb(n, i) for i in range(only_best, n + 1)) / (1 << n)  # exact ints: no overflow
 
 
 def _p(x, q) -> float:
