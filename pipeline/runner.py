@@ -10,8 +10,8 @@ Every solve's CPU time is measured beside its wall time: the calling thread's CP
 (``thread_time_ns``) read around each call, or the whole process's (``process_time_ns``) for a method
 that runs threads of its own (``Solver.own_threads``: TRAC-IK's two racing solvers both count); for a
 batch kernel, the process's CPU time around the batch call shared out over its problems in
-proportion to their kernel-measured solve times. On a quiet core CPU time equals wall time; on a loaded machine wall time grows and CPU time
-does not, which is what the benchmark ranks by (``BatchResult.cpu_times_s``).
+proportion to their kernel-measured solve times (``BatchResult.cpu_times_s``). Summed over a job's
+solves, CPU / wall time is its CPU share: below 0.9 the job did not get a core to itself.
 
 Stochastic solvers get a per-(problem, repetition) seed derived from the set's seed, so that a
 job's archive does not depend on which problems another job solved.
