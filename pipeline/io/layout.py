@@ -47,3 +47,7 @@ STOP_REASONS = {int(r): r.text for r in StopReason}
 # (v in length_unit, omega in rad), and the position error |dp| [length_unit]
 TRACE_COLUMNS = ("error", "v_x", "v_y", "v_z", "omega_x", "omega_y", "omega_z", "position_error")
 TRACE_COLS = len(TRACE_COLUMNS)
+
+SAMPLES_FILE = "solves.csv.gz"
+"""The per-sample file of a study (every solve, one CSV row; ``pipeline.studies.generic.SAMPLE_COLUMNS``),
+written by ``aggregate_tables`` into the study's tables folder and linked from the report."""

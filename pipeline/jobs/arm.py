@@ -15,14 +15,14 @@ import sys
 from pathlib import Path
 
 from pipeline.errors import UsageError
+from pipeline.io.layout import SAMPLES_FILE
 
 STUDY = "arm_benchmark"
 
 
 def prepare_arm_data(robot, data: Path, out: Path) -> str:
     """Write ``out`` (a data folder) for benchmarking the robot file ``robot`` alone; returns its name."""
-    import yaml
-
+    from pipeline.jobs.build import answer_study_text
     from pipeline.robots import RobotFileError, load_robot
 
     robot = Path(robot)
@@ -30,15 +30,10 @@ def prepare_arm_data(robot, data: Path, out: Path) -> str:
         model = load_robot(robot)
     except RobotFileError as exc:
         raise UsageError(str(exc)) from None
-    study_file = data / "studies" / f"{STUDY}.yaml"
-    if not study_file.is_file():
-        raise UsageError(f"{study_file}: no such study file (--data names the folder holding studies/{STUDY}.yaml)")
+    text = answer_study_text(data, f"# written by `python -m pipeline benchmark_arm {robot}`: {{src}} with robots: "
+                                   f"[{model.name}]\n", robots=[model.name])
     (out / "studies").mkdir(parents=True, exist_ok=True)
     (out / "robots").mkdir(parents=True, exist_ok=True)
-    doc = yaml.safe_load(study_file.read_text(encoding="utf-8"))
-    doc["robots"] = [model.name]
-    text = (f"# written by `python -m pipeline benchmark_arm {robot}`: {study_file} with robots: [{model.name}]\n"
-            + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=120))
     (out / "studies" / f"{STUDY}.yaml").write_text(text, encoding="utf-8")
     shutil.copyfile(robot, out / "robots" / f"{model.name}.yaml")
     urdf_dir = robot.resolve().parent / "urdf"
@@ -74,4 +69,4 @@ def benchmark_arm(robot, *, scale: str = "full", cores: int = 2, results=None, d
     if proc.returncode != 0:
         raise UsageError(f"snakemake failed (exit {proc.returncode}); its log is above, the jobs' logs in {results}/"
                          f"{STUDY}/logs")
-    return f"benchmarked {name} alone: {results / 'report.html'} (per-solve data: {results / STUDY / 'tables' / 'solves.csv.gz'})"
+    return f"benchmarked {name} alone: {results / 'report.html'} (per-solve data: {results / STUDY / 'tables' / SAMPLES_FILE})"

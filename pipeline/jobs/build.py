@@ -70,25 +70,33 @@ def new_study(id: str, robots: list[str], solvers: list[str] | None = None, *, c
 
 
 
-def _answer_protocol(id: str, robots: list[str], data: Path, out: Path, title: str) -> str:
-    """``new_study --protocol answer``: arm_benchmark's study file with this id and these robots."""
+def answer_study_text(data: Path, header: str, **fields) -> str:
+    """``<data>/studies/arm_benchmark.yaml`` (the answer's protocol: problem sets, labels,
+    interpretations) with ``fields`` replaced, as YAML under ``header`` (comment lines)."""
     import yaml
-
-    from pipeline.robots import load_robot
-    from pipeline.settings import ConfigError, load_study
 
     src = data / "studies" / "arm_benchmark.yaml"
     if not src.is_file():
-        raise UsageError(f"{src}: no such study file (the answer's protocol is read from it)")
+        raise UsageError(f"{src}: no such study file (the answer's protocol is read from it; --data names the folder)")
+    doc = yaml.safe_load(src.read_text(encoding="utf-8"))
+    doc.update(fields)
+    return header.format(src=src) + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=120)
+
+
+def _answer_protocol(id: str, robots: list[str], data: Path, out: Path, title: str) -> str:
+    """``new_study --protocol answer``: arm_benchmark's study file with this id and these robots."""
+    from pipeline.robots import load_robot
+    from pipeline.settings import ConfigError, load_study
+
     for r in robots:
         load_robot(data / "robots" / f"{r}.yaml")
-    doc = yaml.safe_load(src.read_text(encoding="utf-8"))
-    doc.update(study=id, robots=list(robots), tables_from="arm_benchmark",
-               title=title or f"Which IK method for {', '.join(robots)}: the answer's protocol")
+    text = answer_study_text(
+        data, f"# Written by `python -m pipeline new_study {id} --protocol answer`: {{src}} (problem sets, labels,\n"
+              f"# interpretations) on robots {robots}; tables and figures as arm_benchmark's (tables_from).\n",
+        study=id, robots=list(robots), tables_from="arm_benchmark",
+        title=title or f"Which IK method for {', '.join(robots)}: the answer's protocol")
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(f"# Written by `python -m pipeline new_study {id} --protocol answer`: {src} (problem sets, labels,\n"
-                   f"# interpretations) on robots {robots}; tables and figures as arm_benchmark's (tables_from).\n"
-                   + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=120), encoding="utf-8")
+    out.write_text(text, encoding="utf-8")
     try:
         load_study(out)
     except ConfigError:
@@ -134,6 +142,7 @@ def aggregate_tables(study_path, archive_paths, published, out_dir) -> str:
     from pipeline.io.archive import read_archive
     from pipeline.settings import load_study
     from pipeline.studies import build_study_tables, write_tables
+    from pipeline.io.layout import SAMPLES_FILE
 
     study = load_study(study_path)
     archives = [read_archive(p) for p in archive_paths]
@@ -145,8 +154,6 @@ def aggregate_tables(study_path, archive_paths, published, out_dir) -> str:
     (Path(out_dir) / "provenance.json").write_text(json.dumps(prov, indent=1))
     return f"wrote {len(tables)} tables and {samples} per-solve rows ({SAMPLES_FILE}) to {out_dir}"
 
-
-SAMPLES_FILE = "solves.csv.gz"
 
 
 def write_samples(study_id: str, archives, path: Path) -> int:

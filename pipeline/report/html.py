@@ -25,6 +25,7 @@ import pandas as pd
 import yaml
 
 import pipeline
+from pipeline.io.layout import SAMPLES_FILE
 from pipeline.provenance import environment
 from pipeline.settings import Study, git_commit
 from pipeline.report.seal import INPUTS_DIGEST, REPORT_DIGEST, inputs_digest, seal_report
@@ -180,12 +181,7 @@ def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | Non
         robots.append({"robot": robot, "sentences": list(g["answer"]), "table": table, "calls": calls,
                        "key": by_name.get(f"key_{robot}"),
                        "figures": [x for x in figures if x.get("extra", {}).get("robot") == robot]})
-    samples = folder / "tables" / SAMPLES_NAME
-    return {"robots": robots, "figures": [x for x in figures if x.get("extra", {}).get("answer")],
-            "samples": f"{folder.name}/tables/{SAMPLES_NAME}" if samples.is_file() else ""}
-
-
-SAMPLES_NAME = "solves.csv.gz"  # the per-sample file aggregate_tables writes (pipeline.jobs.build.SAMPLES_FILE)
+    return {"robots": robots, "figures": [x for x in figures if x.get("extra", {}).get("answer")]}
 
 
 HEAD_TABLES = ("claims", "not_reproduced")  # pipeline.studies.claims: shown first in a study's section
@@ -227,9 +223,11 @@ def study_context(study: Study, results: Path) -> dict:
         solvers_html += ("<p>Study settings:</p><pre>" + html_escape(yaml.safe_dump(study.settings, sort_keys=False,
                                                                               allow_unicode=True)) + "</pre>")
     benchmarks = _benchmarks(folder / "benchmarks")
+    samples = f"{study.id}/tables/{SAMPLES_FILE}" if (folder / "tables" / SAMPLES_FILE).is_file() else ""
     answer = _answer(folder, tables, figures)
     if answer:
         answer["id"] = study.id  # shown at the top of the report; the study's section keeps the rest
+        answer["samples"] = samples
         shown = ({id(x) for r in answer["robots"] for x in (r["table"], r["key"], *r["figures"]) if x is not None}
                  | {id(f) for f in answer["figures"]})
         tables = [t for t in tables if id(t) not in shown and t["name"] != "answer"]
@@ -244,7 +242,7 @@ def study_context(study: Study, results: Path) -> dict:
         "solvers_html": solvers_html,
         "interpretations": study.doc["interpretations"], "tables": tables, "figures": figures,
         "provenance": provenance, "benchmarks": benchmarks,
-        "samples": f"{study.id}/tables/{SAMPLES_NAME}" if (folder / "tables" / SAMPLES_NAME).is_file() else "",
+        "samples": samples,
         # machines the solves ran on (a cluster run): timings of different machines are not comparable
         "hosts": sorted({p["host"] for p in provenance} - {""}),
     }

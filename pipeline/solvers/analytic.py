@@ -40,6 +40,7 @@ from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, 
                                    fused_inputs, setting)
 from pipeline.solvers.timing import clock_ns
 from pipeline.solvers.driver import run_of
+from pipeline.solvers.optimizers import half_cross
 from pipeline.solvers.registry import Solver, register
 
 SOURCE = ("Paden (1985) and Kahan's subproblems 1-4, as extended by IK-Geo (Elias & Wen 2022) and EAIK "
@@ -200,7 +201,7 @@ def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, li
     for r in range(3):
         for k in range(3):
             Rgr[r, k] = Rg[k, r]
-    pgr = sp.scl(-1.0, sp.matTvec3(Rg, pg))
+    pgr = sp.scl(-1.0, sp.matTvec(Rg, pg))
     prefr = np.empty(6)
     limr = np.empty((6, 2))
     for i in range(6):
@@ -248,14 +249,7 @@ def _fix(H, P, RM, pM, k, v, H6, P6, RM6, pM6):
 def _doc_row(Tg, R, p, out):
     for r in range(3):
         out[1 + r] = Tg[r, 3] - p[r]
-    ox = oy = oz = 0.0
-    for i in range(3):
-        cx, cy, cz = R[0, i], R[1, i], R[2, i]
-        dx, dy, dz = Tg[0, i], Tg[1, i], Tg[2, i]
-        ox += cy * dz - cz * dy
-        oy += cz * dx - cx * dz
-        oz += cx * dy - cy * dx
-    out[4], out[5], out[6] = 0.5 * ox, 0.5 * oy, 0.5 * oz
+    out[4], out[5], out[6] = half_cross(R, Tg)
     out[7] = math.sqrt(out[1] ** 2 + out[2] ** 2 + out[3] ** 2)
     s = 0.0
     for r in range(6):

@@ -62,6 +62,22 @@ P_TOOL = 32
 P_CHAIN = 48   # a, alpha, d, offs, prism (n each, prism as 0/1; general form: a 12 n, alpha 3 n)
 
 
+@numba.njit(cache=True, inline="always")
+def half_cross(R, Tg):
+    """``½ Σ_i c_i × d_i`` over the rotation columns ``c_i`` of ``R`` and ``d_i`` of ``Tg`` (3 × 3 or
+    4 × 4 arrays): the orientation part of :func:`doc_error`, as three floats."""
+    ox = 0.0
+    oy = 0.0
+    oz = 0.0
+    for i in range(3):
+        cx, cy, cz = R[0, i], R[1, i], R[2, i]
+        dx, dy, dz = Tg[0, i], Tg[1, i], Tg[2, i]
+        ox += cy * dz - cz * dy
+        oy += cz * dx - cx * dz
+        oz += cx * dy - cy * dx
+    return 0.5 * ox, 0.5 * oy, 0.5 * oz
+
+
 @numba.njit(cache=True)
 def doc_error(T, Tg, e):
     """Six-vector ``e = [p_goal - p; ½ Σ_i c_i × d_i]`` (``compute_error`` of Apêndice E) into ``e``.
@@ -71,18 +87,7 @@ def doc_error(T, Tg, e):
     """
     for r in range(3):
         e[r] = Tg[r, 3] - T[r, 3]
-    ox = 0.0
-    oy = 0.0
-    oz = 0.0
-    for i in range(3):
-        cx, cy, cz = T[0, i], T[1, i], T[2, i]
-        dx, dy, dz = Tg[0, i], Tg[1, i], Tg[2, i]
-        ox += cy * dz - cz * dy
-        oy += cz * dx - cx * dz
-        oz += cx * dy - cy * dx
-    e[3] = 0.5 * ox
-    e[4] = 0.5 * oy
-    e[5] = 0.5 * oz
+    e[3], e[4], e[5] = half_cross(T, Tg)
     return math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
 
 

@@ -112,7 +112,8 @@ SOURCE_UR = "ur_analytic_ik (https://github.com/Victorlouisdg/ur-analytic-ik), c
 
 # import name -> how to install it
 INSTALL = {"roboticstoolbox": "pip install roboticstoolbox-python==1.5.0", "pytracik": "pip install pytracik",
-           "pinocchio": "pip install pin", "ur_analytic_ik": "pip install ur-analytic-ik"}
+           "pinocchio": "pip install pin", "ur_analytic_ik": "pip install ur-analytic-ik",
+           "eaik": "pip install eaik==1.2.2", "ik_geo": "pip install ik-geo==1.0.3"}
 UR_MATCH_TOL = 1e-9  # [m, 1] a robot file matches a built-in UR model when FK agrees to this
 URDF_MATCH_TOL = 1e-9  # [m, 1] the URDF TRAC-IK reads must reproduce our FK to this
 TIME = "time = the whole library call incl. its Python binding overhead"
@@ -120,13 +121,15 @@ TIME = "time = the whole library call incl. its Python binding overhead"
 
 # ---- shared helpers -----------------------------------------------------------------------
 def _library(name: str):
-    """The peer module ``name``, or a one-line reason why it cannot be used (a str)."""
+    """The peer module ``name`` (a dotted name imports its package first), or a one-line reason why it
+    cannot be used (a str)."""
+    top = name.split(".")[0]
     try:
         return importlib.import_module(name)
     except ImportError:
-        return f"not installed: {INSTALL[name]}"
+        return f"not installed: {INSTALL[top]}"
     except Exception as exc:  # noqa: BLE001  (a broken install must not break prepare())
-        return f"{name} cannot be imported ({type(exc).__name__}: {str(exc).splitlines()[0][:120]})"
+        return f"{top} cannot be imported ({type(exc).__name__}: {str(exc).splitlines()[0][:120]})"
 
 
 def _missing(name: str) -> str | None:

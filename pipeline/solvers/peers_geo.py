@@ -69,7 +69,6 @@ choice of a solution and the FK checks of all of them are only in ``call_time_s`
 
 from __future__ import annotations
 
-import importlib
 import math
 from dataclasses import dataclass
 
@@ -78,7 +77,7 @@ import numpy as np
 from pipeline.kinematics import fk_htm
 from pipeline.kinematics.fkcheck import check_one
 from pipeline.solvers.base import CRITERION_CODE, Prepared, Raw, Settings, StopReason
-from pipeline.solvers.peers import _metric, _wrap, _z_to
+from pipeline.solvers.peers import TIME, _library, _metric, _wrap, _z_to
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -87,29 +86,15 @@ SOURCE_EAIK = ("Ostermeier, Külz & Althoff (2025), Automatic geometric decompos
 SOURCE_IKGEO = ("Elias & Wen, IK-Geo: Unified robot inverse kinematics using subproblem decomposition, "
                 "arXiv:2211.05737 (Mechanism and Machine Theory 2025); ik-geo 1.0.3 (Rust, PyO3)")
 
-# import name -> how to install it
-INSTALL = {"eaik": "pip install eaik==1.2.2", "ik_geo": "pip install ik-geo==1.0.3"}
 FK_MATCH_TOL = 1e-9  # [m, 1] a peer model's FK must reproduce ours to this
 IK_MATCH_TOL = 1e-3  # [m, 1] ik_geo's model check: one answer's FK reproduces each test goal to this (a wrong
 # convention or decomposition is off by O(0.1-1); the searching families' answers are only ~1e-5-1e-4 m exact)
 GEO_TOL = 1e-9  # parallel: |h_i x h_j| <= GEO_TOL; intersecting: distance <= GEO_TOL x the chain's length
 EAIK_MAX_JOINTS = 6  # EAIK 1.2.2 solves 1-6R arms
-TIME = "time = the whole library call incl. its Python binding overhead"
 _QS = np.random.default_rng(2025).uniform(-math.pi, math.pi, (4, 6))  # the models' check configurations
 
 
 # ---- shared helpers -----------------------------------------------------------------------
-def _library(name: str):
-    """The peer module ``name`` (a dotted name imports its package first), or a one-line reason (a str)."""
-    top = name.split(".")[0]
-    try:
-        return importlib.import_module(name)
-    except ImportError:
-        return f"not installed: {INSTALL[top]}"
-    except Exception as exc:  # noqa: BLE001  (a broken install must not break prepare())
-        return f"{top} cannot be imported ({type(exc).__name__}: {str(exc).splitlines()[0][:120]})"
-
-
 def _panic(exc: BaseException) -> bool:
     """A Rust panic surfaced by PyO3 (``pyo3_runtime.PanicException`` derives from BaseException)."""
     return type(exc).__name__ == "PanicException"

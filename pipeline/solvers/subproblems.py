@@ -124,17 +124,10 @@ def matvec(R, v):
 
 @numba.njit(cache=True, inline="always")
 def matTvec(R, v):
+    """``Rᵀ v`` for the rotation block of a 3 × 3 or 4 × 4 array."""
     return (R[0, 0] * v[0] + R[1, 0] * v[1] + R[2, 0] * v[2],
             R[0, 1] * v[0] + R[1, 1] * v[1] + R[2, 1] * v[2],
             R[0, 2] * v[0] + R[1, 2] * v[1] + R[2, 2] * v[2])
-
-
-@numba.njit(cache=True, inline="always")
-def matTvec3(T, v):
-    """``Rᵀ v`` for the rotation block of a 3 × 3 or 4 × 4 array."""
-    return (T[0, 0] * v[0] + T[1, 0] * v[1] + T[2, 0] * v[2],
-            T[0, 1] * v[0] + T[1, 1] * v[1] + T[2, 1] * v[2],
-            T[0, 2] * v[0] + T[1, 2] * v[1] + T[2, 2] * v[2])
 
 
 @numba.njit(cache=True, inline="always")
@@ -430,7 +423,7 @@ def solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q):
         t1 = tm.conjugate()
         w1 = add(p1, rotz(h1, tm, sub(w, p1)))
         # N = R1ᵀ RgM; v = Nᵀ h2
-        v = matvec(RM, matTvec3(Rg, rotz(h1, t1, h2)))
+        v = matvec(RM, matTvec(Rg, rotz(h1, t1, h2)))
         a5, a6, b5, b6, ok2 = sp2pair(h5, h6, h2, v, clip, pref[4])
         if not ok2:
             continue

@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.studies import FigureSpec, TableSpec
-from pipeline.studies.generic import runs_frame
+from pipeline.studies.generic import joint_distance, runs_frame
 
 MIN_SHARE = 0.1  # labels run on at least this share of a set's goals compete for the answer
 MIN_CPU_SHARE = 0.9  # a job whose solves got less CPU than this share of their wall time is starved
@@ -84,20 +84,11 @@ def _kind(method: str) -> str:
     return registry.get(method).kind if method in registry.names() else "local"
 
 
-def _joint_distance(g: pd.DataFrame) -> np.ndarray:
-    """Per solve: |q_solution - q_start| (Euclidean over the joints [rad | length unit]), revolute
-    differences wrapped into (-pi, pi] so a 2 pi turn is no distance."""
-    q = np.array(g["q_solution"].tolist(), dtype=float)
-    q0 = np.array(g["q_start"].tolist(), dtype=float)
-    if q.ndim != 2 or q.shape != q0.shape:
-        return np.full(len(g), np.nan)
-    d = (q - q0 + np.pi) % (2 * np.pi) - np.pi
-    return np.sqrt((d * d).sum(axis=1))
-
-
 def label_settings(archives) -> dict:
     """Solver label -> (method, non-default settings as a dict) from the archives' settings."""
     from pipeline.solvers import registry
+
+    from pipeline.studies.common import archive_method
 
     out = {}
     for a in archives:
@@ -105,7 +96,7 @@ def label_settings(archives) -> dict:
         if label in out:
             continue
         s = json.loads(a.metadata["settings"])
-        method = a.metadata.get("method") or s.get("method", label)
+        method = archive_method(a)[0]
         s.pop("method", None)
         try:
             defaults = registry.get(method).settings().as_dict()
@@ -179,7 +170,7 @@ def method_table(df: pd.DataFrame, meta: dict, timing: dict | None = None) -> pd
             "solve time p50 [µs]": 1e6 * _p(g["solve_time_s"], 50),
             "CPU share [%]": 100 * share,
             "iterations p50": _p(g["iterations"], 50),
-            "joint distance to start p50, successes [rad]": _p(_joint_distance(ok), 50) if len(ok) else math.nan,
+            "joint distance to start p50, successes [rad]": _p(joint_distance(ok["q_solution"], ok["q_start"]), 50) if len(ok) else math.nan,
             "position error p99, successes [mm]": _p(ok["position_error_mm"], 99),
             "orientation error p99, successes [rad]": _p(ok["orientation_error"], 99),
         })
@@ -188,7 +179,6 @@ def method_table(df: pd.DataFrame, meta: dict, timing: dict | None = None) -> pd
     out["starved"] = out["job CPU share [%]"] < 100 * MIN_CPU_SHARE  # NaN (not measured) is not starved
     out["success 95 % CI [%]"] = [f"{lo:.1f}-{hi:.1f}" for lo, hi in
                                   zip(out["success CI low [%]"], out["success CI high [%]"])]
-    out["rank time p50 [µs]"] = out["call time p50 [µs]"]  # the median wall time: see the module docstring
     return out
 
 
@@ -230,7 +220,7 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
                 f"(less than {MIN_CPU_SHARE:.0%}), so its times are not its own; rebuild on a quiet machine."
                 + smoke_text)})
             continue
-        best = cand.sort_values(["success [%]", "problems", "rank time p50 [µs]"], ascending=[False, False, True]).iloc[0]
+        best = cand.sort_values(["success [%]", "problems", "call time p50 [µs]"], ascending=[False, False, True]).iloc[0]
         b = succ.get((robot, pset, best["solver"]))
         ok_rows = []
         for _, c in cand.iterrows():
@@ -243,7 +233,7 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
                 ok_rows.append(c)
         pool = pd.DataFrame(ok_rows)
         closed = pool[pool["kind"] == "analytic"]
-        pick = (closed if len(closed) else pool).sort_values(["rank time p50 [µs]", "success [%]"],
+        pick = (closed if len(closed) else pool).sort_values(["call time p50 [µs]", "success [%]"],
                                                               ascending=[True, False]).iloc[0]
         method, settings = meta.get(pick["solver"], (pick["method"], {}))
         call = python_call(robot, method, settings, (robot_files or {}).get(robot, ""))
@@ -251,7 +241,7 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
                 f"{', ' + ', '.join(f'{k}={v}' for k, v in sorted(settings.items())) if settings else ''}): "
                 f"{pick['success [%]']:.1f} % of {int(pick['problems'])} goals "
                 f"(95 % CI {pick['success CI low [%]']:.1f}-{pick['success CI high [%]']:.1f}), median "
-                f"{pick['rank time p50 [µs]']:.0f} µs per call (median wall time); the best rate is {best['solver']}'s "
+                f"{pick['call time p50 [µs]']:.0f} µs per call (median wall time); the best rate is {best['solver']}'s "
                 f"{best['success [%]']:.1f} %, and {len(pool)} label(s) are not significantly worse"
                 f"{' (a closed form among them wins)' if len(closed) else ''}.")
         text += smoke_text
@@ -261,7 +251,7 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
                      "settings": json.dumps(settings, sort_keys=True),
                      "success [%]": pick["success [%]"], "success CI low [%]": pick["success CI low [%]"],
                      "success CI high [%]": pick["success CI high [%]"], "its goals": int(pick["problems"]),
-                     "call time p50 [µs]": pick["rank time p50 [µs]"], "best rate label": best["solver"],
+                     "call time p50 [µs]": pick["call time p50 [µs]"], "best rate label": best["solver"],
                      "best rate [%]": best["success [%]"], "not significantly worse": ", ".join(pool["solver"]),
                      "call": call, "answer": text})
     return pd.DataFrame(rows)
@@ -274,7 +264,7 @@ def key_labels(mt: pd.DataFrame, ans: pd.DataFrame, robot: str) -> list[str]:
     g = mt[mt["robot"] == robot]
     big = g["problems"] >= MIN_SHARE * g.groupby("problem set")["problems"].transform("max")
     order = g.assign(_cold=g["problem set"] != "cold", _few=~big).sort_values(
-        ["_cold", "_few", "success [%]", "rank time p50 [µs]"], ascending=[True, True, False, True])
+        ["_cold", "_few", "success [%]", "call time p50 [µs]"], ascending=[True, True, False, True])
     picks = [x for x in ans.loc[ans["robot"] == robot, "recommendation"] if isinstance(x, str) and x]
     ours = order["library"] == "ours"
     groups = [order[ours & (order["kind"] == "analytic")], order[~ours & (order["kind"] == "analytic")],
@@ -359,7 +349,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             "time = wall time of the whole solve() call; CPU time = its CPU time (the calling thread's; the "
             "process's for TRAC-IK, whose two threads both count), shown, not ranked on: on a loaded machine this "
             "VM's thread clock read a third of the wall time of calls that ran unpreempted. " + RULE))
-        full = g.sort_values(["problem set", "success [%]", "rank time p50 [µs]"], ascending=[True, False, True])
+        full = g.sort_values(["problem set", "success [%]", "call time p50 [µs]"], ascending=[True, False, True])
         job = g["job CPU share [%]"].iloc[0]
         tables.append(TableSpec(
             f"robot_{robot}", f"{robot}: every method, cold and warm starts (its job got {job:.0f} % of a core)",

@@ -21,16 +21,10 @@ import numpy as np
 import pandas as pd
 
 from pipeline.studies import FigureSpec, TableSpec
-from pipeline.studies.arm_benchmark import _refusals
+from pipeline.studies.arm_benchmark import _p, _refusals
 from pipeline.studies.generic import runs_frame
 
 OURS = "analytic"
-
-
-def _p(x, q) -> float:
-    x = np.asarray(x, dtype=float)
-    x = x[np.isfinite(x)]
-    return float(np.percentile(x, q)) if x.size else float("nan")
 
 
 def _nsol(info) -> float:

@@ -40,7 +40,23 @@ SAMPLE_COLUMNS = {  # per-sample file column -> its meaning (README "Per-sample 
     "stop_reason": "pipeline.solvers.StopReason code", "iterations": "iterations", "position_error_mm":
     "position error [mm]", "orientation_error_rad": "orientation error [rad]", "solve_time_us": "the method's own "
     "computation [µs]", "call_time_us": "wall time of the whole solve() call [µs]", "cpu_time_us": "CPU time of "
-    "the call (the calling thread's; the process's for TRAC-IK) [µs]", "joint_distance_rad": "|q_solution - q_start|, revolute differences wrapped [rad]"}
+    "the call (the calling thread's; the process's for TRAC-IK) [µs]", "joint_distance_rad": "|q_solution - q_start|, differences wrapped by 2 pi [rad] (joint_distance)"}
+
+
+def joint_distance(q_solution, q_start) -> np.ndarray:
+    """Per solve: the Euclidean norm of ``q_solution - q_start`` over the joints, each difference
+    wrapped into [-π, π) so that a 2π turn is no distance (every catalogue arm is all revolute);
+    NaN where the two have different lengths. Arguments: sequences of joint vectors (N,)."""
+    q, q0 = list(q_solution), list(q_start)
+    out = np.full(len(q), np.nan)
+    n, n0 = np.array([len(a) for a in q]), np.array([len(b) for b in q0])
+    for k in np.unique(n):
+        rows = np.flatnonzero((n == k) & (n0 == k))
+        if rows.size:
+            d = (np.array([q[i] for i in rows], float) - np.array([q0[i] for i in rows], float) + np.pi) \
+                % (2 * np.pi) - np.pi
+            out[rows] = np.sqrt((d * d).sum(axis=1))
+    return out
 
 
 def samples_frame(study_id: str, archives: list[Archive]) -> pd.DataFrame:
@@ -48,13 +64,7 @@ def samples_frame(study_id: str, archives: list[Archive]) -> pd.DataFrame:
     df = runs_frame(archives)
     if df.empty:
         return pd.DataFrame(columns=list(SAMPLE_COLUMNS))
-    q = df["q_solution"].tolist()
-    q0 = df["q_start"].tolist()
-    dist = np.full(len(df), np.nan)
-    for i, (a, b) in enumerate(zip(q, q0)):
-        if len(a) == len(b):
-            d = (np.asarray(a, float) - np.asarray(b, float) + np.pi) % (2 * np.pi) - np.pi
-            dist[i] = float(np.sqrt((d * d).sum()))
+    dist = joint_distance(df["q_solution"], df["q_start"])
     out = pd.DataFrame({
         "study": study_id, "robot": df["robot"], "problem_set": df["problem_set"], "solver": df["solver"],
         "method": df["method"], "library": df.get("library", "ours"), "problem_id": df["problem_id"],
