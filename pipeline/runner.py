@@ -10,7 +10,8 @@ Every solve's CPU time is measured beside its wall time: the calling thread's CP
 (``thread_time_ns``) read around each call, or the whole process's (``process_time_ns``) for a method
 that runs threads of its own (``Solver.own_threads``: TRAC-IK's two racing solvers both count); for a
 batch kernel, the process's CPU time around the batch call shared out over its problems in
-proportion to their kernel-measured solve times (``BatchResult.cpu_times_s``). Summed over a job's
+proportion to their kernel-measured solve times, unless the kernel reads each solve's thread CPU
+time itself (the Jacobian loop of ``pipeline.solvers._lean`` does: ``BatchResult.cpu_times_s``). Summed over a job's
 solves, CPU / wall time is its CPU share: below 0.9 the job did not get a core to itself.
 
 Stochastic solvers get a per-(problem, repetition) seed derived from the set's seed, so that a
@@ -94,7 +95,8 @@ def solve_set_batches(method: str, settings: Settings, model: RobotModel, ps: Pr
             seeds = np.array([problem_seed(set_seed, ps.problem_id[i], 0) for i in part], dtype=np.int64)
             c0 = time.process_time_ns()
             res = solve_batch(method, prep, T_goals[part], ps.q_start[part], settings, seeds=seeds, threads=threads)
-            res.cpu_times_s = _shared((time.process_time_ns() - c0) * 1e-9, res.solve_time_s)
+            if res.cpu_times_s is None:  # the kernel does not read each solve's thread CPU time itself
+                res.cpu_times_s = _shared((time.process_time_ns() - c0) * 1e-9, res.solve_time_s)
             yield part, np.zeros(len(part), np.int64), ps.q_start[part], res
         return
     b = bind(method, prep, settings)

@@ -72,22 +72,31 @@ def test_each_study_opens_with_claims_whose_verdicts_are_computed_from_its_table
     import pandas as pd
 
     from pipeline.settings import load_study
-    from pipeline.studies.claims import MISSING, evaluate_claim, select
+    from pipeline.studies.claims import MISSING, count_line, evaluate_claim, readings, select
 
     doc = load_study(ROOT / "data" / "studies" / f"{sid}.yaml").doc
     tables = built / sid / "tables"
     claims = pd.read_csv(tables / "claims.csv", keep_default_na=False)
-    assert len(claims) == len(doc["claims"])
-    for spec, (_, row) in zip(doc["claims"], claims.iterrows()):
+    every = [(c, label, spec, counts) for c in doc["claims"] for label, spec, counts in readings(c)]
+    assert len(claims) == len(every)
+    headline = []
+    for (c, label, spec, counts), (_, row) in zip(every, claims.iterrows()):
         path = tables / f"{spec['table']}.csv"
         frame = select(pd.read_csv(path) if path.is_file() else None, spec.get("rows"))
         verdict, _, pub, _ = evaluate_claim(spec, frame)
-        assert row["verdict (ours)"] == verdict, spec["claim"]
-        assert pub in ("", "holds", MISSING), f"{sid}: claim {spec['claim']!r} does not hold on the published numbers"
+        assert row["verdict (ours)"] == verdict, (c["claim"], label)
+        assert row["counts"] == ("yes" if counts else "no (shown beside)")
+        if counts:  # the reading that matches what the document measured holds on the document's numbers
+            assert pub in ("", "holds", MISSING), f"{sid}: claim {c['claim']!r} does not hold on the published numbers"
+            headline.append(verdict)
     assert (tables / "not_reproduced.csv").is_file()
     html = (built / "report.html").read_text()
     section = html[html.index(f'<section id="{sid}"'):]
     assert section.index(f'id="tab-{sid}-claims"') < section.index(f'id="{sid}-settings"')
+    # the section opens with its one-line count, before the claims table
+    line = count_line(headline)
+    assert f'<p class="claim-count">{line}.</p>' in section, line
+    assert section.index('class="claim-count"') < section.index(f'id="tab-{sid}-claims"')
 
 
 def test_rerun_has_nothing_to_do(built):

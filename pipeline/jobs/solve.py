@@ -129,6 +129,7 @@ def solve_to_archive(study, problem_set: str, entry, robot_path, problems_path, 
     shown = 0
     t_solve = t_write = 0.0
     cpu_ns = wall_ns = 0
+    load_start = os.getloadavg()[0]  # the machine's load, recorded beside the times it may move
     with ArchiveWriter(out, meta, policy=policy, problem_ids=ids) as w:
         batches = solve_set_batches(entry.method, settings, model, ps, repetitions=reps, set_seed=spec["seed"],
                                     select=select, threads=max(1, threads))
@@ -157,7 +158,8 @@ def solve_to_archive(study, problem_set: str, entry, robot_path, problems_path, 
                 shown = done * 10 // max(1, total)
                 _progress(done, total, t0, f"solved, {n_ok} FK-verified successes")
         w.job_timing = {"cpu_s": f"{cpu_ns * 1e-9:.6f}", "wall_s": f"{wall_ns * 1e-9:.6f}",
-                        "cpu_share": f"{cpu_ns / max(wall_ns, 1):.4f}"}
+                        "cpu_share": f"{cpu_ns / max(wall_ns, 1):.4f}", "cores": str(os.cpu_count() or 0),
+                        "load_1min_start": f"{load_start:.2f}", "load_1min_end": f"{os.getloadavg()[0]:.2f}"}
         tw = time.perf_counter()
     t_write += time.perf_counter() - tw  # the last chunks and the summary, written on closing
     return (f"wrote {out}: {total} solves, {n_ok} FK-verified successes; solving {t_solve:.3f} s "

@@ -29,6 +29,8 @@ from pipeline.io.layout import SAMPLES_FILE
 from pipeline.provenance import environment
 from pipeline.settings import Study, git_commit
 from pipeline.report.seal import INPUTS_DIGEST, REPORT_DIGEST, inputs_digest, seal_report
+from pipeline.studies.claims import count_line
+from pipeline.studies.prose import fill
 
 TEMPLATES = Path(__file__).parent / "templates"
 
@@ -187,6 +189,13 @@ def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | Non
 HEAD_TABLES = ("claims", "not_reproduced")  # pipeline.studies.claims: shown first in a study's section
 
 
+def _interpretations(study: Study, folder: Path, tables: list[dict]) -> list[dict]:
+    """The study's interpretations with their numbers filled in from the build's tables (prose.fill)."""
+    frames = {t["name"]: pd.read_csv(folder / t["file"]) for t in tables if (folder / t["file"]).is_file()}
+    return [{k: fill(v, frames) if isinstance(v, str) else v for k, v in i.items()}
+            for i in study.doc["interpretations"]]
+
+
 def study_context(study: Study, results: Path) -> dict:
     folder = results / study.id
     tables = []
@@ -232,15 +241,21 @@ def study_context(study: Study, results: Path) -> dict:
                  | {id(f) for f in answer["figures"]})
         tables = [t for t in tables if id(t) not in shown and t["name"] != "answer"]
         figures = [f for f in figures if id(f) not in shown]
+    claims_csv = folder / "tables" / "claims.csv"
+    claim_count = ""
+    if claims_csv.is_file():  # the one-line count the section opens with: the readings that count
+        c = pd.read_csv(claims_csv, keep_default_na=False)
+        claim_count = count_line(list(c.loc[c["counts"] == "yes", "verdict (ours)"]) if "counts" in c else
+                                 list(c["verdict (ours)"]))
     head = [t for t in tables if t["name"] in HEAD_TABLES]  # claims and not-reproduced: top of the section
     tables = [t for t in tables if t["name"] not in HEAD_TABLES]
     return {
-        "answer": answer, "head_tables": head,
+        "answer": answer, "head_tables": head, "claim_count": claim_count,
         "id": study.id, "title": study.doc["title"], "document": study.doc["document"],
         "notes": study.doc.get("notes", ""), "robots": study.doc["robots"],
         "problems_yaml": yaml.safe_dump(study.problem_sets, sort_keys=False) if study.generic else "",
         "solvers_html": solvers_html,
-        "interpretations": study.doc["interpretations"], "tables": tables, "figures": figures,
+        "interpretations": _interpretations(study, folder / "tables", tables), "tables": tables, "figures": figures,
         "provenance": provenance, "benchmarks": benchmarks,
         "samples": samples,
         # machines the solves ran on (a cluster run): timings of different machines are not comparable

@@ -381,6 +381,8 @@ class BatchRaw:
     q : ndarray, shape (N, n)               final joint values [rad | working unit]
     code, iterations : ndarray, shape (N,)  the method's stop codes and iteration counts
     solve_ns, ik_ns : ndarray, shape (N,)   per-problem times [ns] (as in :class:`Raw`)
+    cpu_ns : ndarray, shape (N,), optional  per-problem CPU time of the solving thread [ns], where the
+                                            kernel reads it (``_kin.cpu_ns``) around the same work
     trace_rows : ndarray, shape (M, 8), optional       every problem's trace rows, concatenated
     trace_offsets : ndarray, shape (N + 1,), optional  problem i's rows are ``offsets[i]:offsets[i+1]``
     solutions : ndarray, shape (N, m, n), optional     analytic methods: every solution ...
@@ -393,6 +395,7 @@ class BatchRaw:
     iterations: np.ndarray
     solve_ns: np.ndarray
     ik_ns: np.ndarray
+    cpu_ns: np.ndarray | None = None
     trace_rows: np.ndarray | None = None
     trace_offsets: np.ndarray | None = None
     solutions: np.ndarray | None = None
@@ -444,8 +447,10 @@ class BatchResult:
     solutions, n_solutions, info : see :class:`BatchRaw`
     call_times_s : ndarray, shape (N,), optional [s]  per-problem call times when the problems were
                                                       solved one call at a time (else None)
-    cpu_times_s : ndarray, shape (N,), optional [s]   per-problem CPU time of the process (all threads)
-                                                      when the caller measured it (the runner does)
+    cpu_times_s : ndarray, shape (N,), optional [s]   per-problem CPU time: of the solving thread where the
+                                                      kernel reads it (BatchRaw.cpu_ns), else of the
+                                                      process (all threads) when the caller measured it
+                                                      (the runner does)
     """
 
     q: np.ndarray
@@ -517,7 +522,8 @@ def finish_batch(prep: Prepared, goals: np.ndarray, raw: BatchRaw, settings: Set
                        ik_time_s=raw.ik_ns * 1e-9, position_error=dp, orientation_error=ang,
                        claimed_success=claimed, within_limits=inside, call_time_s=0.0, length_unit=prep.unit,
                        trace_rows=raw.trace_rows, trace_offsets=raw.trace_offsets, solutions=raw.solutions,
-                       n_solutions=raw.n_solutions, info=raw.info)
+                       n_solutions=raw.n_solutions, info=raw.info,
+                       cpu_times_s=None if raw.cpu_ns is None else raw.cpu_ns * 1e-9)
 
 
 def pose_errors(model: RobotModel, T_goal: np.ndarray, q: np.ndarray) -> tuple[float, float, float]:

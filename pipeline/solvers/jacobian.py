@@ -145,6 +145,7 @@ def _batch(method: str):
             rows_out = np.concatenate(parts) if parts else np.empty((0, TRACE_COLS))
             offsets = np.concatenate([[0], np.cumsum(np.concatenate(counts))]).astype(np.int64)
         return BatchRaw(q=Q, code=codes, iterations=iters, solve_ns=times[:, 0], ik_ns=times[:, 1],
+                        cpu_ns=times[:, 2],
                         trace_rows=rows_out, trace_offsets=offsets)
 
     return batch

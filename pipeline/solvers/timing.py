@@ -15,14 +15,17 @@
     conversion, the kernel, the FK check and building the result.
 
 ``cpu_time_s``
-    The CPU time of the calling thread during the call (of the whole process for a method with
-    threads of its own, TRAC-IK), read by the runner around each call (or the process's around a
-    batch kernel, shared out over its problems by their solve times). Σ cpu / Σ call over a job is
-    its CPU share; below 0.9 the job did
-    not get a core to itself and its wall-clock times (and any wall-clock budget, TRAC-IK's) are
-    suspect (:mod:`pipeline.studies.arm_benchmark` flags it). Per call it is no better than wall
-    time: on a loaded VM the thread clock read a third of the wall time of calls that ran
-    unpreempted, while the median wall time of many short calls stayed within 1 µs.
+    The CPU time of the solving thread: read by the Jacobian loop's kernel around the same work as
+    ``solve_time_s`` (:func:`pipeline.solvers._kin.cpu_ns`, ``CLOCK_THREAD_CPUTIME_ID``), else by the
+    runner around each call (of the whole process for a method with threads of its own, TRAC-IK), or
+    the process's around another batch kernel, shared out over its problems by their solve times.
+    Time the thread waits for a core is not counted, so this is the measure machine load does not
+    move: with the load average at 6.8 on 2 cores, 20 000 solves of 14 µs had a mean wall time of
+    54 µs (CV 15.7, scheduler outliers up to 57 ms) and a mean thread CPU time of 13.6 µs (CV 0.15;
+    ``benchmarks/cpu_clock.py``). The document studies' time tables and claims use it. Σ cpu / Σ
+    call over a job is its CPU share; below 0.9 the job did not get a core to itself and its
+    wall-clock times (and any wall-clock budget, TRAC-IK's) are suspect
+    (:mod:`pipeline.studies.arm_benchmark` flags it).
 
 Every archive's ``/ik/solve`` records carry all four (``cpu_time_s`` from format 5's field 24 on;
 older archives read NaN); tables say which one they use.

@@ -53,8 +53,11 @@ def get_study_module(study_id: str, tables_from: str | None = None):
 def build_study_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     """The study module's tables, opened by its claims and not-reproduced tables (:mod:`pipeline.studies.claims`)."""
     from pipeline.studies.claims import with_claims
+    from pipeline.studies.common import load_table
 
-    return with_claims(study, get_study_module(study.id, study.doc.get("tables_from")).build_tables(study, archives, published_dir))
+    tables = get_study_module(study.id, study.doc.get("tables_from")).build_tables(study, archives, published_dir)
+    load = load_table(archives)
+    return with_claims(study, tables + ([load] if load is not None else []))
 
 
 def write_tables(tables: list[TableSpec], out_dir: Path) -> None:

@@ -16,8 +16,27 @@ claim names a table the study builds from its archives, the column that holds th
                                   ROW's value < its value in column COL (the published check
                                   compares ``published`` with PCOL): two quantities of one row
 
+``at_most: {row: ROW, value: X}`` / ``at_least: {row: ROW, value: X}``
+                                  ROW's value <= X / >= X
+``all_at_least: X``               every row's value >= X
+``same_as: {rows: [ROW, ...], than: COL, than_published: PCOL}``
+                                  each ROW's value equals its value in column COL
+``column_largest: {of: [COL, ...], of_published: [PCOL, ...]}``
+                                  in every row the value exceeds the row's values in the columns ``of``
+``nonzero_exactly: [ROW, ...]``   the rows whose value is not zero are exactly these (e.g. 1 = converged)
+
 An optional ``rows: {column: value, ...}`` keeps only the matching rows first (e.g. the ``mean``
 rows of a table with a ``statistic`` column).
+
+**Every reading.** Where a claim can be read on more than one row or measure (the whole firmware or
+its FK share, position or orientation error), ``reading`` names the one the claim's own fields check
+(the one that matches what the document measured: it alone counts toward the study's count) and
+``readings`` lists the others, each a ``label`` plus the fields it changes (``table``, ``rows``,
+``key``, ``ours``, ``published``, ``check``, ``reason``). The claims table shows a row per reading.
+
+**Not comparable.** ``not_comparable: WHY`` marks a claim the build cannot check fairly (e.g. it
+compares compiled code with an interpreted library): its verdict is *not comparable here*, its
+values are still shown, and it does not count as holding or differing.
 
 The verdict is computed, never typed: *holds* when the check passes on our values, *differs* when
 it fails, *not reproduced* when the table, a row or a value is missing (e.g. a quick build without
@@ -35,8 +54,9 @@ import pandas as pd
 
 from pipeline.studies.specs import TableSpec
 
-CHECKS = ("max", "min", "order", "less", "ratio_at_least", "within", "abs_at_most", "column_less")
-HOLDS, DIFFERS, MISSING = "holds", "differs", "not reproduced"
+CHECKS = ("max", "min", "order", "less", "ratio_at_least", "within", "abs_at_most", "column_less", "at_most",
+          "at_least", "all_at_least", "same_as", "column_largest", "nonzero_exactly")
+HOLDS, DIFFERS, MISSING, NOT_COMPARABLE = "holds", "differs", "not reproduced", "not comparable here"
 
 
 class ClaimError(ValueError):
@@ -122,6 +142,43 @@ def evaluate(check: dict, frame: pd.DataFrame | None, key: str, col: str, publis
         if a is None or b is None:
             return MISSING, ""
         return (HOLDS if a[row] < b[row] else DIFFERS), f"{row}: {a[row]:.4g} against {b[row]:.4g} ({other})"
+    if kind in ("at_most", "at_least"):
+        row, x = str(arg["row"]), float(arg["value"])
+        vals = _values(frame, key, col, [row])
+        if vals is None:
+            return MISSING, ""
+        ok = vals[row] <= x if kind == "at_most" else vals[row] >= x
+        return (HOLDS if ok else DIFFERS), f"{row} {vals[row]:.4g} (claim: {'≤' if kind == 'at_most' else '≥'} {x:g})"
+    if kind == "all_at_least":
+        vals = _all_rows(frame, key, col)
+        if vals is None:
+            return MISSING, ""
+        worst = min(vals, key=vals.get)
+        return (HOLDS if vals[worst] >= float(arg) else DIFFERS), f"smallest: {worst} {vals[worst]:.4g} (claim: ≥ {float(arg):g})"
+    if kind == "same_as":
+        rows = [str(r) for r in arg["rows"]]
+        other = arg["than_published"] if on_published else arg["than"]
+        a, b = _values(frame, key, col, rows), _values(frame, key, other, rows)
+        if a is None or b is None:
+            return MISSING, ""
+        same = all(math.isclose(a[r], b[r], rel_tol=1e-9, abs_tol=1e-12) for r in rows)
+        return (HOLDS if same else DIFFERS), ", ".join(f"{r}: {a[r]:.4g} and {b[r]:.4g}" for r in rows)
+    if kind == "column_largest":
+        others = arg["of_published"] if on_published else arg["of"]
+        mine, theirs = _all_rows(frame, key, col), [_all_rows(frame, key, o) for o in others]
+        if mine is None or any(t is None for t in theirs):
+            return MISSING, ""
+        bad = [r for r in mine if any(r not in t or not mine[r] > t[r] for t in theirs)]
+        return ((HOLDS if not bad else DIFFERS),
+                "; ".join(f"{r}: {mine[r]:.4g} against " + ", ".join(f"{t.get(r, math.nan):.4g}" for t in theirs)
+                          for r in mine))
+    if kind == "nonzero_exactly":
+        vals = _all_rows(frame, key, col)
+        if vals is None:
+            return MISSING, ""
+        got = [r for r in vals if vals[r] != 0]
+        return ((HOLDS if sorted(got) == sorted(str(a) for a in arg) else DIFFERS),
+                f"not zero at: {', '.join(got) or 'none'} (claim: {', '.join(str(a) for a in arg)})")
     raise ClaimError(f"unknown claim check {kind!r} (known: {', '.join(CHECKS)})")
 
 
@@ -138,37 +195,74 @@ def select(frame: pd.DataFrame | None, rows: dict | None) -> pd.DataFrame | None
 
 
 def evaluate_claim(c: dict, frame: pd.DataFrame | None) -> tuple[str, str, str, str]:
-    """(our verdict, our values, verdict on the published numbers, those values) of one claim on its
-    (row-selected) table; the published pair is empty when the claim has no published column."""
-    kind = next(iter(c["check"]))
+    """(our verdict, our values, verdict on the published numbers, those values) of one claim (or one
+    reading of it, :func:`readings`) on its (row-selected) table; the published pair is empty when the
+    claim has no published column. A ``not_comparable`` claim's verdict is :data:`NOT_COMPARABLE`."""
+    kind, arg = next(iter(c["check"].items()))
     verdict, ours = evaluate(c["check"], frame, c["key"], c["ours"], c.get("published"))
-    if not c.get("published") or kind == "within":
+    if c.get("not_comparable"):
+        verdict = NOT_COMPARABLE
+    two_columns = {"column_less": "than_published", "same_as": "than_published", "column_largest": "of_published"}
+    if not c.get("published") or kind == "within" or (kind in two_columns and two_columns[kind] not in arg):
         return verdict, ours, "", ""
     pub_verdict, pub = evaluate(c["check"], frame, c["key"], c["published"], on_published=True)
     return verdict, ours, pub_verdict, pub
 
 
+def readings(c: dict) -> list[tuple[str, dict, bool]]:
+    """Every reading of claim ``c``: ``(label, the claim as that reading checks it, counts)``; the claim's
+    own fields come first and alone count toward the study's count."""
+    main = {k: v for k, v in c.items() if k != "readings"}
+    out = [(c.get("reading", ""), main, True)]
+    for r in c.get("readings") or []:
+        merged = {**main, **{k: v for k, v in r.items() if k != "label"}}
+        if "reason" not in r:
+            merged.pop("reason", None)
+        out.append((r["label"], merged, False))
+    return out
+
+
+def count_line(verdicts: list[str]) -> str:
+    """``"n of m claims hold"`` and how many differ, are not comparable here or not reproduced."""
+    counts = pd.Series(verdicts, dtype=object).value_counts()
+    rest = [f"{int(counts[v])} {v if v != DIFFERS or counts[v] > 1 else 'differs'}"
+            for v in (DIFFERS, NOT_COMPARABLE, MISSING) if counts.get(v, 0)]
+    head = f"{int(counts.get(HOLDS, 0))} of {len(verdicts)} claims hold"
+    return head + (f" ({', '.join(rest)})" if rest else "")
+
+
 def claims_table(study, tables: list[TableSpec]) -> TableSpec | None:
-    """The study's ``claims`` checked on ``tables`` (built from its archives), or None without claims."""
+    """The study's ``claims`` checked on ``tables`` (built from its archives), one row per reading, or
+    None without claims. The reasons' placeholders are filled from ``tables`` (:mod:`pipeline.studies.prose`)."""
+    from pipeline.studies.prose import fill
+
     claims = study.doc.get("claims") or []
     if not claims:
         return None
     by_name = {t.name: t.frame for t in tables}
-    rows = []
+    rows, headline = [], []
     for c in claims:
-        frame = select(by_name.get(c["table"]), c.get("rows"))
-        verdict, ours, pub_verdict, pub = evaluate_claim(c, frame)
-        rows.append({"claim of the document": c["claim"], "where": c.get("where", ""), "table": c["table"],
-                     "our values": ours or "—", "published values": pub or "—",
-                     "verdict (ours)": verdict, "verdict (published numbers)": pub_verdict or "—",
-                     "why": "" if verdict == HOLDS else c.get("reason", "")})
-    counts = pd.Series([r["verdict (ours)"] for r in rows]).value_counts()
-    summary = ", ".join(f"{int(counts.get(v, 0))} {v}" for v in (HOLDS, DIFFERS, MISSING))
+        for label, r, counts in readings(c):
+            frame = select(by_name.get(r["table"]), r.get("rows"))
+            verdict, ours, pub_verdict, pub = evaluate_claim(r, frame)
+            why = r.get("not_comparable", "") if verdict == NOT_COMPARABLE else (
+                "" if verdict == HOLDS else r.get("reason", ""))
+            rows.append({"claim of the document": c["claim"] if counts else "↳ the same claim, another reading",
+                         "reading": label or "—", "counts": "yes" if counts else "no (shown beside)",
+                         "where": c.get("where", "") if counts else "", "table": r["table"],
+                         "our values": ours or "—", "published values": pub or "—",
+                         "verdict (ours)": verdict, "verdict (published numbers)": pub_verdict or "—",
+                         "why": fill(why, by_name)})
+            if counts:
+                headline.append(verdict)
     return TableSpec("claims", "Claims of the document, checked on our archives", pd.DataFrame(rows),
-                     f"{summary}. Each verdict is computed from the named table (itself computed from the "
-                     "archives): the check runs on our column and, where the document gives the numbers, on "
-                     "the published column. 'not reproduced' = the table, a row or a value is missing in "
-                     "this build. The reasons are ours, one line each.")
+                     f"{count_line(headline)}. Each verdict is computed from the named table (itself computed from "
+                     "the archives): the check runs on our column and, where the document gives the numbers, on "
+                     "the published column. Where a claim can be read on more than one row or measure, each "
+                     "reading has a row and only the one matching what the document measured counts "
+                     "('counts'). 'not reproduced' = the table, a row or a value is missing in this build; "
+                     "'not comparable here' = the build cannot check the claim fairly (the reason says why). "
+                     "The reasons are ours, one line each, their numbers filled in from the tables.")
 
 
 def not_reproduced_table(study) -> TableSpec | None:
@@ -187,5 +281,5 @@ def with_claims(study, tables: list[TableSpec]) -> list[TableSpec]:
     return head + list(tables)
 
 
-__all__ = ["CHECKS", "ClaimError", "DIFFERS", "HOLDS", "MISSING", "claims_table", "evaluate", "evaluate_claim",
-           "not_reproduced_table", "select", "with_claims"]
+__all__ = ["CHECKS", "ClaimError", "DIFFERS", "HOLDS", "MISSING", "NOT_COMPARABLE", "claims_table", "count_line",
+           "evaluate", "evaluate_claim", "not_reproduced_table", "readings", "select", "with_claims"]

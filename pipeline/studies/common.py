@@ -58,3 +58,29 @@ def describe(x, stats=("min", "max", "mean", "std")) -> dict:
 def percentiles(x, qs=(50, 95, 99)) -> dict:
     x = np.asarray(x, dtype=float)
     return {f"p{q}": (float(np.percentile(x, q)) if x.size else np.nan) for q in qs}
+
+
+def load_table(archives: list[Archive]):
+    """The machine's load while the study's jobs solved (each archive's ``job_timing`` record), one row
+    per problem set, or None when no archive records it: the record beside the times load may move."""
+    from pipeline.studies.specs import TableSpec
+
+    rows = []
+    for a in archives:
+        t = a.job_timing or {}
+        if "load_1min_start" in t:
+            rows.append({"problem set": a.metadata.get("problem_set", ""), "share": float(t["cpu_share"]),
+                         "load": max(float(t["load_1min_start"]), float(t["load_1min_end"])),
+                         "cores": int(t.get("cores", 0))})
+    if not rows:
+        return None
+    df = pd.DataFrame(rows)
+    out = pd.DataFrame([{"problem set": k, "jobs": len(g), "cores": int(g["cores"].max()),
+                         "job CPU share, smallest [-]": g["share"].min(), "job CPU share, median [-]": g["share"].median(),
+                         "1-min load average, largest [-]": g["load"].max()}
+                        for k, g in df.groupby("problem set", sort=False)])
+    return TableSpec("machine_load", "Machine load while the jobs solved (the load record)", out,
+                     "From each archive's job_timing record: the job's CPU share (CPU time / wall time of its solving) "
+                     "and the 1-minute load average at its start and end. The time-based tables and claims use thread "
+                     "CPU time, which time spent waiting for a core does not count, so their verdicts do not follow "
+                     "this load; wall-clock columns (named so) do.")

@@ -245,16 +245,20 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                     r = r.iloc[0]
                     row[f"{lab} iterations (ours)"] = _nc(r["iterations"], r["success"])
                     row[f"{lab} final |dp| [mm] (ours)"] = r["position_error"]
+                    row[f"{lab} converged (ours)"] = int(bool(r["success"]))
             if pub is not None:
                 p = pub[pub["point"] == pt].iloc[0]
                 row["ZP iterations (published)"] = p["zp_iterations"]
                 row["NR iterations (published)"] = p["nr_iterations"]
+                row["ZP converged (published)"] = int(str(p["zp_iterations"]) != "N.C.")
+                row["NR converged (published)"] = int(str(p["nr_iterations"]) != "N.C.")
             rows.append(row)
         out.append(TableSpec("table06_06_test1", "Table 6.6 — Test 1 (ELBOW): iterations to convergence",
                              pd.DataFrame(rows),
                              "ELBOW link lengths are assumed (only the 2520 mm reach is given), so counts compare in shape "
                              "only. Point 6 is 180 mm beyond reach: ZP settles with |dp| = 180; NR stops (no step lowers "
-                             "the error) or hits its cap. Caps: ZP 100 sweeps, NR 60. ZP precision δR+δP < 1e-3, NR |e| < 1e-3."))
+                             "the error) or hits its cap. Caps: ZP 100 sweeps, NR 60. ZP precision δR+δP < 1e-3, NR |e| < 1e-3. "
+                             "Converged: 1 = the method's stop test passed and the FK check confirmed it, 0 = N.C."))
 
     # --- Test 2 ---------------------------------------------------------------------------
     if "test2" in A:
