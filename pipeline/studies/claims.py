@@ -19,14 +19,14 @@ claim names a table the study builds from its archives, the column that holds th
 ``at_most: {row: ROW, value: X}`` / ``at_least: {row: ROW, value: X}``
                                   ROW's value <= X / >= X
 ``all_at_least: X``               every row's value >= X
-``same_as: {rows: [ROW, ...], than: COL, than_published: PCOL}``
-                                  each ROW's value equals its value in column COL
+``same_as: {rows: [ROW, ...], than: COL, than_published: PCOL, tol: T}``
+                                  each ROW's value equals its value in column COL (within T, default 0)
 ``column_largest: {of: [COL, ...], of_published: [PCOL, ...]}``
                                   in every row the value exceeds the row's values in the columns ``of``
 ``nonzero_exactly: [ROW, ...]``   the rows whose value is not zero are exactly these (e.g. 1 = converged)
 
 An optional ``rows: {column: value, ...}`` keeps only the matching rows first (e.g. the ``mean``
-rows of a table with a ``statistic`` column).
+rows of a table with a ``statistic`` column; a list of values keeps the rows matching any of them).
 
 **Every reading.** Where a claim can be read on more than one row or measure (the whole firmware or
 its FK share, position or orientation error), ``reading`` names the one the claim's own fields check
@@ -63,13 +63,24 @@ class ClaimError(ValueError):
     """A claim that names a check the module does not know (caught by the schema first)."""
 
 
+def _matches(column: pd.Series, value) -> pd.Series:
+    """Cells of ``column`` equal to ``value``: as text, or as numbers when both are numbers (a CSV's
+    ``960`` and a frame's ``960.0`` are the same row)."""
+    text = column.astype(str) == str(value)
+    try:
+        num = float(value)
+    except (TypeError, ValueError):
+        return text
+    return text | (pd.to_numeric(column, errors="coerce") == num)
+
+
 def _values(frame: pd.DataFrame, key: str, col: str, rows: list[str]) -> dict[str, float] | None:
     """{row: value} of ``col`` for ``rows`` (None when the column, a row or a value is missing)."""
     if frame is None or key not in frame.columns or col not in frame.columns:
         return None
     out = {}
     for r in rows:
-        hit = frame[frame[key].astype(str) == str(r)]
+        hit = frame[_matches(frame[key], r)]
         if len(hit) != 1:
             return None
         v = pd.to_numeric(hit[col], errors="coerce").iloc[0]
@@ -83,8 +94,13 @@ def _all_rows(frame: pd.DataFrame, key: str, col: str) -> dict[str, float] | Non
     if frame is None or key not in frame.columns or col not in frame.columns:
         return None
     vals = pd.to_numeric(frame[col], errors="coerce")
-    out = {str(k): float(v) for k, v in zip(frame[key], vals) if v is not None and math.isfinite(float(v))}
+    out = {_name(k): float(v) for k, v in zip(frame[key], vals) if v is not None and math.isfinite(float(v))}
     return out or None
+
+
+def _name(k) -> str:
+    """A row's name as text; a whole number printed without ``.0`` (a CSV's ``1`` and a frame's ``1.0``)."""
+    return str(int(k)) if isinstance(k, float) and k.is_integer() else str(k)
 
 
 def evaluate(check: dict, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None = None,
@@ -161,7 +177,8 @@ def evaluate(check: dict, frame: pd.DataFrame | None, key: str, col: str, publis
         a, b = _values(frame, key, col, rows), _values(frame, key, other, rows)
         if a is None or b is None:
             return MISSING, ""
-        same = all(math.isclose(a[r], b[r], rel_tol=1e-9, abs_tol=1e-12) for r in rows)
+        tol = float(arg.get("tol", 0.0))
+        same = all(abs(a[r] - b[r]) <= tol + 1e-9 * max(abs(a[r]), abs(b[r])) for r in rows)
         return (HOLDS if same else DIFFERS), ", ".join(f"{r}: {a[r]:.4g} and {b[r]:.4g}" for r in rows)
     if kind == "column_largest":
         others = arg["of_published"] if on_published else arg["of"]
@@ -190,7 +207,8 @@ def select(frame: pd.DataFrame | None, rows: dict | None) -> pd.DataFrame | None
     for col, val in rows.items():
         if col not in frame.columns:
             return None
-        keep &= frame[col].astype(str) == str(val)
+        keep &= (pd.concat([_matches(frame[col], v) for v in val], axis=1).any(axis=1) if isinstance(val, list)
+                 else _matches(frame[col], val))
     return frame[keep]
 
 
