@@ -96,3 +96,72 @@ def test_every_document_study_lists_its_claims_and_what_it_leaves_out(sid):
     doc = load_study(DATA / "studies" / f"{sid}.yaml").doc
     assert len(doc.get("claims", [])) >= 3, "each document study checks its headline claims"
     assert doc.get("not_reproduced"), "each document study lists what it does not reproduce"
+
+
+# ---- checks added for claims that face every headline (issue 27) ------------------------------------
+
+TWO = pd.DataFrame({"point": [1, 2, 3, 4], "a (ours)": [10.0, 0.0, 5.0, 7.0], "b (ours)": [9.0, 1.0, 5.0, 7.5],
+                    "c (ours)": [1.0, 2.0, 4.0, 0.0], "ok (ours)": [1, 1, 0, 1]})
+
+
+@pytest.mark.parametrize("check,verdict", [
+    ({"at_most": {"row": "1", "value": 10}}, HOLDS), ({"at_most": {"row": "1", "value": 9.9}}, DIFFERS),
+    ({"at_least": {"row": "4", "value": 7}}, HOLDS), ({"at_least": {"row": "4", "value": 7.1}}, DIFFERS),
+    ({"all_at_least": 0}, HOLDS), ({"all_at_least": 0.1}, DIFFERS),
+    ({"same_as": {"rows": ["3"], "than": "b (ours)"}}, HOLDS),
+    ({"same_as": {"rows": ["3", "4"], "than": "b (ours)"}}, DIFFERS),
+    ({"same_as": {"rows": ["3", "4"], "than": "b (ours)", "tol": 0.5}}, HOLDS),
+    ({"column_largest": {"of": ["c (ours)"]}}, DIFFERS),  # point 2: 0 < 2
+    ({"at_most": {"row": "9", "value": 1}}, MISSING), ({"same_as": {"rows": ["1"], "than": "zz"}}, MISSING),
+])
+def test_new_checks(check, verdict):
+    assert evaluate(check, TWO, "point", "a (ours)")[0] == verdict
+
+
+def test_column_largest_and_nonzero_exactly():
+    f = TWO[TWO["point"] != 2]
+    assert evaluate({"column_largest": {"of": ["c (ours)"]}}, f, "point", "a (ours)")[0] == HOLDS
+    assert evaluate({"column_largest": {"of": ["c (ours)", "b (ours)"]}}, f, "point", "a (ours)")[0] == DIFFERS
+    assert evaluate({"nonzero_exactly": ["1", "2", "4"]}, TWO, "point", "ok (ours)")[0] == HOLDS
+    assert evaluate({"nonzero_exactly": ["1", "2"]}, TWO, "point", "ok (ours)")[0] == DIFFERS
+    # whole numbers name the same row whether the frame holds 1 or 1.0 (a CSV against the built frame)
+    g = TWO.assign(point=TWO["point"].astype(float))
+    assert evaluate({"nonzero_exactly": ["1", "2", "4"]}, g, "point", "ok (ours)")[0] == HOLDS
+    assert evaluate({"at_most": {"row": "1", "value": 10}}, g, "point", "a (ours)")[0] == HOLDS
+
+
+def test_rows_select_numbers_as_numbers_and_lists_as_any_of():
+    from pipeline.studies.claims import select
+
+    f = pd.DataFrame({"d [mm]": [300.0, 960.0, 960.0], "m": ["X", "Y", "Z"], "v": [1, 2, 3]})
+    assert list(select(f, {"d [mm]": 960})["m"]) == ["Y", "Z"]
+    assert list(select(f, {"m": ["X", "Z"]})["v"]) == [1, 3]
+
+
+def test_every_reading_has_a_row_and_only_the_headline_counts():
+    from pipeline.studies.claims import NOT_COMPARABLE, count_line
+
+    study = SimpleNamespace(path="s.yaml", doc={"claims": [
+        {"claim": "B largest", "table": "t", "key": "method", "ours": "x (ours)", "published": "x (published)",
+         "check": {"max": "B"}, "reading": "ours", "reason": "never shown",
+         "readings": [{"label": "on the published column", "ours": "x (published)", "reason": "C is larger there"}]},
+        {"claim": "A smallest", "table": "t", "key": "method", "ours": "x (ours)", "check": {"min": "A"},
+         "not_comparable": "different platforms"},
+        {"claim": "C largest", "table": "t", "key": "method", "ours": "x (ours)", "check": {"max": "C"},
+         "reason": "B is {{ t | B | x (ours) | .1f }}"}]})
+    t = claims_table(study, [TableSpec("t", "T", FRAME)]).frame
+    assert list(t["counts"]) == ["yes", "no (shown beside)", "yes", "yes"]
+    assert list(t["verdict (ours)"]) == [HOLDS, DIFFERS, NOT_COMPARABLE, DIFFERS]
+    assert list(t["why"]) == ["", "C is larger there", "different platforms", "B is 3.0"]
+    assert count_line([HOLDS, NOT_COMPARABLE, DIFFERS]) == "1 of 3 claims hold (1 differs, 1 not comparable here)"
+    assert claims_table(study, [TableSpec("t", "T", FRAME)]).note.startswith("1 of 3 claims hold")
+
+
+def test_a_placeholder_naming_an_unknown_column_is_one_line_naming_the_study_file():
+    from pipeline.errors import UsageError
+
+    study = SimpleNamespace(path="data/studies/x.yaml", doc={"claims": [
+        {"claim": "C largest", "table": "t", "key": "method", "ours": "x (ours)", "check": {"max": "C"},
+         "reason": "B is {{ t | B | no such column }}"}]})
+    with pytest.raises(UsageError, match=r"^data/studies/x.yaml: field 'claims/0': placeholder .*no column 'no such column'"):
+        claims_table(study, [TableSpec("t", "T", FRAME)])

@@ -41,6 +41,18 @@ def test_independent_problems_keep_their_own_start(lwr):
         np.testing.assert_array_equal(q0, ps.q_start[i])
 
 
+def test_the_jacobian_loop_reads_each_solves_thread_cpu_time_in_batches(lwr):
+    """Batch solves of the Jacobian loop carry the thread's CPU time read in the kernel (not the process
+    time shared out by wall time): positive, and within the solve's own wall time (clock reads aside)."""
+    from pipeline.runner import solve_set_batches
+
+    ps = warm_start(lwr, 40, np.random.default_rng(3))
+    (_, _, _, res), = list(solve_set_batches("dls", make_settings("dls"), lwr, ps))
+    cpu, wall = res.cpu_times_s, res.solve_time_s
+    assert cpu.shape == (40,) and np.all(cpu > 0)
+    assert np.all(cpu <= wall + 2e-6)
+
+
 def test_repetitions_solve_each_problem_from_the_same_start(lwr):
     ps = warm_start(lwr, 3, np.random.default_rng(1))
     out = list(solve_set("sdls", make_settings("sdls"), lwr, ps, repetitions=3))

@@ -99,6 +99,23 @@ def test_each_study_opens_with_claims_whose_verdicts_are_computed_from_its_table
     assert section.index('class="claim-count"') < section.index(f'id="tab-{sid}-claims"')
 
 
+@pytest.mark.parametrize("sid", ["cerbaro2019", "erthal1992", "borges_kr6", "mariano2019", "nepomuceno2024"])
+def test_numbers_in_the_prose_come_from_the_tables(built, sid):
+    """Every number in a reason, caption or interpretation of the built study is held by one of its tables,
+    settings or listed document facts (prose.untabled_numbers): none is typed by hand. Every job records
+    the machine's load beside its times (the machine_load table)."""
+    import pandas as pd
+
+    from pipeline.settings import load_study
+    from pipeline.studies.prose import untabled_numbers
+
+    study = load_study(ROOT / "data" / "studies" / f"{sid}.yaml")
+    bad = untabled_numbers(study, built / sid, ROOT / "data" / "published")
+    assert not bad, "\n".join(f"{w}: {n!r} in {c!r}" for w, n, c in bad)
+    load = pd.read_csv(built / sid / "tables" / "machine_load.csv")
+    assert len(load) and (load["1-min load average, largest [-]"] >= 0).all()
+
+
 def test_rerun_has_nothing_to_do(built):
     proc = _snakemake(built, "-n")
     assert "Nothing to be done" in proc.stdout + proc.stderr

@@ -249,17 +249,26 @@ def count_line(verdicts: list[str]) -> str:
     return head + (f" ({', '.join(rest)})" if rest else "")
 
 
+def _filled(study, k: int, text: str, tables: dict) -> str:
+    """Claim ``k``'s reason with its placeholders filled; a placeholder naming an unknown column is an
+    error naming the study file and the claim."""
+    from pipeline.studies.prose import ProseError, fill
+
+    try:
+        return fill(text, tables)
+    except ProseError as exc:
+        raise ProseError(f"{study.path}: field 'claims/{k}': {exc}") from None
+
+
 def claims_table(study, tables: list[TableSpec]) -> TableSpec | None:
     """The study's ``claims`` checked on ``tables`` (built from its archives), one row per reading, or
     None without claims. The reasons' placeholders are filled from ``tables`` (:mod:`pipeline.studies.prose`)."""
-    from pipeline.studies.prose import fill
-
     claims = study.doc.get("claims") or []
     if not claims:
         return None
     by_name = {t.name: t.frame for t in tables}
     rows, headline = [], []
-    for c in claims:
+    for k, c in enumerate(claims):
         for label, r, counts in readings(c):
             frame = select(by_name.get(r["table"]), r.get("rows"))
             verdict, ours, pub_verdict, pub = evaluate_claim(r, frame)
@@ -270,7 +279,7 @@ def claims_table(study, tables: list[TableSpec]) -> TableSpec | None:
                          "where": c.get("where", "") if counts else "", "table": r["table"],
                          "our values": ours or "—", "published values": pub or "—",
                          "verdict (ours)": verdict, "verdict (published numbers)": pub_verdict or "—",
-                         "why": fill(why, by_name)})
+                         "why": _filled(study, k, why, by_name)})
             if counts:
                 headline.append(verdict)
     return TableSpec("claims", "Claims of the document, checked on our archives", pd.DataFrame(rows),

@@ -23,12 +23,14 @@ import re
 
 import pandas as pd
 
+from pipeline.errors import UsageError
+
 PLACEHOLDER = re.compile(r"\{\{\s*([^|{}]+?)\s*\|\s*([^|{}]*?)\s*\|\s*([^|{}]+?)\s*(?:\|\s*([^|{}]*?)\s*)?\}\}")
 MISSING_VALUE = "n/a"
 
 
-class ProseError(ValueError):
-    """A placeholder that names a column its table does not have."""
+class ProseError(UsageError):
+    """A placeholder that names a column its table does not have (a study-file error)."""
 
 
 def lookup(tables: dict[str, pd.DataFrame], table: str, row: str, column: str) -> float | str | None:
@@ -39,12 +41,10 @@ def lookup(tables: dict[str, pd.DataFrame], table: str, row: str, column: str) -
         return None
     if column not in frame.columns:
         raise ProseError(f"placeholder {{{{ {table} | {row} | {column} }}}}: table {table!r} has no column {column!r}")
-    if "=" in row:
+    parts = [[x.strip() for x in p.partition("=")[::2]] for p in row.split(",")] if "=" in row else []
+    if parts and all(col in frame.columns for col, _ in parts):  # column=value, column=value
         keep = pd.Series(True, index=frame.index)
-        for part in row.split(","):
-            col, _, val = (x.strip() for x in part.partition("="))
-            if col not in frame.columns:
-                raise ProseError(f"placeholder {{{{ {table} | {row} | {column} }}}}: table {table!r} has no column {col!r}")
+        for col, val in parts:
             keep &= frame[col].astype(str) == val
         hit = frame[keep]
     else:
@@ -85,9 +85,13 @@ __all__ = ["MISSING_VALUE", "PLACEHOLDER", "ProseError", "fill", "lookup", "plac
 
 _NUMBER = re.compile(r"(?<![\w.])(\d+(?:[ \u2009\u202f,]\d{3})*(?:\.\d+)?(?:[eE][-−+]?\d+)?)(?![\w])")
 # a number right after one of these names a section, equation, table, item or reading, not a value
-_LABEL = re.compile(r"(?:§|eqs?\.|Tab(?:le|ela)s?|Fig(?:ure|ura)?s?\.?|Gráficos?|Tests?|Testes?|points?|P|strateg(?:y|ies)|"
+_LABEL = re.compile(r"(?:§|eqs?\.?|Tab(?:le|ela)s?|Fig(?:ure|ura)?s?\.?|Gráficos?|Tests?|Testes?|points?|P|strateg(?:y|ies)|"
                     r"codes?|causes?|stop code|step|Etapa|row|rows|column|columns|no\.|notes?|limit|limits|reading|"
                     r"Chapter|Cap\.|Sec\.|Section|appendix|ref\.|\[)\s*$", re.I)
+
+
+# the second end of a range or list of labels: §6.4-6.5, eqs 3.5–3.17, Tables 6.12/6.14
+_RANGE_OF_LABELS = re.compile(r"(?:§|eqs?\.?|Tab(?:le|ela)s?|Fig(?:ure|ura)?s?\.?)\s*\d[\d.]*\s*[-–/]\s*$", re.I)
 
 
 def _value_set(frames, extra) -> list[float]:
@@ -190,7 +194,7 @@ def untabled_numbers(study, folder, published_dir) -> list[tuple[str, str, str]]
     for where, text in prose_of(study, folder):
         for m in _NUMBER.finditer(text):
             before, after = text[max(0, m.start() - 12):m.start()], text[m.end():m.end() + 2]
-            if _LABEL.search(before) or re.match(r"[-‑]?[A-Za-zµμ°×x]", after) and not re.match(r"\s", after) \
+            if _LABEL.search(before) or _RANGE_OF_LABELS.search(text[max(0, m.start() - 30):m.start()]) or re.match(r"[-‑]?[A-Za-zµμ°×x]", after) and not re.match(r"\s", after) \
                     or re.search(r"[A-Za-zα-ωΑ-Ωθ_]$", before):
                 continue  # a label (Table 7, eq. 47) or part of a name (UR5, 6-DoF, 3x3, θ1)
             tok = _numbers(m.group(1))

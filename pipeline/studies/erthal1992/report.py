@@ -283,8 +283,8 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                              "ZP: strategy 5, stop at δR + δP < ε (mm² + 1), iteration = one sweep. NR: |(dp [mm], angle·axis)| < ε, "
                              "Whitney step search. The PUMA table is Fu et al.'s (the document prints only d2), with the goals in the "
                              "base frame at the mounting surface 672 mm below the shoulder (A4.2; data/erthal1992/robot_bases.yaml). "
-                             "With the base at the shoulder the solution sits at θ5 = −3.6° (wrist singularity) and ZP needs 96 / 408 "
-                             "sweeps at 1e-6 / 1e-7; our per-decade slope (≈ 4 sweeps) is below the document's (≈ 6)."))
+                             "With the base at the shoulder the solution sits at θ5 = −3.6° (wrist singularity) and ZP needs "
+                             "hundreds of sweeps at 1e-6 and 1e-7; our per-decade slope (≈ 4 sweeps) is below the document's (≈ 6)."))
 
     # --- Test 3 ---------------------------------------------------------------------------
     if "test3" in A:

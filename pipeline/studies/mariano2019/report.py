@@ -71,6 +71,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     by = _by_measure(archives)
     counts = by.get("counting", [])
     out = []
+    checks = []  # numbers the MCU notes state, also given as a table (mcu_checks)
     mcu = _mcu(by)
     st = mcu["status"]
     freq = float(st.get("freq_hz", 16e6))
@@ -158,6 +159,8 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                      "counter value (published)": 233176 / 152770})
         df4 = pd.DataFrame(rows)
         err = np.max(np.abs(fk[["x", "y", "z"]].to_numpy() - fk[["x_ref", "y_ref", "z_ref"]].to_numpy()))
+        checks.append({"quantity": "max |p_MCU − p_Python| of the timed FK", "value": float(err),
+                       "unit": fk["length_unit"].iloc[0]})
         note4 = (f"Ours: generated C (float) on a simulated {st['mcu']} (simavr, {st.get('versions', {}).get('simavr', '')}), "
                  f"{len(h)} joint configurations, Timer1 at the CPU clock, printing outside the timed region; "
                  f"max |p_MCU − p_Python| = {err:.2g} {fk['length_unit'].iloc[0]} (float32 vs float64). The published "
@@ -165,7 +168,10 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     else:
         note4 = _not_measured_note(st)
     out.append(TableSpec("table04_mcu_time", "Table IV — FK time on the ATmega328P", df4, note4))
-    out.append(_print_variant_table(mcu, pub4, st, freq))
+    out.append(_print_variant_table(mcu, pub4, st, freq, checks))
+    if checks:
+        out.append(TableSpec("mcu_checks", "Checks of the MCU measurements stated in the notes above",
+                             pd.DataFrame(checks), "Every number the Table IV notes state about our measurements."))
 
     # Table V: per function group
     pub5 = published(published_dir, STUDY, "table05_ram_model_steps")
@@ -277,13 +283,14 @@ def simavr_byte_cycles(ubrr: int, u2x: bool, freq: float) -> float:
     return (1_000_000 // (baud // 11)) * freq / 1e6
 
 
-def _print_variant_table(mcu, pub4, st, freq) -> TableSpec:
+def _print_variant_table(mcu, pub4, st, freq, checks: list) -> TableSpec:
     """Table IV with the result printed inside the timed region (print_array of Tabela V).
 
     Rows: the FK alone (``mcu_fk``), FK + printing to RAM (formatting only), FK + printing over
     simavr's UART at each measured baud rate (``mcu_print``), and per baud rate the same with a
     real 8N1 frame computed as FK + max(formatting, characters x 10 bit / baud) from the measured FK
-    cycles, formatting cycles and characters of the same configuration.
+    cycles, formatting cycles and characters of the same configuration. The numbers its note states
+    about the measurements are appended to ``checks`` (rows of the mcu_checks table).
     """
     name, title = "table04_print_variant", "Table IV with printing — FK + print_array of the result in the timed region"
     pr, fk = mcu["print"], mcu["fk"]
@@ -355,10 +362,19 @@ def _print_variant_table(mcu, pub4, st, freq) -> TableSpec:
             ratio8n1 = byte / (UART_BITS * freq / float(g["baud_actual"].iloc[0]))
             check.append(f"{int(baud)} baud {dev.min():+.1%} to {dev.max():+.1%} (simavr's byte time {byte:.0f} "
                          f"cycles = {ratio8n1:.3f} × the 8N1 one)")
+            checks.extend([{"quantity": f"computed rows' deviation from the simavr rows, smallest, {int(baud)} baud",
+                            "value": 100 * float(dev.min()), "unit": "%"},
+                           {"quantity": f"computed rows' deviation from the simavr rows, largest, {int(baud)} baud",
+                            "value": 100 * float(dev.max()), "unit": "%"},
+                           {"quantity": f"simavr's byte time, {int(baud)} baud", "value": float(byte), "unit": "cycles"},
+                           {"quantity": f"simavr's byte time / the 8N1 byte time, {int(baud)} baud",
+                            "value": float(ratio8n1), "unit": "-"}])
     n_conf = int(pr["i"].nunique())
     digits = int(pr["digits"].iloc[0])
     err = max(float(np.max(np.abs(np.asarray(v, float) - np.asarray(r, float))))
               for v, r in zip(pr["values"], pr["values_ref"]))
+    checks.append({"quantity": "printed values against the Python chain, largest difference", "value": err,
+                   "unit": pr["length_unit"].iloc[0]})
     bauds = sorted(int(b) for b in uart["baud"].unique())
     pub_chars = ""
     if len(pub) == 2 and bauds:

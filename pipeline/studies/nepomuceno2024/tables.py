@@ -151,7 +151,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             mean_t[(m, mo)] = float(r["total_time_s"].mean())
             col = "test1_duration_s" if mo == "home" else "test2_duration_s"
             row[f"{MOTION_LABEL.get(mo, mo)}: points"] = int(r["points"].iloc[0])
-            row[f"{MOTION_LABEL.get(mo, mo)}: IK CPU time [s] (ours, mean of {len(r)})"] = mean_t[(m, mo)]
+            row[f"{MOTION_LABEL.get(mo, mo)}: IK CPU time [s] (ours, mean over repetitions)"] = mean_t[(m, mo)]
             row[f"{MOTION_LABEL.get(mo, mo)}: IK CPU time std [s] (ours)"] = float(r["total_time_s"].std(ddof=1)) if len(r) > 1 else np.nan
             row[f"{MOTION_LABEL.get(mo, mo)}: duration [s] (published)"] = _pub(pub1, pname, col)
             g = pts[(pts["method"] == m) & (pts["motion"] == mo)]

@@ -1,0 +1,49 @@
+"""Numbers in a study's prose come from its tables (pipeline.studies.prose): placeholders are filled at
+build time, and a number no table, setting or listed fact holds is reported (the built report's check
+runs in tests/test_workflow.py)."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import pandas as pd
+import pytest
+
+from pipeline.studies.prose import MISSING_VALUE, ProseError, fill, untabled_numbers
+
+T = {"t": pd.DataFrame({"method": ["A", "B"], "statistic": ["mean", "mean"], "v (ours)": [48.312, 12345.6]})}
+
+
+def test_fill_formats_table_values_and_marks_missing_rows():
+    assert fill("x {{ t | A | v (ours) | .1f }} y", T) == "x 48.3 y"
+    assert fill("{{t|B|v (ours)|,.0f}}", T) == "12,346"
+    assert fill("{{ t | method=B, statistic=mean | v (ours) }}", T) == "1.235e+04"
+    assert fill("{{ t | Z | v (ours) }} and {{ absent | A | v }}", T) == f"{MISSING_VALUE} and {MISSING_VALUE}"
+    with pytest.raises(ProseError, match="no column 'w'"):
+        fill("{{ t | A | w }}", T)
+
+
+def _built(tmp_path, note: str, evidence: str, facts=()):
+    folder = tmp_path / "s"
+    (folder / "tables").mkdir(parents=True)
+    T["t"].to_csv(folder / "tables" / "t.csv", index=False)
+    (folder / "tables" / "index.json").write_text(json.dumps([{"name": "t", "title": "T", "note": note, "file": "t.csv"}]))
+    study = SimpleNamespace(id="s", doc={"interpretations": [{"topic": "x", "choice": "c", "evidence": evidence}],
+                                         "solvers": {"a": {"max_iterations": 500}}, "prose_facts": list(facts)})
+    return study, folder
+
+
+def test_a_hand_typed_result_is_caught_and_tabled_numbers_pass(tmp_path):
+    study, folder = _built(tmp_path, "A took 48.3 s (Table 7, eq. 47, UR5, 6-DoF), cap 500.",
+                           "B: {{ t | B | v (ours) | ,.0f }}; was 5.4 ms against 0.021")
+    bad = untabled_numbers(study, folder, tmp_path / "published")
+    assert [b[1] for b in bad] == ["5.4", "0.021"], bad
+    assert bad[0][0] == "interpretation 'x' (evidence)"
+
+
+def test_listed_document_facts_pass(tmp_path):
+    study, folder = _built(tmp_path, "Eberhart & Shi 2001", "", facts=[2001])
+    assert untabled_numbers(study, folder, tmp_path / "published") == []
+    study, folder = _built(tmp_path / "b", "Eberhart & Shi 2001", "")
+    assert [b[1] for b in untabled_numbers(study, folder, tmp_path / "published")] == ["2001"]
