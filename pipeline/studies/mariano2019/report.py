@@ -283,7 +283,7 @@ def simavr_byte_cycles(ubrr: int, u2x: bool, freq: float) -> float:
     return (1_000_000 // (baud // 11)) * freq / 1e6
 
 
-def _print_variant_table(mcu, pub4, st, freq, checks: list) -> TableSpec:
+def _print_variant_table(mcu, pub4, st, freq, checks: list | None = None) -> TableSpec:
     """Table IV with the result printed inside the timed region (print_array of Tabela V).
 
     Rows: the FK alone (``mcu_fk``), FK + printing to RAM (formatting only), FK + printing over
@@ -292,6 +292,7 @@ def _print_variant_table(mcu, pub4, st, freq, checks: list) -> TableSpec:
     cycles, formatting cycles and characters of the same configuration. The numbers its note states
     about the measurements are appended to ``checks`` (rows of the mcu_checks table).
     """
+    checks = [] if checks is None else checks
     name, title = "table04_print_variant", "Table IV with printing — FK + print_array of the result in the timed region"
     pr, fk = mcu["print"], mcu["fk"]
     pub = {}
