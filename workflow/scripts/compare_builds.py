@@ -1,9 +1,15 @@
 """Compare two builds of the same config (e.g. a local and a SLURM quick build): identical apart from timings.
 
-    python workflow/scripts/compare_builds.py RESULTS_A RESULTS_B [--tables-only]
+    python workflow/scripts/compare_builds.py RESULTS_A RESULTS_B [--tables-only | --verdicts]
 
 ``--tables-only`` leaves out step 2 (the archives): for builds written in different archive formats,
 which one reader cannot both read.
+
+``--verdicts`` compares what load could move instead (two builds of one commit, one on a quiet
+machine and one while a second build loads it): every study's claims table must give the same
+verdicts (ours and on the published numbers) row by row, and every time column of a table a claim
+reads must rank its rows the same (tables with a ``statistic`` column aside); the largest relative
+difference of each time column and each build's load record (``machine_load.csv``) are printed.
 
 Checks, exit 1 on any difference:
 
@@ -146,8 +152,70 @@ def compare(a: Path, b: Path, archives: bool = True) -> list[str]:
     return problems
 
 
+_TIME_COLUMN = re.compile(r"time|CPU|fastest|\bCV\b|Pearson|\bt (?:max|min|mean|median)\b", re.I)
+
+
+def _time_columns(t: pd.DataFrame) -> list[str]:
+    from pandas.api.types import is_numeric_dtype
+
+    return [c for c in t.columns if _TIME_COLUMN.search(c) and "published" not in c and is_numeric_dtype(t[c])]
+
+
+def compare_verdicts(a: Path, b: Path) -> list[str]:
+    """``--verdicts``: the same claim verdicts and the same ranking by every time column the claims read
+    (see the module docstring); times themselves are printed, not judged."""
+    import pandas as pd
+
+    problems = []
+    for claims in sorted(a.glob("*/tables/claims.csv")):
+        sid = claims.parent.parent.name
+        other = b / sid / "tables" / "claims.csv"
+        if not other.is_file():
+            problems.append(f"{sid}: no claims table in {b}")
+            continue
+        ca, cb = pd.read_csv(claims, keep_default_na=False), pd.read_csv(other, keep_default_na=False)
+        cols = ["claim of the document", "reading", "verdict (ours)", "verdict (published numbers)"]
+        if len(ca) != len(cb):
+            problems.append(f"{sid}: {len(ca)} claim rows against {len(cb)}")
+            continue
+        diff = ca[cols].ne(cb[cols]).any(axis=1)
+        for i in diff[diff].index:
+            problems.append(f"{sid}: claim row {i + 1} ({ca.loc[i, 'claim of the document'][:60]!r}, reading "
+                            f"{ca.loc[i, 'reading']!r}): {ca.loc[i, 'verdict (ours)']} against {cb.loc[i, 'verdict (ours)']}")
+        print(f"{sid}: {len(ca)} claim rows, {int(diff.sum())} verdict(s) differ")
+        for name in sorted(set(ca["table"])):
+            pa, pb = a / sid / "tables" / f"{name}.csv", b / sid / "tables" / f"{name}.csv"
+            if not (pa.is_file() and pb.is_file()):
+                continue
+            ta, tb = pd.read_csv(pa), pd.read_csv(pb)
+            for c in _time_columns(ta):
+                if c not in tb or len(ta) != len(tb):
+                    problems.append(f"{sid}/{name}: column {c!r} or its rows missing in one build")
+                    continue
+                x, y = ta[c].to_numpy(float), tb[c].to_numpy(float)
+                rel = float(pd.Series(abs(x - y) / abs(x).clip(min=1e-300)).max()) if len(x) else 0.0
+                same_order = (list(pd.Series(x).rank(method="min").fillna(-1))
+                              == list(pd.Series(y).rank(method="min").fillna(-1)))
+                print(f"  {name}: {c}: largest relative difference {100 * rel:.3g} %, "
+                      f"row order {'the same' if same_order else 'DIFFERS'}")
+                if not same_order and "statistic" not in ta.columns:
+                    problems.append(f"{sid}/{name}: rows ordered differently by {c!r}")
+    for label, root in (("A", a), ("B", b)):
+        for load in sorted(root.glob("*/tables/machine_load.csv")):
+            t = pd.read_csv(load)
+            print(f"load record {label} {load.parent.parent.name}: CPU share ≥ "
+                  f"{t['job CPU share, smallest [-]'].min():.2f}, 1-min load ≤ {t['1-min load average, largest [-]'].max():.2f}")
+    return problems
+
+
 def main(argv: list[str]) -> int:
     a, b = (Path(x) for x in argv[1:3])
+    if "--verdicts" in argv[3:]:
+        problems = compare_verdicts(a, b)
+        for p in problems:
+            print("differs:", p)
+        print("same verdicts" if not problems else f"{len(problems)} differences")
+        return 1 if problems else 0
     problems = compare(a, b, archives="--tables-only" not in argv[3:])
     for p in problems:
         print("differs:", p)
