@@ -90,8 +90,9 @@ _LABEL = re.compile(r"(?:§|eqs?\.?|Tab(?:le|ela)s?|Fig(?:ure|ura)?s?\.?|Gráfic
                     r"Chapter|Cap\.|Sec\.|Section|appendix|ref\.|\[)\s*$", re.I)
 
 
-# the second end of a range or list of labels: §6.4-6.5, eqs 3.5–3.17, Tables 6.12/6.14
-_RANGE_OF_LABELS = re.compile(r"(?:§|eqs?\.?|Tab(?:le|ela)s?|Fig(?:ure|ura)?s?\.?)\s*\d[\d.]*\s*[-–/]\s*$", re.I)
+# a later member of a range or list of labels: §6.4-6.5, eqs 3.5–3.17, Tables 6.12/6.14, Tables 7, 8-11 and 15
+_RANGE_OF_LABELS = re.compile(r"(?:§|eqs?\.?|Tab(?:le|ela)s?|Fig(?:ure|ura)?s?\.?)\s*\d[\d.]*"
+                              r"(?:\s*(?:,|and|e|[-–/])\s*\d[\d.]*)*\s*(?:,|and|e|[-–/])\s*$", re.I)
 
 
 def _value_set(frames, extra) -> list[float]:
@@ -186,7 +187,11 @@ def untabled_numbers(study, folder, published_dir) -> list[tuple[str, str, str]]
     from pathlib import Path
 
     folder = Path(folder)
-    frames = [pd.read_csv(p, keep_default_na=False) for p in sorted((folder / "tables").glob("*.csv"))]
+    frames = [pd.read_csv(p, keep_default_na=False) for p in sorted((folder / "tables").glob("*.csv"))
+              if p.name != "claims.csv"]
+    claims = folder / "tables" / "claims.csv"
+    if claims.is_file():  # the values a verdict rests on, not the prose beside them (the reasons are checked)
+        frames.append(pd.read_csv(claims, keep_default_na=False)[["our values", "published values"]])
     pub = Path(published_dir) / study.id
     frames += [pd.read_csv(p, keep_default_na=False) for p in sorted(pub.glob("*.csv"))] if pub.is_dir() else []
     values = _value_set(frames, _settings_numbers(study.doc))
