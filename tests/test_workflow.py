@@ -99,7 +99,8 @@ def test_each_study_opens_with_claims_whose_verdicts_are_computed_from_its_table
     assert section.index('class="claim-count"') < section.index(f'id="tab-{sid}-claims"')
 
 
-@pytest.mark.parametrize("sid", ["cerbaro2019", "erthal1992", "borges_kr6", "mariano2019", "nepomuceno2024"])
+@pytest.mark.parametrize("sid", ["cerbaro2019", "erthal1992", "borges_kr6", "mariano2019", "nepomuceno2024",
+                                 "arm_benchmark", "every_method", "closed_forms"])
 def test_numbers_in_the_prose_come_from_the_tables(built, sid):
     """Every number in a reason, caption or interpretation of the built study is held by one of its tables,
     settings or listed document facts (prose.untabled_numbers): none is typed by hand. Every job records
