@@ -243,7 +243,7 @@ def readings(c: dict) -> list[tuple[str, dict, bool]]:
 def count_line(verdicts: list[str]) -> str:
     """``"n of m claims hold"`` and how many differ, are not comparable here or not reproduced."""
     counts = pd.Series(verdicts, dtype=object).value_counts()
-    rest = [f"{int(counts[v])} {v if v != DIFFERS or counts[v] > 1 else 'differs'}"
+    rest = [f"{int(counts[v])} {'differ' if v == DIFFERS and counts[v] > 1 else v}"
             for v in (DIFFERS, NOT_COMPARABLE, MISSING) if counts.get(v, 0)]
     head = f"{int(counts.get(HOLDS, 0))} of {len(verdicts)} claims hold"
     return head + (f" ({', '.join(rest)})" if rest else "")
