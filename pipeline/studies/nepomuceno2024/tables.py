@@ -125,6 +125,8 @@ def _table5_2(study, g_pts: pd.DataFrame, methods: list[str], pub2) -> pd.DataFr
             "mean iterations per point (published)": _pub(pub2, pname, "iterations_per_point_text"),
             "mean function evaluations per point (ours)": g["nfev"].mean(),
             "'custo computacional por iteração' (published)": _pub(pub2, pname, "cost_per_iteration"),
+            "FK evaluations per iteration (ours)": (g["nfev"].sum() / g["iterations"].sum()
+                                                    if not is_analytic(study, m) and g["iterations"].sum() else np.nan),
             "mean CPU time per point [ms] (ours)": 1e3 * cpu_time(g).mean(),
             "'tempo médio para convergência de uma iteração', no unit (published)": _pub(pub2, pname, "time_per_iteration"),
         })
