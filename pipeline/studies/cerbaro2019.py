@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.studies import FigureSpec, TableSpec
-from pipeline.studies.common import describe, published, solves_frame
+from pipeline.studies.common import cpu_time, describe, published, solves_frame
 
 STUDY = "cerbaro2019"
 METHODS = ["jacobian_transpose", "pseudoinverse", "dls", "sdls"]
@@ -28,10 +28,7 @@ UNIT_NOTE = (
 )
 
 
-def problem_time(df: pd.DataFrame) -> pd.Series:
-    """Each solve's thread CPU time [s] (archives without it: the monotonic solve time)."""
-    cpu = df["cpu_time_s"] if "cpu_time_s" in df else pd.Series(np.nan, index=df.index)
-    return cpu.where(np.isfinite(cpu), df["solve_time_s"])
+problem_time = cpu_time  # each solve's thread CPU time [s]
 
 
 def ik_block_time(df: pd.DataFrame) -> pd.Series:

@@ -35,6 +35,13 @@ def solves_frame(archives: list[Archive]) -> pd.DataFrame:
     return pd.concat(frames, ignore_index=True)
 
 
+def cpu_time(df: pd.DataFrame) -> pd.Series:
+    """Each solve's thread CPU time [s] (archives without it: the monotonic solve time): the time
+    measure machine load does not move, which the document studies' time tables use."""
+    cpu = df["cpu_time_s"] if "cpu_time_s" in df else pd.Series(np.nan, index=df.index)
+    return cpu.where(np.isfinite(cpu), df["solve_time_s"])
+
+
 def published(published_dir: Path, study: str, name: str) -> pd.DataFrame | None:
     """A published table ``data/published/<study>/<name>.csv`` or None when absent."""
     path = Path(published_dir) / study / f"{name}.csv"

@@ -9,17 +9,10 @@ import numpy as np
 import pandas as pd
 
 from pipeline.studies import TableSpec
-from pipeline.studies.common import published
+from pipeline.studies.common import cpu_time, published
 
 STUDY = "nepomuceno2024"
 MOTION_LABEL = {"home": "Teste 1 (home)", "pick_and_place": "Teste 2 (pick-and-place)"}
-
-
-def cpu_time(df: pd.DataFrame) -> pd.Series:
-    """Each solve's thread CPU time [s] (the runner reads it around every call; archives without it:
-    the monotonic solve time): the time measure machine load does not move."""
-    cpu = df["cpu_time_s"] if "cpu_time_s" in df else pd.Series(np.nan, index=df.index)
-    return cpu.where(np.isfinite(cpu), df["solve_time_s"])
 
 
 def load_runs(study, archives) -> tuple[pd.DataFrame, pd.DataFrame]:
