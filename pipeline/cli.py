@@ -383,11 +383,19 @@ def _study_cli_modules() -> list:
 
 
 def _check_yaml_arguments(args) -> None:
-    """Every YAML file named by a ``--robot``/``--study``/``robot`` argument goes through the one loader
+    """Every file argument must be a regular file (or a folder, or not exist yet): a FIFO, a device or a
+    socket is refused in one line before any verb opens it (reading a FIFO blocks). Then every YAML file
+    named by a ``--robot``/``--study``/``robot`` argument goes through the one loader
     (:func:`pipeline.yamlio.load_yaml`) before the verb runs, so that no verb, a study's own included,
     parses a hostile file (alias bomb, deep nesting, binary junk) with a plain ``yaml.safe_load``."""
+    from pipeline.errors import not_regular
     from pipeline.yamlio import load_yaml
 
+    for key, value in vars(args).items():
+        for v in value if isinstance(value, list) else [value]:
+            why = not_regular(v) if isinstance(v, str) and key not in ("func", "verb") else None
+            if why:
+                raise CLIError(f"{v}: {why}")
     for key in ("robot", "study"):
         value = getattr(args, key, None)
         if isinstance(value, str) and Path(value).is_file():

@@ -9,7 +9,8 @@ A study's ``problem_sets`` (data/studies/<id>.yaml) name a *kind*:
 ``within_limits``       start and goal angles independently uniform within the joint limits
                         (``[low, high)`` where a joint has none): cold starts
 ``generator``           a study's own function ``"pipeline.studies.<id>.<module>:<function>"``
-                        with the signature of :data:`Generator`
+                        with the signature of :data:`Generator`, one of the registry
+                        :data:`GENERATORS` (no other import string is accepted)
 
 Problems that share a ``chain`` id >= 0 are solved in file order, each starting from the previous
 problem's returned angles (path following); ``chain = -1`` marks an independent problem.
@@ -100,13 +101,15 @@ def check_spec(spec: dict) -> None:
 
     Checks ``params`` of ``random_joint_pairs``, ``warm_start`` and ``within_limits``: known names
     only, finite numbers within :data:`MAX_RANGE`, ``low <= high``, ``spread >= 0``, boolean ``clip``.
-    A generator checks its own parameters.
+    A generator checks its own parameters; its name must be in :data:`GENERATORS`.
 
     Raises
     ------
     ProblemSpecError
     """
     kind = spec.get("kind")
+    if kind == "generator":
+        check_generator(spec.get("generator"))
     if kind not in PARAMS:
         return
     params = spec.get("params") or {}
@@ -251,11 +254,35 @@ Generator = Callable[[RobotModel, int, np.random.Generator, dict, Path], Problem
 """``fn(model, count, rng, params, data_dir) -> ProblemSet`` of a ``generator`` problem set."""
 
 
+GENERATORS = (
+    "pipeline.studies.borges_kr6.problems:alpha_sweep",
+    "pipeline.studies.borges_kr6.problems:points",
+    "pipeline.studies.borges_kr6.problems:paths",
+    "pipeline.studies.erthal1992.problems:test_goals",
+    "pipeline.studies.erthal1992.problems:path_goals",
+    "pipeline.studies.nepomuceno2024.problems:motion_points",
+)
+"""The registry of problem-set generators: the only values a study's ``generator`` may take (the
+strings the study files write). A new generator is added here, so that a study file can never make
+``make_problems`` import and call an arbitrary function (``pipeline.__main__:main`` ran the CLI)."""
+
+
+def check_generator(ref) -> str:
+    """Refuse a ``generator`` that is not in :data:`GENERATORS` (one line naming the field).
+
+    Raises
+    ------
+    ProblemSpecError
+    """
+    if not isinstance(ref, str) or ref not in GENERATORS:
+        raise ProblemSpecError(f"field 'generator': {str(ref)[:80]!r} is not a registered generator "
+                               f"(pipeline.problems.GENERATORS: {', '.join(GENERATORS)})")
+    return ref
+
+
 def load_generator(ref: str) -> Generator:
-    """Import ``"package.module:function"`` (a study's problem generator)."""
-    mod, sep, fn = str(ref).partition(":")
-    if not sep or not mod.startswith("pipeline.") or not fn.isidentifier():
-        raise ProblemSpecError(f"field 'generator': {ref!r} is not 'pipeline.<module>:<function>'")
+    """The registered generator ``"pipeline.studies.<id>.<module>:<function>"`` (see :data:`GENERATORS`)."""
+    mod, _, fn = check_generator(ref).partition(":")
     try:
         f = getattr(importlib.import_module(mod), fn)
     except (ImportError, AttributeError) as exc:
