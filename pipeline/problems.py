@@ -96,6 +96,25 @@ class ProblemSet:
                        goal_position=self.goal_position[idx], goal_quat=self.goal_quat[idx], chain=self.chain[idx])
 
 
+FILE_SUFFIXES = (".yaml", ".yml", ".csv", ".json", ".txt", ".gz")  # a generator parameter ending so names a file
+
+
+def check_data_relative(value, field: str) -> str:
+    """A file a problem set names (``files``, a generator's file parameter): a path relative to the data
+    folder that cannot leave it (not absolute, no ``..``); else one line naming the field.
+
+    Raises
+    ------
+    ProblemSpecError
+    """
+    parts = Path(str(value)).parts
+    if not isinstance(value, str) or not value or Path(value).is_absolute() or ".." in parts or "\\" in value \
+            or "\x00" in value:
+        raise ProblemSpecError(f"{field}: {str(value)[:80]!r} is not a path inside the data folder (relative to it, "
+                               f"without '..')")
+    return value
+
+
 def check_spec(spec: dict) -> None:
     """Refuse, in one line naming the field, parameters of a built-in kind that cannot be drawn from.
 
@@ -110,6 +129,11 @@ def check_spec(spec: dict) -> None:
     kind = spec.get("kind")
     if kind == "generator":
         check_generator(spec.get("generator"))
+        for i, f in enumerate(spec.get("files") or []):
+            check_data_relative(f, f"field 'files/{i}'")
+        for name, value in (spec.get("params") or {}).items():
+            if isinstance(value, str) and ("/" in value or value.endswith(FILE_SUFFIXES)):
+                check_data_relative(value, f"field 'params/{name}'")
     if kind not in PARAMS:
         return
     params = spec.get("params") or {}
