@@ -39,10 +39,11 @@ def _archive_path(results: Path, sid: str, recorded: str) -> Path:
     return results.joinpath(*parts[parts.index(sid):]) if sid in parts else Path(recorded)
 
 
-def _dependency_problems(path: Path, meta: dict, data: Path) -> list[str]:
+def _dependency_problems(path: Path, meta: dict, data: Path, seen: dict) -> list[str]:
     """The files archive ``path`` was solved from whose SHA-256 differs from the one it recorded (one line
     each, naming the file and the archive); an archive that records no hash of a file is not checked
-    for it (the measurement and catalogue archives of some studies)."""
+    for it (the measurement and catalogue archives of some studies). ``seen``: (file, hash) -> problem
+    or None, shared over a study's archives, so that a file many archives share is reported once."""
     from pipeline.provenance import DamagedFileError, file_sha256
 
     deps = []
@@ -55,17 +56,21 @@ def _dependency_problems(path: Path, meta: dict, data: Path) -> list[str]:
         deps.append(("robot file", robot, meta["robot_sha256"]))
     problems = []
     for what, f, want in deps:
-        if not f.is_file():
-            problems.append(f"{f}: missing ({what} of archive {path.name})")
-            continue
-        try:
-            sha = file_sha256(f)
-        except DamagedFileError as exc:
-            problems.append(f"{exc} ({what} of archive {path.name})")
-            continue
-        if not sha.startswith(want):
-            problems.append(f"{f}: SHA-256 {sha[:16]} differs from the {want} archive {path.name} recorded (the "
-                            f"{what} changed after the build)")
+        if (f, want) not in seen:
+            if not f.is_file():
+                seen[(f, want)] = f"{f}: missing ({what} of archive {path.name})"
+            else:
+                try:
+                    sha = file_sha256(f)
+                    seen[(f, want)] = None if sha.startswith(want) else (
+                        f"{f}: SHA-256 {sha[:16]} differs from the {want} archive {path.name} recorded (the {what} "
+                        f"changed after the build)")
+                except DamagedFileError as exc:
+                    seen[(f, want)] = f"{exc} ({what} of archive {path.name})"
+            if seen[(f, want)]:
+                problems.append(seen[(f, want)])
+        elif seen[(f, want)]:
+            problems.append("")  # reported with the first archive that uses it
     return problems
 
 
@@ -77,15 +82,15 @@ def verify_study(results: Path, data: Path, sid: str) -> list[str]:
 
     folder = results / sid
     prov = json.loads((folder / "tables" / "provenance.json").read_text())
-    problems, archives = [], []
+    problems, archives, seen = [], [], {}
     for rec in prov:
         path = _archive_path(results, sid, rec["archive"])
         if not path.is_file():
             problems.append(f"{path}: archive missing")
             continue
-        deps = _dependency_problems(path, archive_metadata(path), data)
+        deps = _dependency_problems(path, archive_metadata(path), data, seen)
         if deps:
-            problems += deps
+            problems += [d for d in deps if d]
             continue
         try:
             a = read_archive(path)
