@@ -145,7 +145,7 @@ class Settings:
                             minimum=0, maximum=100000)
     time_budget: float = setting(0.0, "wall-time budget of all restarts together, 0 = none (the search under way "
                                  "is finished; a budget makes results depend on the machine's speed)",
-                                 unit="s", minimum=0.0)
+                                 unit="s", minimum=0.0, maximum=MAX_TIME_BUDGET_S)
 
     # ---- construction and validation -------------------------------------------------------
     @classmethod
