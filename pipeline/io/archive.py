@@ -971,8 +971,8 @@ def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
     sha, ps, rows = hit
     want = meta.get("problem_sha256", "")
     if not want or not sha.startswith(want):
-        raise ArchiveError(f"{path}: metadata field 'problem_sha256': {want!r}, but {given or rel} has {sha[:16]} "
-                           f"(the problem file changed after the archive was written)")
+        raise ArchiveError(f"{pf}: SHA-256 {sha[:16]}, but archive {path} recorded {want!r} (metadata field "
+                           f"'problem_sha256'): the problem file changed after the archive was written")
     unit = meta.get("length_unit") or ps.length_unit
     if unit not in LENGTH_UNITS:
         raise ArchiveError(f"{path}: metadata field 'length_unit': unknown unit {unit!r}")

@@ -39,7 +39,7 @@ def cmd_robot(args) -> None:
     try:
         path = Path(args.robot)
         doc = load_yaml(path, "robot file") if path.is_file() else None
-        if isinstance(doc, dict) and "effector" in doc:  # a joint-point input (a robot file has no effector)
+        if isinstance(doc, dict) and "effector" in doc and "convention" not in doc:  # a joint-point input
             j, e = check_joint_points(doc, str(path))["joints"], doc["effector"]
             pts, axes = [x["position"] for x in j], [x["axis"] for x in j]
             try:
