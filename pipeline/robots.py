@@ -275,6 +275,22 @@ def _check_joint_keys(j, convention: str, path: str, where: str) -> None:
     _check_keys(j, required, JOINT_OPTIONAL, path, where)
 
 
+def _length_unit(doc: dict, path: str) -> str:
+    if doc["length_unit"] not in LENGTH_UNITS:
+        raise _fail(path, "field 'length_unit'", f"unknown unit {doc['length_unit']!r} (allowed: {', '.join(LENGTH_UNITS)})")
+    return doc["length_unit"]
+
+
+def _joint_list(doc: dict, path: str) -> list:
+    """The ``joints`` list: non-empty, at most :data:`MAX_JOINTS` entries (one line otherwise)."""
+    joints = doc["joints"]
+    if not isinstance(joints, list) or not joints:
+        raise _fail(path, "field 'joints'", "expected a non-empty list of joints")
+    if len(joints) > MAX_JOINTS:
+        raise _fail(path, "field 'joints'", f"{len(joints)} joints, beyond the sane maximum of {MAX_JOINTS}")
+    return joints
+
+
 def parse_robot(doc, path: str = "<robot>") -> RobotModel:
     """Validate a parsed robot document and build the model.
 
@@ -287,16 +303,10 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
     for key in ("name", "source", "length_unit", "convention"):
         if not isinstance(doc[key], str) or not doc[key].strip():
             raise _fail(path, f"field '{key}'", f"expected a non-empty string, got {_short(doc[key])}")
-    if doc["length_unit"] not in LENGTH_UNITS:
-        raise _fail(path, "field 'length_unit'", f"unknown unit {doc['length_unit']!r} (allowed: {', '.join(LENGTH_UNITS)})")
+    unit = _length_unit(doc, path)
     if doc["convention"] not in CONVENTIONS:
         raise _fail(path, "field 'convention'", f"unknown convention {doc['convention']!r} (allowed: {', '.join(CONVENTIONS)})")
-    joints = doc["joints"]
-    if not isinstance(joints, list) or not joints:
-        raise _fail(path, "field 'joints'", "expected a non-empty list of joints")
-    if len(joints) > MAX_JOINTS:
-        raise _fail(path, "field 'joints'", f"{len(joints)} joints, beyond the sane maximum of {MAX_JOINTS}")
-    unit = doc["length_unit"]
+    joints = _joint_list(doc, path)
     general = doc["convention"] == GENERAL
     cols = {k: [] for k in ("a", "alpha", "d", "theta_offset")}
     prismatic, limits, names, origins, axes = [], [], [], [], []
@@ -382,14 +392,7 @@ def check_joint_points(doc, path: str) -> dict:
     for key in ("name", "length_unit") + tuple(k for k in JOINT_POINT_OPTIONAL if k in doc):
         if not isinstance(doc[key], str) or not doc[key].strip():
             raise _fail(path, f"field '{key}'", f"expected a non-empty string, got {_short(doc[key])}")
-    unit = doc["length_unit"]
-    if unit not in LENGTH_UNITS:
-        raise _fail(path, "field 'length_unit'", f"unknown unit {unit!r} (allowed: {', '.join(LENGTH_UNITS)})")
-    joints = doc["joints"]
-    if not isinstance(joints, list) or not joints:
-        raise _fail(path, "field 'joints'", "expected a non-empty list of joints")
-    if len(joints) > MAX_JOINTS:
-        raise _fail(path, "field 'joints'", f"{len(joints)} joints, beyond the sane maximum of {MAX_JOINTS}")
+    unit, joints = _length_unit(doc, path), _joint_list(doc, path)
     bound = MAX_LENGTH_M / LENGTH_UNITS[unit]
 
     def direction(value, where):

@@ -214,6 +214,19 @@ def _numbers(el, attr: str, path, joint: str):
                         "in absolute value", joint=joint)
 
 
+def _unique_names(root, tag: str, path) -> set:
+    """The names of the ``<tag>`` elements; a missing or repeated name is refused in one line."""
+    names = set()
+    for el in root.findall(tag):
+        name = el.get("name")
+        if not name:
+            raise _fail(path, f"<{tag}> without a name")
+        if name in names:
+            raise _fail(path, f"<{tag}> defined twice", **{tag: name})
+        names.add(name)
+    return names
+
+
 def _check_elements(root, path) -> None:
     """Refuse, in one line naming the element and the joint or link, what the URDF reader would take or
     crash on: a joint without name, parent or child, a link named twice or not defined, a joint whose
@@ -221,23 +234,11 @@ def _check_elements(root, path) -> None:
     a wrong count of numbers (``xyz="0 0 0 1"``), a non-number, a non-finite number (``nan``, ``inf``,
     ``1e400``) or one beyond the robot files' sane maxima (:data:`pipeline.robots.MAX_LENGTH_M` metres,
     :data:`pipeline.robots.MAX_ANGLE` rad)."""
-    links = set()
-    for el in root.findall("link"):
-        name = el.get("name")
-        if not name:
-            raise _fail(path, "<link> without a name")
-        if name in links:
-            raise _fail(path, "<link> defined twice", link=name)
-        links.add(name)
-    parent_of, joints = {}, set()
+    links = _unique_names(root, "link", path)
+    _unique_names(root, "joint", path)
+    parent_of = {}
     for el in root.findall("joint"):
-        name = el.get("name")
-        if not name:
-            raise _fail(path, "<joint> without a name")
-        if name in joints:
-            raise _fail(path, "<joint> defined twice", joint=name)
-        joints.add(name)
-        ends = {}
+        name, ends = el.get("name"), {}
         for sub in ("parent", "child"):
             if el.find(sub) is None or not el.find(sub).get("link"):
                 raise _fail(path, f"joint without <{sub} link=...>", joint=name)

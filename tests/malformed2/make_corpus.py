@@ -13,47 +13,26 @@ corpus's (``tests/malformed/make_corpus.py``), imported, not copied.
 
 from __future__ import annotations
 
-import importlib.util
-import shutil
 import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "malformed"))
+import make_corpus as M1  # noqa: E402  (tests/malformed/make_corpus.py: its templates, ``sub`` and writer)
 
-
-def _first_corpus():
-    """``tests/malformed/make_corpus.py`` as a module (its templates and ``sub``)."""
-    spec = importlib.util.spec_from_file_location("malformed_make_corpus", HERE.parent / "malformed" / "make_corpus.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-M1 = _first_corpus()
 ROBOT, GENERAL, STUDY, CONFIG, sub = M1.ROBOT, M1.GENERAL, M1.STUDY, M1.CONFIG, M1.sub
 
-URDF = """\
-<?xml version="1.0"?>
-<robot name="{stem}">
-  <link name="base"/>
-  <link name="l1"/>
-  <link name="tip"/>
-  <joint name="j1" type="revolute">
-    <parent link="base"/>
-    <child link="l1"/>
-    <origin xyz="0 0 0.1" rpy="0 0 0"/>
-    <axis xyz="0 0 1"/>
-    <limit lower="-3" upper="3" effort="10" velocity="1"/>
-  </joint>
-  <joint name="j2" type="revolute">
-    <parent link="l1"/>
-    <child link="tip"/>
-    <origin xyz="0.4 0 0" rpy="0 0 0"/>
-    <axis xyz="0 1 0"/>
-    <limit lower="-2" upper="2" effort="10" velocity="1"/>
-  </joint>
-</robot>
-"""
+
+def _joint(name: str, parent: str, child: str, xyz: str, axis: str, lower: str) -> str:
+    return (f'  <joint name="{name}" type="revolute">\n    <parent link="{parent}"/>\n    <child link="{child}"/>\n'
+            f'    <origin xyz="{xyz}" rpy="0 0 0"/>\n    <axis xyz="{axis}"/>\n'
+            f'    <limit lower="{lower}" upper="{lower.lstrip("-")}" effort="10" velocity="1"/>\n  </joint>\n')
+
+
+URDF = ('<?xml version="1.0"?>\n<robot name="{stem}">\n  <link name="base"/>\n  <link name="l1"/>\n  <link name="tip"/>\n'
+        + _joint("j1", "base", "l1", "0 0 0.1", "0 0 1", "-3") + _joint("j2", "l1", "tip", "0.4 0 0", "0 1 0", "-2")
+        + "</robot>\n")
+
 
 POINTS = """\
 name: {stem}
@@ -344,19 +323,8 @@ def configs() -> dict[str, str | bytes]:
 
 
 def main() -> int:
-    kinds = (("robots", robots(), ".yaml"), ("studies", studies(), ".yaml"), ("configs", configs(), ".yaml"),
-             ("urdfs", urdfs(), ".urdf"), ("points", points(), ".yaml"))
-    for kind, cases, suffix in kinds:
-        folder = HERE / kind
-        shutil.rmtree(folder, ignore_errors=True)
-        folder.mkdir(parents=True)
-        for stem, content in cases.items():
-            path = folder / f"{stem}{suffix}"
-            if isinstance(content, bytes):
-                path.write_bytes(content)
-            else:
-                path.write_text(content, encoding="utf-8", newline="\n")
-        print(f"{len(cases)} {kind} in {folder.relative_to(HERE.parent.parent)}")
+    M1.write_corpus(HERE, (("robots", robots(), ".yaml"), ("studies", studies(), ".yaml"),
+                           ("configs", configs(), ".yaml"), ("urdfs", urdfs(), ".urdf"), ("points", points(), ".yaml")))
     return 0
 
 

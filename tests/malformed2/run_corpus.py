@@ -24,13 +24,10 @@ repository root: ``python tests/malformed2/run_corpus.py``.
 
 from __future__ import annotations
 
-import argparse
 import gzip
-import importlib.util
 import json
 import os
 import re
-import resource
 import shutil
 import sys
 import tempfile
@@ -42,30 +39,11 @@ FILE_KINDS = ("robots", "studies", "configs", "urdfs", "points")
 ACCEPTED = "(accepted)"
 
 
-def _first_runner():
-    spec = importlib.util.spec_from_file_location("malformed_run_corpus", HERE.parent / "malformed" / "run_corpus.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+sys.path.insert(0, str(HERE.parent / "malformed"))
+import run_corpus as BASE  # noqa: E402  (tests/malformed/run_corpus.py: run_verb, runs_for, options, set-up)
 
-
-BASE = _first_runner()
 TIME_LIMIT_S = BASE.TIME_LIMIT_S
-
-PROBE = """\
-study: probe
-title: malformed-input corpus 2 probe
-document: "none"
-robots: [planar2r]
-problem_sets:
-  warm:
-    kind: warm_start
-    seed: 1
-    count: {full: 5, quick: 5}
-solvers:
-  dls: {method: dls, criterion: position}
-interpretations: []
-"""
+PROBE = BASE.PROBE_STUDY.format(robot="planar2r")  # study 'probe': set warm, solver dls
 
 # the verbs a FIFO or a device is given to, with the argument that names it ({x}: the FIFO or device)
 NON_REGULAR = {
@@ -200,7 +178,8 @@ class OpenAudit:
         if not self.on or event != "open" or not isinstance(args[0], (str, bytes, os.PathLike)):
             return
         p = os.path.realpath(os.fsdecode(args[0]))
-        if not any(p == a or p.startswith(a + os.sep) for a in self.allowed):
+        if os.path.exists(p) and not any(p == a or p.startswith(a + os.sep) for a in self.allowed):  # (an import
+            #   hook's probe of a name that is no file reads nothing)
             self.outside.append(p)
 
     def run(self, argv):
@@ -231,24 +210,13 @@ def placeholders(line: str, file: str, data: str | None, tmp: str) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json", action="store_true", help="one JSON object per run on stdout")
-    ap.add_argument("--memory-limit", action="store_true", help="cap the address space at +1 GiB over the imports")
-    ap.add_argument("--write-expected", action="store_true", help="rewrite expected.tsv from this run's lines")
-    args = ap.parse_args(argv)
-    os.chdir(ROOT)
-    sys.path.insert(0, str(ROOT))
-    import pipeline.cli  # noqa: F401  (imports first: the memory cap is on top of them)
-    import pipeline.solvers  # noqa: F401
-    import pipeline.studies.erthal1992.cli  # noqa: F401
-
-    if args.memory_limit:
-        limit = BASE._vm_bytes() + BASE.MEMORY_LIMIT
-        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    args = BASE.parser(__doc__.splitlines()[0], "rewrite expected.tsv from this run's lines").parse_args(argv)
+    BASE.prepare(args)
     expected = {}
     with tempfile.TemporaryDirectory(prefix="malformed2-") as tmpdir:
         tmp = Path(tmpdir)
-        code = [p for p in sys.path if p and os.path.isdir(p)] + [sys.prefix, sys.base_prefix]
+        code = [p for p in sys.path if p and os.path.isdir(p) and os.path.realpath(p) not in (str(ROOT), "/", "/tmp")]
+        code += [sys.prefix, sys.base_prefix, HERE.parent / "malformed"]  # the interpreter, libraries, the first runner
         audit = OpenAudit([HERE, ROOT / "data", ROOT / "pipeline", ROOT / "workflow", tmp, *code, "/proc", "/sys"])
         runs = [(f"{p.parent.name}/{p.name}", verb, av, file, str(tmp / p.parent.name / p.stem))
                 for p in file_cases() for verb, av, file in file_runs(p, tmp)]
