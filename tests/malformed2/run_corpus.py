@@ -217,7 +217,8 @@ def main(argv=None) -> int:
         tmp = Path(tmpdir)
         code = [p for p in sys.path if p and os.path.isdir(p) and os.path.realpath(p) not in (str(ROOT), "/", "/tmp")]
         code += [sys.prefix, sys.base_prefix, HERE.parent / "malformed"]  # the interpreter, libraries, the first runner
-        audit = OpenAudit([HERE, ROOT / "data", ROOT / "pipeline", ROOT / "workflow", tmp, *code, "/proc", "/sys"])
+        audit = OpenAudit([HERE, ROOT / "data", ROOT / "pipeline", ROOT / "workflow", tmp, *code, "/proc", "/sys",
+                           "/usr/share/zoneinfo"])
         runs = [(f"{p.parent.name}/{p.name}", verb, av, file, str(tmp / p.parent.name / p.stem))
                 for p in file_cases() for verb, av, file in file_runs(p, tmp)]
         runs += [(case, verb, av, file, None) for case, verb, av, file in runtime_cases(tmp)]
