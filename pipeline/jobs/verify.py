@@ -88,16 +88,18 @@ def verify_study(results: Path, data: Path, sid: str) -> list[str]:
         if not path.is_file():
             problems.append(f"{path}: archive missing")
             continue
-        deps = _dependency_problems(path, archive_metadata(path), data, seen)
+        meta = archive_metadata(path)
+        if meta.get("study") not in (None, sid):  # a foreign archive: its inputs are another study's
+            problems.append(f"{path}: an archive of study {meta['study']!r}, not {sid!r}")
+            continue
+        deps = _dependency_problems(path, meta, data, seen)
         if deps:
             problems += [d for d in deps if d]
             continue
         try:
             a = read_archive(path)
         except Exception as exc:  # noqa: BLE001  (every reader error is one line)
-            other = archive_metadata(path).get("study")  # a foreign archive fails on its problem file first
-            problems.append(f"{path}: an archive of study {other!r}, not {sid!r}" if other not in (None, sid)
-                            else f"{path}: unreadable archive ({str(exc).splitlines()[0]})")
+            problems.append(f"{path}: unreadable archive ({str(exc).splitlines()[0]})")
             continue
         m = a.metadata
         if str(m.get("problems", "")).isdigit():  # a measurement archive (mariano2019) holds no solves: "-"
