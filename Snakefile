@@ -39,6 +39,7 @@ rule all:
     default_target: True
     input:
         all_targets(),
+        f"{RESULTS}/MANIFEST.sha256",
 
 
 # one target per configured study: `snakemake --cores 2 cerbaro2019`

@@ -14,7 +14,8 @@ render_report     assemble results/report.html
 inspect           summarise an archive per solver (counts, success, times with units), one problem, CSV
 replay            re-run archived problems into a Foxglove-viewable MCAP (arm, goal, joints per iteration)
 reproduce         re-run an archive's solves, report bit-identical and differing ones with both environments
-verify            recompute every table from the archives, check archives and report (exit 1 on a difference)
+verify            recompute every table from the archives, check archives, their inputs, report and manifest
+manifest          write results/MANIFEST.sha256: the SHA-256 of every file the build produced (its last step)
 import_urdf       write a robot file (general joint form) from a URDF or xacro chain (also: import-urdf)
 benchmark_arm     benchmark one arm alone (arm_benchmark on that robot only) and its report (also: benchmark-arm)
 export_urdf       write a robot file as a URDF, base_link ... tool0, metres (also: export-urdf)
@@ -159,6 +160,14 @@ def cmd_verify(args) -> None:
         raise SystemExit(1)
 
 
+def cmd_manifest(args) -> None:
+    """Write the SHA-256 of every file under the results folder (the build's last step; ``verify`` checks it)."""
+    from pipeline.io.manifest import write_manifest
+
+    out, n = write_manifest(Path(args.results), Path(args.out) if args.out else None)
+    print(f"wrote {out}: {n} files")
+
+
 def cmd_inspect(args) -> None:
     from pipeline.io.archive import read_archive
     from pipeline.report.inspect import InspectError, describe
@@ -281,10 +290,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.set_defaults(func=cmd_render_report)
 
-    p = sub.add_parser("verify", help="recompute every table from its archives and check archives and report")
+    p = sub.add_parser("verify", help="recompute every table from its archives; check archives, the files they were "
+                       "solved from, the report and the build manifest")
     p.add_argument("results", nargs="?", default="results", help="results folder (default results)")
     p.add_argument("--data", default="data", help="data folder (study settings, published tables)")
     p.set_defaults(func=cmd_verify)
+
+    p = sub.add_parser("manifest", help="write the SHA-256 of every file the build produced (MANIFEST.sha256)")
+    p.add_argument("results", nargs="?", default="results", help="results folder (default results)")
+    p.add_argument("--out", help="manifest file (default <results>/MANIFEST.sha256)")
+    p.set_defaults(func=cmd_manifest)
 
     p = sub.add_parser("inspect", help="summarise an archive")
     p.add_argument("archive")
@@ -383,11 +398,19 @@ def _study_cli_modules() -> list:
 
 
 def _check_yaml_arguments(args) -> None:
-    """Every YAML file named by a ``--robot``/``--study``/``robot`` argument goes through the one loader
+    """Every file argument must be a regular file (or a folder, or not exist yet): a FIFO, a device or a
+    socket is refused in one line before any verb opens it (reading a FIFO blocks). Then every YAML file
+    named by a ``--robot``/``--study``/``robot`` argument goes through the one loader
     (:func:`pipeline.yamlio.load_yaml`) before the verb runs, so that no verb, a study's own included,
     parses a hostile file (alias bomb, deep nesting, binary junk) with a plain ``yaml.safe_load``."""
+    from pipeline.errors import not_regular
     from pipeline.yamlio import load_yaml
 
+    for key, value in vars(args).items():
+        for v in value if isinstance(value, list) else [value]:
+            why = not_regular(v) if isinstance(v, str) and key not in ("func", "verb") else None
+            if why:
+                raise CLIError(f"{v}: {why}")
     for key in ("robot", "study"):
         value = getattr(args, key, None)
         if isinstance(value, str) and Path(value).is_file():
@@ -399,6 +422,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from pipeline.io.archive import ArchiveError
     from pipeline.io.problems import ProblemFileError
+    from pipeline.provenance import DamagedFileError
     from pipeline.robots import RobotFileError
     from pipeline.settings import ConfigError
     from pipeline.solvers import NotApplicableError, SettingsError
@@ -408,7 +432,7 @@ def main(argv: list[str] | None = None) -> int:
         _check_yaml_arguments(args)
         args.func(args)
     except (CLIError, ArchiveError, ProblemFileError, RobotFileError, ConfigError, SettingsError,
-            NotApplicableError, YAMLInputError) as exc:
+            NotApplicableError, YAMLInputError, DamagedFileError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

@@ -9,7 +9,8 @@ A study's ``problem_sets`` (data/studies/<id>.yaml) name a *kind*:
 ``within_limits``       start and goal angles independently uniform within the joint limits
                         (``[low, high)`` where a joint has none): cold starts
 ``generator``           a study's own function ``"pipeline.studies.<id>.<module>:<function>"``
-                        with the signature of :data:`Generator`
+                        with the signature of :data:`Generator`, one of the registry
+                        :data:`GENERATORS` (no other import string is accepted)
 
 Problems that share a ``chain`` id >= 0 are solved in file order, each starting from the previous
 problem's returned angles (path following); ``chain = -1`` marks an independent problem.
@@ -95,18 +96,44 @@ class ProblemSet:
                        goal_position=self.goal_position[idx], goal_quat=self.goal_quat[idx], chain=self.chain[idx])
 
 
+FILE_SUFFIXES = (".yaml", ".yml", ".csv", ".json", ".txt", ".gz")  # a generator parameter ending so names a file
+
+
+def check_data_relative(value, field: str) -> str:
+    """A file a problem set names (``files``, a generator's file parameter): a path relative to the data
+    folder that cannot leave it (not absolute, no ``..``); else one line naming the field.
+
+    Raises
+    ------
+    ProblemSpecError
+    """
+    parts = Path(str(value)).parts
+    if not isinstance(value, str) or not value or Path(value).is_absolute() or ".." in parts or "\\" in value \
+            or "\x00" in value:
+        raise ProblemSpecError(f"{field}: {str(value)[:80]!r} is not a path inside the data folder (relative to it, "
+                               f"without '..')")
+    return value
+
+
 def check_spec(spec: dict) -> None:
     """Refuse, in one line naming the field, parameters of a built-in kind that cannot be drawn from.
 
     Checks ``params`` of ``random_joint_pairs``, ``warm_start`` and ``within_limits``: known names
     only, finite numbers within :data:`MAX_RANGE`, ``low <= high``, ``spread >= 0``, boolean ``clip``.
-    A generator checks its own parameters.
+    A generator checks its own parameters; its name must be in :data:`GENERATORS`.
 
     Raises
     ------
     ProblemSpecError
     """
     kind = spec.get("kind")
+    if kind == "generator":
+        check_generator(spec.get("generator"))
+        for i, f in enumerate(spec.get("files") or []):
+            check_data_relative(f, f"field 'files/{i}'")
+        for name, value in (spec.get("params") or {}).items():
+            if isinstance(value, str) and ("/" in value or value.endswith(FILE_SUFFIXES)):
+                check_data_relative(value, f"field 'params/{name}'")
     if kind not in PARAMS:
         return
     params = spec.get("params") or {}
@@ -251,11 +278,35 @@ Generator = Callable[[RobotModel, int, np.random.Generator, dict, Path], Problem
 """``fn(model, count, rng, params, data_dir) -> ProblemSet`` of a ``generator`` problem set."""
 
 
+GENERATORS = (
+    "pipeline.studies.borges_kr6.problems:alpha_sweep",
+    "pipeline.studies.borges_kr6.problems:points",
+    "pipeline.studies.borges_kr6.problems:paths",
+    "pipeline.studies.erthal1992.problems:test_goals",
+    "pipeline.studies.erthal1992.problems:path_goals",
+    "pipeline.studies.nepomuceno2024.problems:motion_points",
+)
+"""The registry of problem-set generators: the only values a study's ``generator`` may take (the
+strings the study files write). A new generator is added here, so that a study file can never make
+``make_problems`` import and call an arbitrary function (``pipeline.__main__:main`` ran the CLI)."""
+
+
+def check_generator(ref) -> str:
+    """Refuse a ``generator`` that is not in :data:`GENERATORS` (one line naming the field).
+
+    Raises
+    ------
+    ProblemSpecError
+    """
+    if not isinstance(ref, str) or ref not in GENERATORS:
+        raise ProblemSpecError(f"field 'generator': {str(ref)[:80]!r} is not a registered generator "
+                               f"(pipeline.problems.GENERATORS: {', '.join(GENERATORS)})")
+    return ref
+
+
 def load_generator(ref: str) -> Generator:
-    """Import ``"package.module:function"`` (a study's problem generator)."""
-    mod, sep, fn = str(ref).partition(":")
-    if not sep or not mod.startswith("pipeline.") or not fn.isidentifier():
-        raise ProblemSpecError(f"field 'generator': {ref!r} is not 'pipeline.<module>:<function>'")
+    """The registered generator ``"pipeline.studies.<id>.<module>:<function>"`` (see :data:`GENERATORS`)."""
+    mod, _, fn = check_generator(ref).partition(":")
     try:
         f = getattr(importlib.import_module(mod), fn)
     except (ImportError, AttributeError) as exc:

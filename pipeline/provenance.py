@@ -93,12 +93,35 @@ def git_commit(root: Path = ROOT) -> str:
     return (head + ("+dirty" if dirty else "")) if head else "unknown"
 
 
+class DamagedFileError(ValueError):
+    """A file cannot be hashed: a damaged gzip stream (one line naming the file)."""
+
+
 def file_sha256(path: str | Path) -> str:
     """SHA-256 of a file's content: of the decompressed text for a ``.gz`` file (a problem set), so
-    the hash does not depend on the compressor's version."""
+    the hash does not depend on the compressor's version.
+
+    Raises
+    ------
+    DamagedFileError
+        A ``.gz`` file that does not decompress (CRC mismatch, truncated stream, not gzip).
+    """
     data = Path(path).read_bytes()
     if str(path).endswith(".gz"):
         import gzip
+        import zlib
 
-        data = gzip.decompress(data)
+        try:
+            data = gzip.decompress(data)
+        except (OSError, EOFError, zlib.error) as exc:  # gzip.BadGzipFile is an OSError
+            raise DamagedFileError(f"{path}: damaged gzip file ({str(exc) or type(exc).__name__})") from None
     return hashlib.sha256(data).hexdigest()
+
+
+def bytes_sha256(path: str | Path) -> str:
+    """SHA-256 of a file's bytes as they are on disk (the build manifest's hash: compressed or not)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()

@@ -275,6 +275,22 @@ def _check_joint_keys(j, convention: str, path: str, where: str) -> None:
     _check_keys(j, required, JOINT_OPTIONAL, path, where)
 
 
+def _length_unit(doc: dict, path: str) -> str:
+    if doc["length_unit"] not in LENGTH_UNITS:
+        raise _fail(path, "field 'length_unit'", f"unknown unit {doc['length_unit']!r} (allowed: {', '.join(LENGTH_UNITS)})")
+    return doc["length_unit"]
+
+
+def _joint_list(doc: dict, path: str) -> list:
+    """The ``joints`` list: non-empty, at most :data:`MAX_JOINTS` entries (one line otherwise)."""
+    joints = doc["joints"]
+    if not isinstance(joints, list) or not joints:
+        raise _fail(path, "field 'joints'", "expected a non-empty list of joints")
+    if len(joints) > MAX_JOINTS:
+        raise _fail(path, "field 'joints'", f"{len(joints)} joints, beyond the sane maximum of {MAX_JOINTS}")
+    return joints
+
+
 def parse_robot(doc, path: str = "<robot>") -> RobotModel:
     """Validate a parsed robot document and build the model.
 
@@ -287,16 +303,10 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
     for key in ("name", "source", "length_unit", "convention"):
         if not isinstance(doc[key], str) or not doc[key].strip():
             raise _fail(path, f"field '{key}'", f"expected a non-empty string, got {_short(doc[key])}")
-    if doc["length_unit"] not in LENGTH_UNITS:
-        raise _fail(path, "field 'length_unit'", f"unknown unit {doc['length_unit']!r} (allowed: {', '.join(LENGTH_UNITS)})")
+    unit = _length_unit(doc, path)
     if doc["convention"] not in CONVENTIONS:
         raise _fail(path, "field 'convention'", f"unknown convention {doc['convention']!r} (allowed: {', '.join(CONVENTIONS)})")
-    joints = doc["joints"]
-    if not isinstance(joints, list) or not joints:
-        raise _fail(path, "field 'joints'", "expected a non-empty list of joints")
-    if len(joints) > MAX_JOINTS:
-        raise _fail(path, "field 'joints'", f"{len(joints)} joints, beyond the sane maximum of {MAX_JOINTS}")
-    unit = doc["length_unit"]
+    joints = _joint_list(doc, path)
     general = doc["convention"] == GENERAL
     cols = {k: [] for k in ("a", "alpha", "d", "theta_offset")}
     prismatic, limits, names, origins, axes = [], [], [], [], []
@@ -354,6 +364,54 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
 
 ROBOT_FILES = Path(__file__).resolve().parent / "robot_files"
 """The robot files shipped with the package (``data/robots`` of the checkout; a wheel holds a copy)."""
+
+
+JOINT_POINT_TOP = ("name", "length_unit", "joints", "effector")  # a joint-point input (erthal1992 Case 1)
+JOINT_POINT_OPTIONAL = ("source", "notes")
+JOINT_POINT_JOINT = ("type", "position", "axis")
+JOINT_POINT_EFFECTOR = ("position", "u_a", "u_t")
+JOINT_POINT_TYPES = ("r", "p")
+
+
+def check_joint_points(doc, path: str) -> dict:
+    """Validate a joint-point input (``data/erthal1992/*_input.yaml``: each joint's type ``r``/``p``, a point
+    ``position`` of its axis and the ``axis``, the effector's ``position``, approach ``u_a`` and orientation
+    ``u_t``, lengths in ``length_unit``) as strictly as a robot file: known fields only, at most
+    :data:`MAX_JOINTS` joints, finite numbers within :data:`MAX_LENGTH_M`, non-zero direction vectors.
+
+    Returns
+    -------
+    doc : dict (the same document)
+
+    Raises
+    ------
+    RobotFileError
+        One line naming the file, the joint or ``effector`` and the field.
+    """
+    _check_keys(doc, JOINT_POINT_TOP, JOINT_POINT_OPTIONAL, path, "")
+    for key in ("name", "length_unit") + tuple(k for k in JOINT_POINT_OPTIONAL if k in doc):
+        if not isinstance(doc[key], str) or not doc[key].strip():
+            raise _fail(path, f"field '{key}'", f"expected a non-empty string, got {_short(doc[key])}")
+    unit, joints = _length_unit(doc, path), _joint_list(doc, path)
+    bound = MAX_LENGTH_M / LENGTH_UNITS[unit]
+
+    def direction(value, where):
+        v = _vector3(value, path, where, bound=1e6)
+        if not math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) > 1e-12:
+            raise _fail(path, where, f"must be a non-zero 3-vector, got {_short(value)}")
+
+    for i, j in enumerate(joints, start=1):
+        _check_keys(j, JOINT_POINT_JOINT, (), path, f"joint {i}: ")
+        if j["type"] not in JOINT_POINT_TYPES:
+            raise _fail(path, f"joint {i}: field 'type'", f"{_short(j['type'])} is not one of r, p")
+        _vector3(j["position"], path, f"joint {i}: field 'position'", bound=bound)
+        direction(j["axis"], f"joint {i}: field 'axis'")
+    e = doc["effector"]
+    _check_keys(e, JOINT_POINT_EFFECTOR, (), path, "effector: ")
+    _vector3(e["position"], path, "effector: field 'position'", bound=bound)
+    for key in ("u_a", "u_t"):
+        direction(e[key], f"effector: field '{key}'")
+    return doc
 
 
 def shipped_robots() -> list[str]:

@@ -61,8 +61,9 @@ def read_yaml(path, error: type[Exception] = ConfigError, what: str = ""):
 
 
 def check_numbers(doc, path: str, exempt: tuple = ("seed",)) -> None:
-    """Refuse (one line naming the field) a non-finite number or an integer beyond :data:`MAX_EXACT_INT`
-    anywhere in a parsed document; keys in ``exempt`` may hold any integer (the schema bounds them)."""
+    """Refuse (one line naming the field) a non-finite number, an integer beyond :data:`MAX_EXACT_INT` or a
+    string holding a NUL character anywhere in a parsed document; keys in ``exempt`` may hold any integer
+    (the schema bounds them)."""
     todo = [((), doc)]
     seen = set()
     while todo:
@@ -75,6 +76,8 @@ def check_numbers(doc, path: str, exempt: tuple = ("seed",)) -> None:
             todo.extend(((*where, k), v) for k, v in items)
             continue
         field = "/".join(str(p) for p in where) or "(top level)"
+        if isinstance(x, str) and "\x00" in x:  # no file name, id or text of this project holds one
+            raise ConfigError(f"{path}: field '{field}': contains a NUL character")
         if isinstance(x, float) and not math.isfinite(x):
             raise ConfigError(f"{path}: field '{field}': must be finite, got {x!r}")
         if isinstance(x, int) and not isinstance(x, bool) and abs(x) > MAX_EXACT_INT \

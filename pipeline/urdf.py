@@ -29,7 +29,7 @@ from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
 
-from pipeline.robots import LENGTH_UNITS, RobotModel, origin_matrix, rpy_from_matrix
+from pipeline.robots import LENGTH_UNITS, MAX_ANGLE, MAX_LENGTH_M, RobotModel, origin_matrix, rpy_from_matrix
 
 # [m] to_urdf's +- range for a prismatic joint without limits; import_urdf reads bounds this wide as "no limits"
 UNLIMITED_PRISMATIC_M = 1000.0
@@ -173,10 +173,7 @@ def _load(path: Path, xacro_args: dict | None = None):
         raise _fail(path, f"not valid XML ({str(exc).splitlines()[0]})") from None
     if root.tag != "robot":
         raise _fail(path, f"not a URDF (root element <{root.tag}>, expected <robot>)")
-    for el in root.findall("joint"):
-        for sub in ("parent", "child"):
-            if el.find(sub) is None or not el.find(sub).get("link"):
-                raise _fail(path, f"joint without <{sub} link=...>", joint=el.get("name"))
+    _check_elements(root, path)
     try:
         urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, build_collision_scene_graph=False,
                                   load_meshes=False, load_collision_meshes=False)
@@ -184,6 +181,90 @@ def _load(path: Path, xacro_args: dict | None = None):
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise _fail(path, f"yourdfpy cannot parse the URDF ({msg})") from None
     return urdf.robot, _raw_origins(root)
+
+
+# <element attribute>: (count of numbers, bound on |value|, unit of the bound); lengths in metres (URDF's unit)
+_NUMBERS = {("origin", "xyz"): (3, MAX_LENGTH_M, "m"), ("origin", "rpy"): (3, MAX_ANGLE, "rad"),
+            ("axis", "xyz"): (3, 1e6, ""), ("limit", "lower"): (1, None, ""), ("limit", "upper"): (1, None, ""),
+            ("limit", "effort"): (1, None, ""), ("limit", "velocity"): (1, None, ""),
+            ("mimic", "multiplier"): (1, MAX_ANGLE, ""), ("mimic", "offset"): (1, MAX_ANGLE, "")}
+
+
+def _numbers(el, attr: str, path, joint: str):
+    """The numbers of one attribute of a joint's element, checked: count, finite, within the bound."""
+    count, bound, unit = _NUMBERS[(el.tag, attr)]
+    raw = el.get(attr)
+    if raw is None:
+        return
+    shown = f"<{el.tag} {attr}={raw[:60]!r}>".replace("'", '"')
+    words = raw.split()
+    if len(words) != count:
+        raise _fail(path, f"{shown}: expected {count} number{'s' if count > 1 else ''}, got {len(words)}",
+                    joint=joint)
+    for w in words:
+        try:
+            v = float(w)
+        except ValueError:
+            raise _fail(path, f"{shown}: {w[:30]!r} is not a number", joint=joint) from None
+        infinite_limit = el.tag == "limit" and attr in ("lower", "upper") and math.isinf(v)  # read by _limits
+        if not (math.isfinite(v) or infinite_limit):
+            raise _fail(path, f"{shown}: {w[:30]!r} is not a finite number", joint=joint)
+        if bound is not None and abs(v) > bound:
+            raise _fail(path, f"{shown}: {w[:30]} is beyond the sane maximum {bound:g}{' ' + unit if unit else ''} "
+                        "in absolute value", joint=joint)
+
+
+def _unique_names(root, tag: str, path) -> set:
+    """The names of the ``<tag>`` elements; a missing or repeated name is refused in one line."""
+    names = set()
+    for el in root.findall(tag):
+        name = el.get("name")
+        if not name:
+            raise _fail(path, f"<{tag}> without a name")
+        if name in names:
+            raise _fail(path, f"<{tag}> defined twice", **{tag: name})
+        names.add(name)
+    return names
+
+
+def _check_elements(root, path) -> None:
+    """Refuse, in one line naming the element and the joint or link, what the URDF reader would take or
+    crash on: a joint without name, parent or child, a link named twice or not defined, a joint whose
+    parent is its child, a loop of joints, and in ``<origin>``, ``<axis>``, ``<limit>`` and ``<mimic>``
+    a wrong count of numbers (``xyz="0 0 0 1"``), a non-number, a non-finite number (``nan``, ``inf``,
+    ``1e400``) or one beyond the robot files' sane maxima (:data:`pipeline.robots.MAX_LENGTH_M` metres,
+    :data:`pipeline.robots.MAX_ANGLE` rad)."""
+    links = _unique_names(root, "link", path)
+    _unique_names(root, "joint", path)
+    parent_of = {}
+    for el in root.findall("joint"):
+        name, ends = el.get("name"), {}
+        for sub in ("parent", "child"):
+            if el.find(sub) is None or not el.find(sub).get("link"):
+                raise _fail(path, f"joint without <{sub} link=...>", joint=name)
+            ends[sub] = el.find(sub).get("link")
+            if ends[sub] not in links:
+                raise _fail(path, f"<{sub} link={ends[sub][:60]!r}> names a link the file does not define "
+                            f"(no <link name={ends[sub][:60]!r}>)".replace("'", '"'), joint=name)
+        if ends["parent"] == ends["child"]:
+            raise _fail(path, f"<parent> and <child> are the same link {ends['child']!r} (a loop)", joint=name)
+        if ends["child"] in parent_of:
+            raise _fail(path, f"link {ends['child']!r} is the child of two joints (not a tree)", joint=name)
+        parent_of[ends["child"]] = (ends["parent"], name)
+        for sub in el:
+            if isinstance(sub.tag, str):
+                for attr in sub.keys():
+                    if (sub.tag, attr) in _NUMBERS:
+                        _numbers(sub, attr, path, name)
+    rooted = set()  # links whose parents lead up to a root
+    for start in parent_of:  # follow the parents up from every link: a tree reaches a root, a loop comes back
+        seen, cur = [start], start
+        while cur in parent_of and cur not in rooted:
+            cur, joint = parent_of[cur]
+            if cur in seen:
+                raise _fail(path, f"the joints form a loop through link {cur!r} (a URDF is a tree)", joint=joint)
+            seen.append(cur)
+        rooted.update(seen)
 
 
 def _chain_joints(robot, path: Path, base_link: str, tip_link: str) -> list:

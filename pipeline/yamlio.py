@@ -28,6 +28,8 @@ from pathlib import Path
 
 import yaml
 
+from pipeline.errors import not_regular
+
 # Limits, each far above the project's real inputs (largest file 23 kB, ~1 700 nodes, depth 9, the
 # largest alias expansion a few hundred nodes) and far below what costs a second or 100 MB to load.
 MAX_BYTES = 1 << 20  # 1 MiB per YAML file
@@ -285,6 +287,9 @@ def load_yaml(path: str | Path, what: str = "file"):
         One line naming the file.
     """
     path = Path(path)
+    why = not_regular(path)
+    if why:  # reading a FIFO would block until someone writes to it
+        raise YAMLInputError(f"{path}: {why}")
     try:
         with open(path, "rb") as fh:
             data = fh.read(MAX_BYTES + 1)

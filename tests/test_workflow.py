@@ -164,10 +164,10 @@ def test_reproduce_reports_deterministic_labels_bit_identical_here_and_lists_dif
 def test_deleting_an_archive_rebuilds_only_its_dependents(built):
     (built / "cerbaro2019" / "runs" / "random" / "kuka_lwr__dls.mcap").unlink()
     jobs = _jobs(_snakemake(built, "-n"))
-    # the archive itself, the rerun of its failures, the study's tables/figures, the report
+    # the archive itself, the rerun of its failures, the study's tables/figures, the report, the manifest
     assert jobs.get("solve_problems") == 1 and "make_problems" not in jobs
     assert set(jobs) <= {"solve_problems", "rerun_failures", "aggregate_tables", "plot_figures", "render_report",
-                         "all", "cerbaro2019"}
+                         "manifest", "all", "cerbaro2019"}
 
 
 def test_deleting_a_tables_folder_rebuilds_it_and_the_report(built):
@@ -439,8 +439,8 @@ def test_an_arm_from_a_xacro_file_is_benchmarked_alone(tmp_path):
     assert 'id="answer-my_ur5e"' in html and "budget_my_ur5e" in html and "solvers.solve(" in html
 
 
-def _verify(results):
-    return subprocess.run([sys.executable, "-m", "pipeline", "verify", str(results)], cwd=ROOT,
+def _verify(results, *args):
+    return subprocess.run([sys.executable, "-m", "pipeline", "verify", str(results), *args], cwd=ROOT,
                           capture_output=True, text=True, timeout=900)
 
 
@@ -454,7 +454,7 @@ def verified_copy(built, tmp_path_factory):
     _snakemake(copy)  # earlier tests delete an archive and a tables folder of `built` (dry runs only)
     proc = _verify(copy)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "cerbaro2019: ok" in proc.stdout and "report: ok" in proc.stdout
+    assert "cerbaro2019: ok" in proc.stdout and "report: ok" in proc.stdout and "manifest: ok" in proc.stdout
     return copy
 
 
@@ -498,6 +498,71 @@ def test_verify_catches_an_archive_from_another_study(verified_copy, tmp_path):
     proc = _verify(res)
     assert proc.returncode == 1
     assert "kuka_lwr__dls.mcap: an archive of study 'cerbaro2019', not 'every_method'" in proc.stdout
+
+
+def test_verify_names_a_changed_robot_file(verified_copy, tmp_path):
+    """The archives record the SHA-256 of the robot file they were solved with: an edit is named, with the study."""
+    import shutil
+
+    data = tmp_path / "data"
+    shutil.copytree(ROOT / "data", data)
+    robot = data / "robots" / "kuka_lwr.yaml"
+    robot.write_text(robot.read_text() + "notes: edited after the build\n")
+    proc = _verify(verified_copy, "--data", str(data))
+    assert proc.returncode == 1
+    line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("cerbaro2019: "))
+    assert f"{robot}: SHA-256 " in line and "the robot file changed after the build" in line
+
+
+def test_verify_names_an_edited_or_damaged_problem_set(verified_copy, tmp_path):
+    import gzip
+
+    res = _broken_copy(verified_copy, tmp_path)
+    pset = res / "cerbaro2019" / "problems" / "random" / "kuka_lwr.csv.gz"
+    text = gzip.decompress(pset.read_bytes()).decode()
+    pset.write_bytes(gzip.compress(text.replace(",0.", ",1.", 1).encode(), mtime=0))
+    proc = _verify(res)
+    assert proc.returncode == 1
+    assert f"cerbaro2019: {pset}: SHA-256 " in proc.stdout and "the problem set changed after the build" in proc.stdout
+    assert f"manifest: {pset}: SHA-256 differs" in proc.stdout
+    damaged = bytearray(pset.read_bytes())
+    damaged[-6] ^= 0xFF  # the gzip CRC
+    pset.write_bytes(bytes(damaged))
+    proc = _verify(res)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    assert f"cerbaro2019: {pset}: damaged gzip file (CRC check failed)" in proc.stdout
+    for argv in (["inspect", str(res / "cerbaro2019" / "runs" / "random" / "kuka_lwr__dls.mcap")],
+                 ["aggregate_tables", "--study", "data/studies/cerbaro2019.yaml", "--archives",
+                  str(res / "cerbaro2019" / "runs" / "random" / "kuka_lwr__dls.mcap"), "--out-dir", str(tmp_path / "t")]):
+        p = run_pipeline(*argv)
+        assert p.returncode == 2 and p.stderr.startswith(f"error: {pset}: damaged gzip file") and \
+            p.stderr.count("\n") == 1, p.stderr
+
+
+def test_verify_catches_an_archive_rewritten_with_valid_crcs(verified_copy, tmp_path):
+    """An edit that recomputes the MCAP CRCs reads as a sound archive; the build manifest still names it."""
+    import struct
+    import zlib
+
+    from pipeline.io.archive import archive_metadata, read_archive
+
+    res = _broken_copy(verified_copy, tmp_path)
+    arch = res / "cerbaro2019" / "runs" / "random" / "kuka_lwr__dls.mcap"
+    old = archive_metadata(arch)["git_commit"][:12].encode()
+    data = bytearray(arch.read_bytes())
+    i = data.find(old)
+    data[i:i + len(old)] = b"f" * len(old)
+    summary_start = struct.unpack_from("<BQQQI", data, len(data) - 8 - 29)[2]
+    end = summary_start - 13  # the DataEnd record: its CRC covers every byte before it
+    struct.pack_into("<I", data, end + 9, zlib.crc32(bytes(data[:end])))
+    arch.write_bytes(bytes(data))
+    read_archive(arch)  # CRC-valid: the reader accepts it
+    proc = _verify(res)
+    assert proc.returncode == 1
+    assert f"manifest: {arch}: SHA-256 differs from the one the build recorded in MANIFEST.sha256" in proc.stdout
+    (res / "MANIFEST.sha256").unlink()
+    proc = _verify(res)
+    assert proc.returncode == 1 and "MANIFEST.sha256: missing" in proc.stdout
 
 
 def test_rebuilding_from_the_same_archives_is_byte_identical(verified_copy, tmp_path):

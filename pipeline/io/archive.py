@@ -962,15 +962,17 @@ def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
         try:
             sha = file_sha256(pf)
             ps, _ = read_problems(pf)
-        except (ProblemFileError, OSError, EOFError, ValueError) as exc:  # gzip errors are OSError / EOFError
-            raise ArchiveError(f"{path}: metadata field 'problem_path': {pf}: unreadable problem file "
-                               f"({type(exc).__name__}: {exc})") from None
+        except ValueError as exc:  # ProblemFileError, DamagedFileError: one line naming the problem file
+            raise ArchiveError(f"{str(exc).splitlines()[0]} (the problem set of archive {path})") from None
+        except (OSError, EOFError) as exc:
+            raise ArchiveError(f"{pf}: unreadable problem file ({type(exc).__name__}: {exc}) (the problem set of "
+                               f"archive {path})") from None
         hit = _PROBLEM_CACHE[key] = (sha, ps, {int(p): i for i, p in enumerate(ps.problem_id.tolist())})
     sha, ps, rows = hit
     want = meta.get("problem_sha256", "")
     if not want or not sha.startswith(want):
-        raise ArchiveError(f"{path}: metadata field 'problem_sha256': {want!r}, but {given or rel} has {sha[:16]} "
-                           f"(the problem file changed after the archive was written)")
+        raise ArchiveError(f"{pf}: SHA-256 {sha[:16]}, but archive {path} recorded {want!r} (metadata field "
+                           f"'problem_sha256'): the problem file changed after the archive was written")
     unit = meta.get("length_unit") or ps.length_unit
     if unit not in LENGTH_UNITS:
         raise ArchiveError(f"{path}: metadata field 'length_unit': unknown unit {unit!r}")

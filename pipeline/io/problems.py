@@ -52,17 +52,26 @@ def write_problems(path: str | Path, ps: ProblemSet, meta: dict[str, str]) -> No
 
 def read_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str]]:
     """Read a problem-set file; returns the set and its header fields."""
+    import gzip
+    import zlib
+
+    from pipeline.errors import not_regular
+
     path = Path(path)
+    if not_regular(path):
+        raise ProblemFileError(f"{path}: {not_regular(path)}")
     try:
         data = path.read_bytes()
-        if path.name.endswith(".gz"):
-            import gzip
-
-            data = gzip.decompress(data)
-        lines = data.decode().splitlines()
     except OSError as exc:
         raise ProblemFileError(f"{path}: cannot read problem set ({exc.strerror or exc})") from None
-    except (EOFError, UnicodeDecodeError, ValueError) as exc:
+    if path.name.endswith(".gz"):
+        try:
+            data = gzip.decompress(data)
+        except (OSError, EOFError, zlib.error) as exc:  # gzip.BadGzipFile is an OSError
+            raise ProblemFileError(f"{path}: damaged gzip file ({str(exc) or type(exc).__name__})") from None
+    try:
+        lines = data.decode().splitlines()
+    except (UnicodeDecodeError, ValueError) as exc:
         raise ProblemFileError(f"{path}: not a readable problem set ({type(exc).__name__}: {exc})") from None
     if not lines or not lines[0].startswith(MAGIC):
         raise ProblemFileError(f"{path}: line 1: not an ik-pipeline problem set (missing '{MAGIC}')")

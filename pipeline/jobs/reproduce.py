@@ -173,7 +173,7 @@ def reproduce(target, *, sample: int | None = None, problem: int | None = None, 
         raise UsageError(f"--sample: must be at least 1, got {sample}")
     rows: list[Finding] = []
     for n, p in enumerate(paths, 1):
-        if progress:
+        if progress and len(paths) > 1:  # one archive: nothing to count, and an error stays one line
             print(f"[{n}/{len(paths)}] {p}", file=sys.stderr, flush=True)
         rows.append(reproduce_archive(p, sample=sample, problem=problem, problems=problems, robot=robot, data=data))
     base = Path(target) if Path(target).is_dir() else Path(target).parent

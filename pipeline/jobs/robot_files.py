@@ -28,8 +28,11 @@ def _write_checked(out: Path, text: str, check) -> None:
 def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, length_unit: str = "m",
                 xacro_args: dict | None = None) -> str:
     """Write ``out`` (a robot file, general joint form) from the URDF chain ``base`` ... ``tip``; returns what to print."""
-    from pipeline.robots import load_robot
+    import re
+
+    from pipeline.robots import RobotFileError, load_robot
     from pipeline.urdf import URDFImportError, imported_yaml
+    from pipeline.yamlio import load_yaml
 
     out = Path(out)
     name = name or out.stem
@@ -40,7 +43,20 @@ def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, leng
         text = imported_yaml(urdf, base, tip, name=name, length_unit=length_unit, xacro_args=xacro_args)
     except URDFImportError as exc:
         raise UsageError(f"URDFImportError: {exc}") from None
-    _write_checked(out, text, load_robot)
+
+    def check(tmp: Path) -> None:
+        """The robot file's own checks (joint count, sane maxima), reported against the URDF and its joint."""
+        try:
+            load_robot(tmp)
+        except RobotFileError as exc:
+            what = str(exc).removeprefix(f"{tmp}: ")
+            names = [j.get("name") for j in load_yaml(tmp, "imported robot file").get("joints", [])]
+            i = re.match(r"joint (\d+): ", what)
+            joint = f" (joint {names[int(i.group(1)) - 1]!r})" if i and int(i.group(1)) <= len(names) else ""
+            raise UsageError(f"URDFImportError: {urdf}: the imported chain breaks a robot-file limit: "
+                             f"{what}{joint}") from None
+
+    _write_checked(out, text, check)
     model = load_robot(out)
     return (f"wrote {out}: {model.n} joints ({''.join('P' if p else 'R' for p in model.chain.prismatic)}), "
             f"links {base} -> {tip}, lengths in {model.length_unit}")

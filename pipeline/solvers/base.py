@@ -28,6 +28,7 @@ and the FK check included.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import math
 from dataclasses import MISSING, asdict, dataclass, field, fields, replace
@@ -48,6 +49,40 @@ class SettingsError(ValueError):
     """A solver setting is missing, unknown or out of range (message names the field)."""
 
 
+# ---- caps on settings: no solve runs unbounded, no setting reads outside the data folder -------------
+MAX_TIME_BUDGET_S = 60.0  # ``time_budget`` of all restarts of one call: 3000x TRAC-IK's 20 ms budget; a solve job
+#                           of 10 000 goals then still ends (every iterative search is also capped by MAX_WORK)
+MAX_LIBRARY_TIMEOUT_S = 1.0  # a peer library's own wall-time budget per solve (TRAC-IK ``timeout``): 200x its 5 ms
+#                              default (1e9 s made one solve hang)
+MAX_WORK = 10_000_000  # iterations of one call, all searches together: (restarts + 1) x the product of the work
+#                        settings (WORK_FIELDS) present; the per-field iteration cap, so restarts cannot multiply it
+WORK_FIELDS = ("max_iterations", "ilimit", "slimit", "particles")
+MAX_SETTING_FLOAT = 1e9  # |value| of a float setting without a maximum of its own (tolerances, gains, weights,
+#                          steps): far beyond any meaningful value in SI units, and far from overflow
+PROJECT_ROOT = Path(__file__).resolve().parents[2]  # file-valued settings are paths from here ...
+DATA_FOLDER = PROJECT_ROOT / "data"  # ... and must resolve inside this folder (no '..', no absolute path)
+
+
+def check_data_path(value: str, where: str) -> Path:
+    """The file a file-valued setting names: relative to the project root, resolving (symbolic links
+    followed) inside :data:`DATA_FOLDER`, an existing regular file; else one line naming the field.
+
+    Raises
+    ------
+    SettingsError
+    """
+    rel = Path(value)
+    inside = "a path from the project root inside its data folder, e.g. data/robots/<name>.yaml"
+    if rel.is_absolute() or ".." in rel.parts or "\\" in value or "\x00" in value:
+        raise SettingsError(f"{where}: {value[:80]!r} is not {inside}")
+    path = (PROJECT_ROOT / rel).resolve()
+    if not path.is_relative_to(DATA_FOLDER.resolve()):
+        raise SettingsError(f"{where}: {value[:80]!r} resolves outside the data folder {DATA_FOLDER}")
+    if not path.is_file():
+        raise SettingsError(f"{where}: {value[:80]!r}: no such regular file in the data folder")
+    return path
+
+
 class NotApplicableError(ValueError):
     """A solver does not apply to a robot (one line: the robot file, the solver, why)."""
 
@@ -57,7 +92,7 @@ POSITION_CRITERIA = ("position", "dq_norm_body")  # success tests that ignore th
 
 
 def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, above=None, maximum=None,
-            length: bool = False):
+            length: bool = False, file: bool = False):
     """A settings field with its documentation and checks (read by ``from_dict`` and ``json_schema``).
 
     Parameters
@@ -70,9 +105,12 @@ def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, ab
         Inclusive lower bound, exclusive lower bound, inclusive upper bound.
     length : bool
         The value is a length written in metres and converted to ``length_unit`` once per job.
+    file : bool
+        The value names a file (``''`` = none): a path from the project root that must resolve inside
+        its data folder (:func:`check_data_path`).
     """
     meta = {"doc": doc, "unit": unit, "choices": tuple(choices) if choices is not None else None,
-            "minimum": minimum, "above": above, "maximum": maximum, "length": length}
+            "minimum": minimum, "above": above, "maximum": maximum, "length": length, "file": file}
     return field(default=default, metadata=meta)
 
 
@@ -107,7 +145,7 @@ class Settings:
                             minimum=0, maximum=100000)
     time_budget: float = setting(0.0, "wall-time budget of all restarts together, 0 = none (the search under way "
                                  "is finished; a budget makes results depend on the machine's speed)",
-                                 unit="s", minimum=0.0)
+                                 unit="s", minimum=0.0, maximum=MAX_TIME_BUDGET_S)
 
     # ---- construction and validation -------------------------------------------------------
     @classmethod
@@ -140,6 +178,18 @@ class Settings:
                     raise SettingsError(f"{where}: field '{f.name}': must be > {m['above']}, got {v!r}")
                 if m.get("maximum") is not None and v > m["maximum"]:
                     raise SettingsError(f"{where}: field '{f.name}': must be <= {m['maximum']}, got {v!r}")
+                if isinstance(v, float) and m.get("maximum") is None and abs(v) > MAX_SETTING_FLOAT:
+                    raise SettingsError(f"{where}: field '{f.name}': {v!r} is beyond the sane maximum "
+                                        f"{MAX_SETTING_FLOAT:g} in absolute value (MAX_SETTING_FLOAT)")
+            if m.get("file") and v:
+                check_data_path(v, f"{where}: field '{f.name}'")
+        work = self.restarts + 1
+        for name in WORK_FIELDS:
+            work *= getattr(self, name, 1)
+        if work > MAX_WORK:
+            used = " x ".join(f"{n} {getattr(self, n)}" for n in WORK_FIELDS if hasattr(self, n))
+            raise SettingsError(f"{where}: field 'restarts': (restarts {self.restarts} + 1) x {used} is beyond the "
+                                f"sane maximum of {MAX_WORK} iterations per call (MAX_WORK)")
         self.check(where)
 
     def check(self, where: str) -> None:

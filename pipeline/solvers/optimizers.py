@@ -38,14 +38,13 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 import numba
 import numpy as np
 
 import pipeline.solvers._kin as _kin
 from pipeline.solvers._kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS, TRACE_DP
-from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, meets, setting
+from pipeline.solvers.base import Prepared, Raw, Settings, SettingsError, StopReason, check_data_path, meets, setting
 from pipeline.solvers.driver import run_loop
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
@@ -364,8 +363,9 @@ class DescentSettings(Settings):
                             "this many times, then stop code 2 (0 = every step taken, the listing)", minimum=0, maximum=60)
     stop_at_tolerance: bool = setting(True, "also stop (success claim) as soon as the pose meets tol_pos / tol_rot "
                                       "(pos_orient and position criteria; false = only the listing's ‖e‖ test)")
-    jacobian_robot: str = setting("", "robot file (path from the repository root) whose DH table gives the "
-                                  "Jacobian; '' = the solved robot (model-mismatch runs)")
+    jacobian_robot: str = setting("", "robot file (path from the repository root, inside its data folder) whose "
+                                  "DH table gives the Jacobian; '' = the solved robot (model-mismatch runs)",
+                                  file=True)
 
 
 @dataclass(frozen=True)
@@ -470,14 +470,12 @@ def _jacobian_args(prep: Prepared, robot_file: str) -> tuple:
     """Kernel arrays of the robot file whose Jacobian the descent uses (``jacobian_robot``)."""
     from pipeline.robots import load_robot
 
-    path = Path(robot_file)
-    jm = load_robot(path if path.is_absolute() else _ROOT / path)
+    jm = load_robot(check_data_path(robot_file, "solver settings: field 'jacobian_robot'"))
     if jm.n != prep.n:
         raise SettingsError(f"solver settings: field 'jacobian_robot': {jm.n} joints, the robot has {prep.n}")
     return Prepared(jm, prep.unit).args
 
 
-_ROOT = Path(__file__).resolve().parents[2]  # the project root (pipeline.settings.ROOT), where relative robot paths start
 
 
 # ---- run functions ---------------------------------------------------------------------------

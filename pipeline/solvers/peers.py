@@ -99,7 +99,7 @@ from pipeline.kinematics.chain import Chain
 from pipeline.robots import LENGTH_UNITS
 import pipeline.solvers._kin as _kin
 from pipeline.solvers._kin import TRACE_COLS, TRACE_DP
-from pipeline.solvers.base import Prepared, Raw, Settings, StopReason, setting, wrap_into_limits
+from pipeline.solvers.base import MAX_LIBRARY_TIMEOUT_S, Prepared, Raw, Settings, StopReason, setting, wrap_into_limits
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -406,7 +406,7 @@ class TracIKSettings(Settings):
     """Settings of TRAC-IK (defaults: TRAC-IK's)."""
 
     timeout: float = setting(0.005, "TRAC-IK's wall-time budget per solve (TRAC-IK default 0.005 s)", unit="s",
-                             above=0.0)
+                             above=0.0, maximum=MAX_LIBRARY_TIMEOUT_S)
     solve_type: str = setting("Speed", "TRAC-IK's solve type: Speed returns the first solution; Distance, Manip1, "
                               "Manip2 use the whole budget to minimise joint displacement / maximise "
                               "manipulability (TRAC-IK default Speed)", choices=("Speed", "Distance", "Manip1",

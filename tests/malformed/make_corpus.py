@@ -316,18 +316,24 @@ def configs() -> dict[str, str | bytes]:
     }
 
 
-def main() -> int:
-    for kind, cases in (("robots", robots()), ("studies", studies()), ("configs", configs())):
-        folder = HERE / kind
+def write_corpus(here: Path, kinds) -> None:
+    """Write each kind's cases as ``here/<kind>/<stem><suffix>`` (the folder emptied first); ``kinds``:
+    (kind, {stem: text or bytes}, suffix) triples. Shared with ``tests/malformed2/make_corpus.py``."""
+    for kind, cases, suffix in kinds:
+        folder = here / kind
         shutil.rmtree(folder, ignore_errors=True)
         folder.mkdir(parents=True)
         for stem, content in cases.items():
-            path = folder / f"{stem}.yaml"
+            path = folder / f"{stem}{suffix}"
             if isinstance(content, bytes):
                 path.write_bytes(content)
             else:
                 path.write_text(content, encoding="utf-8", newline="\n")
-        print(f"{len(cases)} {kind} in {folder.relative_to(HERE.parent.parent)}")
+        print(f"{len(cases)} {kind} in {folder.relative_to(here.parent.parent)}")
+
+
+def main() -> int:
+    write_corpus(HERE, (("robots", robots(), ".yaml"), ("studies", studies(), ".yaml"), ("configs", configs(), ".yaml")))
     return 0
 
 

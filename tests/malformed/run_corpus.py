@@ -140,13 +140,17 @@ def runs_for(path: Path, tmp: Path) -> list[tuple[str, list[str], str]]:
     return [("check_inputs", ["check_inputs", "--config", rel], rel)]
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def parser(description: str, expected_help: str) -> argparse.ArgumentParser:
+    """The options of a corpus runner (this one and ``tests/malformed2/run_corpus.py``)."""
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--json", action="store_true", help="one JSON object per run on stdout")
     ap.add_argument("--memory-limit", action="store_true", help="cap the address space at +1 GiB over the imports")
-    ap.add_argument("--write-expected", action="store_true", help="rewrite expected.tsv from the check_inputs lines")
-    ap.add_argument("only", nargs="*", help="corpus files to run (default all)")
-    args = ap.parse_args(argv)
+    ap.add_argument("--write-expected", action="store_true", help=expected_help)
+    return ap
+
+
+def prepare(args) -> None:
+    """Run from the repository root, import the verbs, then cap the address space (``--memory-limit``)."""
     os.chdir(ROOT)
     sys.path.insert(0, str(ROOT))
     import pipeline.cli  # noqa: F401  (imports first: the memory cap is on top of them)
@@ -156,6 +160,13 @@ def main(argv=None) -> int:
     if args.memory_limit:
         limit = _vm_bytes() + MEMORY_LIMIT
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+
+def main(argv=None) -> int:
+    ap = parser(__doc__.splitlines()[0], "rewrite expected.tsv from the check_inputs lines")
+    ap.add_argument("only", nargs="*", help="corpus files to run (default all)")
+    args = ap.parse_args(argv)
+    prepare(args)
     files = [Path(p).resolve() for p in args.only] if args.only else corpus_files()
     expected = {}
     with tempfile.TemporaryDirectory(prefix="malformed-") as tmpdir:

@@ -36,6 +36,7 @@ RES = {
 localrules:
     aggregate_tables,
     render_report,
+    manifest,
 
 
 # ids never hold a double underscore, so "<robot>__<solver>" splits one way only

@@ -70,3 +70,20 @@ rule render_report:
         runtime=RES["light"]["runtime"],
     shell:
         "python -m pipeline render_report {params.sets} --out {output} > {log} 2>&1"
+
+
+# The build's last step: the SHA-256 of every file it produced (archives, problem sets, tables, figures,
+# the report; not logs or benchmarks), checked by `python -m pipeline verify` (pipeline/io/manifest.py).
+rule manifest:
+    input:
+        all_targets(),
+    output:
+        f"{RESULTS}/MANIFEST.sha256",
+    log:
+        f"{RESULTS}/logs/manifest.log",
+    threads: 1
+    resources:
+        mem_mb=RES["light"]["mem_mb"],
+        runtime=RES["light"]["runtime"],
+    shell:
+        "python -m pipeline manifest {RESULTS} --out {output} > {log} 2>&1"

@@ -32,17 +32,21 @@ def _known_errors():
 def cmd_robot(args) -> None:
     import numpy as np
 
-    from pipeline.robots import load_robot
+    from pipeline.robots import check_joint_points, load_robot
     from pipeline.studies.erthal1992 import model as M
     from pipeline.yamlio import load_yaml
 
     try:
         path = Path(args.robot)
         doc = load_yaml(path, "robot file") if path.is_file() else None
-        if isinstance(doc, dict) and "effector" in doc and "joints" in doc and "position" in (doc["joints"] or [{}])[0]:
-            j, e = doc["joints"], doc["effector"]
+        if isinstance(doc, dict) and "effector" in doc and "convention" not in doc:  # a joint-point input
+            j, e = check_joint_points(doc, str(path))["joints"], doc["effector"]
             pts, axes = [x["position"] for x in j], [x["axis"] for x in j]
-            dh = M.dh_from_joint_points([x["type"] for x in j], pts, axes, e["position"], e["u_a"], e["u_t"])
+            try:
+                dh = M.dh_from_joint_points([x["type"] for x in j], pts, axes, e["position"], e["u_a"], e["u_t"])
+            except (M.ConversionError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+                raise M.ConversionError(f"{path}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") \
+                    from None
             pz = M.pz_from_dh(dh.chain(), dh.q0)
             text = M.report_txt(doc["name"], dh, pz, pts, axes)
             if args.write_robot:
