@@ -254,7 +254,13 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
                      "call time p50 [µs]": pick["call time p50 [µs]"], "best rate label": best["solver"],
                      "best rate [%]": best["success [%]"], "not significantly worse": ", ".join(pool["solver"]),
                      "call": call, "answer": text})
-    return pd.DataFrame(rows)
+    # the same columns whether or not any job got a recommendation (a loaded machine can starve them all)
+    return pd.DataFrame(rows, columns=ANSWER_COLUMNS)
+
+
+ANSWER_COLUMNS = ["robot", "problem set", "goals", "starved labels", "smoke run", "recommendation", "method", "library",
+                  "settings", "success [%]", "success CI low [%]", "success CI high [%]", "its goals",
+                  "call time p50 [µs]", "best rate label", "best rate [%]", "not significantly worse", "call", "answer"]
 
 
 def key_labels(mt: pd.DataFrame, ans: pd.DataFrame, robot: str) -> list[str]:
