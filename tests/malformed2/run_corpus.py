@@ -16,7 +16,7 @@ run's temporary folder, the data folder and the installed code (``outside`` in t
 like ``jacobian_robot: ../../../../etc/passwd`` must be refused before anything is read.
 
 Output: one JSON object per run (``--json``) or a summary; ``--write-expected`` rewrites
-``expected.tsv`` (``case<TAB>verb<TAB>line``; ``{file}`` stands for the path the run names, ``{data}``
+``expected.tsv`` (``case<TAB>verb<TAB>line``; ``{file}`` stands for the path the run names, ``{repo}`` for the project folder, ``{data}``
 for the run's data folder, ``{tmp}`` for the temporary folder, ``{sha16}`` for a hash prefix;
 ``(accepted)``: exit 0). Run from the
 repository root: ``python tests/malformed2/run_corpus.py``.
@@ -25,6 +25,7 @@ repository root: ``python tests/malformed2/run_corpus.py``.
 from __future__ import annotations
 
 import gzip
+import importlib.metadata
 import json
 import os
 import re
@@ -203,9 +204,10 @@ def read_expected() -> dict[tuple[str, str], str]:
 
 
 def placeholders(line: str, file: str, data: str | None, tmp: str) -> str:
-    """The line with ``{file}``, ``{data}`` (None: a case without a data folder of its own) and ``{tmp}``."""
+    """The line with ``{file}``, ``{data}`` (None: a case without a data folder of its own), ``{tmp}`` and
+    ``{repo}`` (the project folder, wherever the clone lives)."""
     line = line.replace(file, "{file}")
-    line = (line.replace(data, "{data}") if data else line).replace(tmp, "{tmp}")
+    line = (line.replace(data, "{data}") if data else line).replace(tmp, "{tmp}").replace(str(ROOT), "{repo}")
     return re.sub(r"\b[0-9a-f]{16}\b", "{sha16}", line)  # hash prefixes follow the robot file's bytes
 
 
@@ -217,6 +219,8 @@ def main(argv=None) -> int:
         tmp = Path(tmpdir)
         code = [p for p in sys.path if p and os.path.isdir(p) and os.path.realpath(p) not in (str(ROOT), "/", "/tmp")]
         code += [sys.prefix, sys.base_prefix, HERE.parent / "malformed"]  # the interpreter, libraries, the first runner
+        # installed packages' metadata (an editable install keeps ours beside the clone it was made from)
+        code += [str(d._path) for d in importlib.metadata.distributions() if getattr(d, "_path", None)]
         audit = OpenAudit([HERE, ROOT / "data", ROOT / "pipeline", ROOT / "workflow", tmp, *code, "/proc", "/sys",
                            "/usr/share/zoneinfo"])
         runs = [(f"{p.parent.name}/{p.name}", verb, av, file, str(tmp / p.parent.name / p.stem))
