@@ -43,7 +43,8 @@ def _dependency_problems(path: Path, meta: dict, data: Path, seen: dict) -> list
     """The files archive ``path`` was solved from whose SHA-256 differs from the one it recorded (one line
     each, naming the file and the archive); an archive that records no hash of a file is not checked
     for it (the measurement and catalogue archives of some studies). ``seen``: (file, hash) -> problem
-    or None, shared over a study's archives, so that a file many archives share is reported once."""
+    or None, shared over a study's archives, so that a file many archives share is hashed once (the
+    caller reports each line once)."""
     from pipeline.provenance import DamagedFileError, file_sha256
 
     deps = []
@@ -67,10 +68,8 @@ def _dependency_problems(path: Path, meta: dict, data: Path, seen: dict) -> list
                         f"changed after the build)")
                 except DamagedFileError as exc:
                     seen[(f, want)] = f"{exc} ({what} of archive {path.name})"
-            if seen[(f, want)]:
-                problems.append(seen[(f, want)])
-        elif seen[(f, want)]:
-            problems.append("")  # reported with the first archive that uses it
+        if seen[(f, want)]:
+            problems.append(seen[(f, want)])
     return problems
 
 
@@ -93,8 +92,8 @@ def verify_study(results: Path, data: Path, sid: str) -> list[str]:
             problems.append(f"{path}: an archive of study {meta['study']!r}, not {sid!r}")
             continue
         deps = _dependency_problems(path, meta, data, seen)
-        if deps:
-            problems += [d for d in deps if d]
+        if deps:  # the archive is not read: its inputs changed (a file many archives share is named once)
+            problems += [d for d in deps if d not in problems]
             continue
         try:
             a = read_archive(path)

@@ -28,14 +28,11 @@ UNIT_NOTE = (
 )
 
 
-problem_time = cpu_time  # each solve's thread CPU time [s]
-
-
 def ik_block_time(df: pd.DataFrame) -> pd.Series:
     """Each solve's IK-block time [s] on the CPU clock: the block's share of the monotonic solve time
     times the solve's thread CPU time (a preempted block can raise it to the solve's CPU time, no more)."""
     share = (df["ik_time_s"] / df["solve_time_s"].where(df["solve_time_s"] > 0)).clip(0.0, 1.0).fillna(0.0)
-    return share * problem_time(df)
+    return share * cpu_time(df)
 
 
 def _split(study, archives):
@@ -86,7 +83,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         ok = g[g["success"]]
         it = np.maximum(ok["iterations"].to_numpy(), 1)
         cols = {"iterations": ok["iterations"], "IK-block CPU time per iteration [µs]": 1e6 * ik_block_time(ok) / it,
-                "iteration CPU time [µs]": 1e6 * problem_time(ok) / it, "problem CPU time [ms]": 1e3 * problem_time(ok)}
+                "iteration CPU time [µs]": 1e6 * cpu_time(ok) / it, "problem CPU time [ms]": 1e3 * cpu_time(ok)}
         stats = {k: describe(v) for k, v in cols.items()}
         for s in ("min", "max", "mean", "std"):
             row = {"method": LABEL[m], "statistic": s}
@@ -104,7 +101,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
 
     rows = []
     for m, g in _by_method(main):
-        d = describe(problem_time(g[g["success"]]))
+        d = describe(cpu_time(g[g["success"]]))
         pt = P["table08_11"]
         ps = {} if pt is None else {r["statistic"]: r["problem_time_ms"] for _, r in pt[pt["method"] == m].iterrows()}
         rows.append({"method": LABEL[m], "CV of problem CPU time [%] (ours)": 100 * d["std"] / d["mean"],
@@ -116,7 +113,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                          "measure, since its published CVs equal the problem-time std / mean of its Tables 8–11 "
                          "(last column). Ours on thread CPU time."))
 
-    main["problem_cpu_s"] = problem_time(main)
+    main["problem_cpu_s"] = cpu_time(main)
     wide = main.pivot_table(index="problem_id", columns="method", values="problem_cpu_s")
     okw = main.pivot_table(index="problem_id", columns="method", values="success", aggfunc="max")
     present = [m for m in METHODS if m in wide.columns]
@@ -148,7 +145,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     rows = []
     for m, g in _by_method(main):
         ok = g[g["success"]]
-        r = float(np.corrcoef(problem_time(ok), ok["initial_error"])[0, 1]) if len(ok) > 2 else np.nan
+        r = float(np.corrcoef(cpu_time(ok), ok["initial_error"])[0, 1]) if len(ok) > 2 else np.nan
         rows.append({"method": LABEL[m], "Pearson r (ours)": r, "r (published)": _pub(P["table14"], m, "correlation")})
     out.append(TableSpec("table14_correlation", "Table 14 — correlation of problem time with the initial error norm",
                          pd.DataFrame(rows), "Pearson correlation over successful problems of the problem CPU time and the "
@@ -252,7 +249,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
 
     bars = [("fig20_mean_iterations", "Figure 20 — mean iterations per method", ok.groupby("method")["iterations"].mean(), "iterations", 1.0),
             ("fig21_mean_ik_time", "Figure 21 — mean IK-block time per iteration", (ik_block_time(ok) / ok["iterations"].clip(lower=1)).groupby(ok["method"]).mean(), "IK-block CPU time [µs]", 1e6),
-            ("fig22_mean_problem_time", "Figure 22 — mean problem time", problem_time(ok).groupby(ok["method"]).mean(), "problem CPU time [ms]", 1e3)]
+            ("fig22_mean_problem_time", "Figure 22 — mean problem time", cpu_time(ok).groupby(ok["method"]).mean(), "problem CPU time [ms]", 1e3)]
     pub = published(study.path.parent.parent / "published", STUDY, "table08_11")  # data_dir/published
     for stem, title, series, ylabel, scale in bars:
         fig, ax = plt.subplots(figsize=(5.5, 3.5))
@@ -269,7 +266,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
             cap += " Black bars: the document's means."
         figs.append(FigureSpec(save(fig, out_dir, stem), title, cap))
 
-    data = [1e3 * problem_time(ok[ok["method"] == m]).to_numpy() for m in methods]
+    data = [1e3 * cpu_time(ok[ok["method"] == m]).to_numpy() for m in methods]
     for stem, title, zoom in (("fig23_problem_time_box", "Figure 23 — distribution of problem time", None),
                               ("fig24_problem_time_box_zoom", "Figure 24 — distribution of problem time, zoomed", study.settings.get("box_zoom_ms", [0, 1]))):
         fig, ax = plt.subplots(figsize=(6, 3.8))
@@ -286,7 +283,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     for ax, m in zip(axs[0], methods):
         g = ok[ok["method"] == m]
         # rasterized: 10 000 points per panel as vector paths made a 5.5 MB SVG (the axes stay vector)
-        ax.scatter(g["initial_error"], 1e3 * problem_time(g), s=2, alpha=0.4, rasterized=True)
+        ax.scatter(g["initial_error"], 1e3 * cpu_time(g), s=2, alpha=0.4, rasterized=True)
         ax.set(title=LABEL[m], xlabel="initial ‖erro‖ [1]")
         ax.set_yscale("log")
     axs[0][0].set_ylabel("problem CPU time [ms]")

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.io.archive import Archive
+from pipeline.studies.specs import TableSpec
 
 
 def archive_method(a: Archive) -> tuple[str, str]:
@@ -70,8 +71,6 @@ def percentiles(x, qs=(50, 95, 99)) -> dict:
 def load_table(archives: list[Archive]):
     """The machine's load while the study's jobs solved (each archive's ``job_timing`` record), one row
     per problem set, or None when no archive records it: the record beside the times load may move."""
-    from pipeline.studies.specs import TableSpec
-
     rows = []
     for a in archives:
         t = a.job_timing or {}

@@ -73,12 +73,7 @@ def fill(text: str, tables: dict[str, pd.DataFrame]) -> str:
     return PLACEHOLDER.sub(one, text)
 
 
-def placeholders(text: str) -> list[tuple[str, str, str]]:
-    """(table, row, column) of every placeholder in ``text``."""
-    return [(m.group(1), m.group(2), m.group(3)) for m in PLACEHOLDER.finditer(text or "")]
-
-
-__all__ = ["MISSING_VALUE", "PLACEHOLDER", "ProseError", "fill", "lookup", "placeholders"]
+__all__ = ["MISSING_VALUE", "PLACEHOLDER", "ProseError", "fill", "lookup"]
 
 
 # ---- the check: every number in a built study's prose is held by a table, a setting or a listed fact ----
