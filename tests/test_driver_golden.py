@@ -121,9 +121,9 @@ def _unpack(num: np.ndarray, strs: np.ndarray) -> dict:
         if kind in "US":
             out[f] = np.array(strs[k:k + size]).reshape(shape)
             k += size
-        else:
+        elif num.size:
             out[f] = num[i:i + size].reshape(shape)
-            i += size
+            i += size  # (a case stored as a digest only has no numbers: its num_digest tells)
     return out
 
 

@@ -74,7 +74,7 @@ def check_model(chain: Chain) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     return np.ascontiguousarray(K), np.ascontiguousarray(axis), offset, pris
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
     return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
             a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
@@ -82,7 +82,7 @@ def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
             a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def fk_dq(K, axis, offset, prism, q, out):
     """Tool pose of joint values ``q`` (n,) as a unit DQ into ``out`` (8,)."""
     r0, r1, r2, r3 = K[0, 0], K[0, 1], K[0, 2], K[0, 3]
@@ -112,7 +112,7 @@ def fk_dq(K, axis, offset, prism, q, out):
     out[4], out[5], out[6], out[7] = d0, d1, d2, d3
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _quat_of(T):
     """Unit quaternion (w-first) of the rotation part of ``T`` (Shepperd's method)."""
     m00, m11, m22 = T[0, 0], T[1, 1], T[2, 2]
@@ -130,7 +130,7 @@ def _quat_of(T):
     return (T[1, 0] - T[0, 1]) / s, (T[0, 2] + T[2, 0]) / s, (T[1, 2] + T[2, 1]) / s, 0.25 * s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def pose_check(K, axis, offset, prism, q, Tg, buf):
     """Errors of joint values ``q`` (n,) against the goal ``Tg`` (4, 4); ``buf`` (8,) is scratch.
 
@@ -165,7 +165,7 @@ def pose_check(K, axis, offset, prism, q, Tg, buf):
     return dp, angle, math.sqrt(tx * tx + ty * ty + tz * tz)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def meets(crit, tol_pos, tol_rot, tol_dq, dp, ang, t):
     """The success test (criterion codes of :data:`pipeline.solvers.base.CRITERION_CODE`)."""
     if not math.isfinite(dp) or (crit != 1 and not math.isfinite(ang)):
@@ -179,14 +179,14 @@ def meets(crit, tol_pos, tol_rot, tol_dq, dp, ang, t):
     return dp <= tol_pos * (1.0 + 1e-9) and ang <= tol_rot * (1.0 + 1e-9)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_one(K, axis, offset, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, buf):
     """(meets the criterion, |dp|, angle, |t|) of one solution."""
     dp, ang, t = pose_check(K, axis, offset, prism, q, Tg, buf)
     return meets(crit, tol_pos, tol_rot, tol_dq, dp, ang, t), dp, ang, t
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, error_model="numpy", parallel=True)
 def check_many(K, axis, offset, prism, Q, goals, crit, tol_pos, tol_rot, tol_dq, ok, out):
     """:func:`check_one` for every row: ``Q`` (N, n), ``goals`` (N, 4, 4) -> ``ok`` (N,), ``out`` (N, 3)."""
     for k in numba.prange(Q.shape[0]):

@@ -82,6 +82,26 @@ def _data_ptr(typingctx, arr):
 
     return types.voidptr(arr), codegen
 
+@intrinsic
+def borrowed(typingctx, arr):
+    """``arr`` as an array view that carries no reference count (its meminfo pointer null).
+
+    numba increments and decrements an array's reference count atomically wherever an array
+    enters a compiled function that is not inlined or a view of it is made; in a closed form's
+    per-pose path those atomic operations cost about as much as the arithmetic. A borrowed view
+    skips them. It is valid only while ``arr`` itself is alive (an argument of the calling
+    function, or a local the function uses again after its last use of the view), and it must
+    never be returned to Python.
+    """
+
+    def codegen(context, builder, signature, args):
+        ary = context.make_array(signature.args[0])(context, builder, args[0])
+        ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+        return ary._getvalue()
+
+    return arr(arr), codegen
+
+
 @numba.njit(cache=True)
 def now_ns(buf):
     """Monotonic clock in ns; ``buf`` is an int64 array (2,) used as ``struct timespec``."""

@@ -35,7 +35,7 @@ import numpy as np
 
 from pipeline.kinematics import geometry
 from pipeline.solvers import subproblems as sp
-from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, now_ns
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, check_pack, finish_packed,
                                    fused_inputs, setting)
 from pipeline.solvers.timing import clock_ns
@@ -114,7 +114,7 @@ def packed(prep: Prepared, s: AnalyticSettings) -> Packed:
 
 
 # ---- compiled: one pose ---------------------------------------------------------------------------
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def fk_linesz(H, P, RM, pM, Z, R, p):
     """Pose of the POE chain ``E_1(θ_1) ... E_n(θ_n) M`` into R (3, 3), p (3,) from each joint's
     e^{iθ} (the closed form's own cosines and sines: no trig), no allocation."""
@@ -146,7 +146,7 @@ def fk_linesz(H, P, RM, pM, Z, R, p):
     p[2] = a20 * pM[0] + a21 * pM[1] + a22 * pM[2] + tz
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def fk_lines(H, P, RM, pM, th, R, p, cs):
     """Pose of the POE chain ``E_1(θ_1) ... E_n(θ_n) M`` into R (3, 3), p (3,).
 
@@ -161,7 +161,7 @@ def fk_lines(H, P, RM, pM, th, R, p, cs):
     fk_linesz(H, P, RM, pM, Z, R, p)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def pose_err(R, p, Tg):
     """|Δp| and the rotation angle between (R, p) and ``Tg`` (angle from the Frobenius distance:
     ‖R − Rg‖ = 2√2 sin(θ/2), accurate near 0)."""
@@ -174,7 +174,19 @@ def pose_err(R, p, Tg):
     return dp, 2.0 * math.asin(min(1.0, x))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def pose_within(R, p, Tg, tolp, tolr):
+    """:func:`pose_err` within (``tolp``, ``tolr``), without its square root and arcsine: |Δp|² against
+    ``tolp``², and ‖R − Rg‖² = 8 sin²(θ/2) against its value at ``tolr`` (``tolr`` < π)."""
+    dp2 = (p[0] - Tg[0, 3]) ** 2 + (p[1] - Tg[1, 3]) ** 2 + (p[2] - Tg[2, 3]) ** 2
+    f = 0.0
+    for r in range(3):
+        for k in range(3):
+            f += (R[r, k] - Tg[r, k]) ** 2
+    return dp2 <= tolp * tolp and f <= 8.0 * math.sin(0.5 * tolr) ** 2
+
+
+@numba.njit(cache=True, error_model="numpy")
 def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
     """Candidates of a 6R chain of family ``fam`` into Q (complex (16, 6): rows of e^{iθ} of THIS
     chain's joints); ``pref`` (6,) the angles [rad] taken where one is free; ``lim6`` (6, 2) the
@@ -220,7 +232,7 @@ def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, li
     return k
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _fix(H, P, RM, pM, k, v, H6, P6, RM6, pM6):
     """The 6R chain with joint k held at v (lines after k and M moved by E_k(v))."""
     hk = (H[k, 0], H[k, 1], H[k, 2])
@@ -245,7 +257,7 @@ def _fix(H, P, RM, pM, k, v, H6, P6, RM6, pM6):
     pM6[0], pM6[1], pM6[2] = pm[0], pm[1], pm[2]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _doc_row(Tg, R, p, out):
     for r in range(3):
         out[1 + r] = Tg[r, 3] - p[r]
@@ -257,7 +269,7 @@ def _doc_row(Tg, R, p, out):
     out[0] = math.sqrt(s)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def unpack(ints, G):
     """Views of the packed geometry ``G`` (:func:`packed`): H (n, 3), P (n, 3), RM (3, 3), pM (3,),
     par (3,), lim (n, 2)."""
@@ -267,7 +279,7 @@ def unpack(ints, G):
             G[o + 12:o + 15], G[o + 15:o + 15 + 2 * n].reshape((n, 2)))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
     """The FK-valid solutions of one pose, nearest to ``q_start`` first (wrapped joint distance, sum of
     squares), at most ``max_solutions`` into ``S``; ``q`` the chosen one. ``Sc`` (:func:`capacity`
@@ -276,18 +288,22 @@ def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
     Candidates are FK-checked nearest first until ``max_solutions`` pass or none is left, so a 7R
     sweep checks about as many as it returns. Returns (solutions, candidates, solve time [ns])."""
     t0 = now_ns(clk)
+    # every array below is a borrowed view (no atomic reference counting on the per-pose path);
+    # the locals allocated here are used again at the end, which keeps them alive
+    ints, G, Tg, q_start, Sc, S, q, trace = (borrowed(ints), borrowed(G), borrowed(Tg), borrowed(q_start),
+                                             borrowed(Sc), borrowed(S), borrowed(q), borrowed(trace))
     H, P, RM, pM, par, lim = unpack(ints, G)
     n, fam, case, rev, free, samples, nfree, mode = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5], ints[6], ints[7]
     max_sol = min(ints[8], S.shape[0])
     clip, tolp, tolr = par[0], par[1], par[2]
     Rg = Tg  # its rotation block is read
     pg = (Tg[0, 3], Tg[1, 3], Tg[2, 3])
-    Q = np.empty((sp.MAX_SOL, 6), np.complex128)
-    R = np.empty((3, 3))
-    p = np.empty(3)
+    Q_, R_, p_, dist_, cs_, qrow_ = (np.empty((sp.MAX_SOL, 6), np.complex128), np.empty((3, 3)), np.empty(3),
+                                     np.empty(Sc.shape[0]), np.full((n, 3), math.nan), np.empty(sp.MAX_SOL, np.int64))
+    Q, R, p, dist, cs, qrow = (borrowed(Q_), borrowed(R_), borrowed(p_), borrowed(dist_), borrowed(cs_),
+                               borrowed(qrow_))
+    chosen = -1  # 6R: the row of Q the chosen solution came from
     cap = Sc.shape[0]
-    dist = np.empty(cap)
-    cs = np.full((n, 3), math.nan)
     nc = 0  # candidates in Sc
     tried = 0
     refine = ints[9]
@@ -316,22 +332,26 @@ def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
             k = min(core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, q_start, samples, Q, nolim),
                     sp.MAX_SOL)
             tried += k
+            search = fam == sp.FAM_SEARCH  # only a search refines when nothing lies within the limits
             for r in range(k):
                 if nc >= cap:
                     break
                 fk_linesz(H, P, RM, pM, Q[r], R, p)  # the check from the closed form's own cos/sin
-                dp, ang = pose_err(R, p, Tg)
-                if not (dp <= tolp and ang <= tolr):
+                if not pose_within(R, p, Tg, tolp, tolr):
                     continue
+                qrow[nc] = r
+                d = 0.0
                 inside = True
                 for j in range(6):
-                    x = math.atan2(Q[r, j].imag, Q[r, j].real)
+                    z = Q[r, j]
+                    if r > 0 and z == Q[r - 1, j] and nc > 0 and qrow[nc - 1] == r - 1:
+                        x = Sc[nc - 1, j]  # a joint shared with the previous candidate: its angle again
+                    else:
+                        x = sp.angle_of(z.imag, z.real)
                     Sc[nc, j] = x
-                    if not sp.into_limits(x, lim[j, 0], lim[j, 1])[1]:
+                    if search and not sp.into_limits(x, lim[j, 0], lim[j, 1])[1]:
                         inside = False
-                d = 0.0
-                for j in range(6):
-                    e = sp.wrap(Sc[nc, j] - q_start[j])
+                    e = sp.wrap(x - q_start[j])
                     d += e * e
                 dist[nc] = d
                 nc += 1
@@ -370,7 +390,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
                         if j == free:
                             x = v
                         else:
-                            x = math.atan2(Q[r, c_].imag, Q[r, c_].real)
+                            x = sp.angle_of(Q[r, c_].imag, Q[r, c_].real)
                             c_ += 1
                         x, ok = sp.into_limits(sp.wrap(x), lim[j, 0], lim[j, 1])
                         if not ok:
@@ -401,6 +421,8 @@ def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
             fk_lines(H, P, RM, pM, Sc[best], R, p, cs)
             dp, ang = pose_err(R, p, Tg)
         if n == 6 or (dp <= tolp and ang <= tolr):
+            if m == 0 and n == 6:
+                chosen = qrow[best]
             for j in range(n):
                 S[m, j] = Sc[best, j]
             m += 1
@@ -423,12 +445,16 @@ def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
         for c in range(TRACE_COLS):
             trace[1, c] = trace[0, c]
     else:
-        fk_lines(H, P, RM, pM, q, R, p, cs)
+        if n == 6:  # q differs from the chosen candidate by turns only: its pose from the same cos/sin
+            fk_linesz(H, P, RM, pM, Q[chosen], R, p)
+        else:
+            fk_lines(H, P, RM, pM, q, R, p, cs)
         _doc_row(Tg, R, p, trace[1])
-    return m, tried, ns
+    keep = Q_.shape[0] + R_.shape[0] + p_.shape[0] + dist_.shape[0] + cs_.shape[0] + qrow_.shape[0]  # alive until here
+    return m, tried, ns + 0 * keep
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, error_model="numpy", parallel=True)
 def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, nsol, tried, ns, cap):
     """:func:`solve_pose` for every row, on every core: work items of 32 poses, one scratch each;
     every pose writes only its own rows (results independent of the thread count)."""
@@ -444,7 +470,7 @@ def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, nsol, tried, ns, c
             ns[i] = dt
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _capacity(ints):
     """Scratch rows per pose: 16 for 6R, 16 per swept value for 7R."""
     return sp.MAX_SOL if ints[0] == 6 else sp.MAX_SOL * (ints[6] + 1)
@@ -511,7 +537,7 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
                     trace_rows=rows, trace_offsets=offsets, solutions=S, n_solutions=nsol, info=info)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def call_pose(ints, GC, Tg, q_start, S, q, trace):
     """The whole public single call in one compiled call: :func:`solve_pose`, then the result rule of
     every finish (:func:`pipeline.solvers.base.finish_packed`: the independent FK check of the chosen
@@ -522,7 +548,9 @@ def call_pose(ints, GC, Tg, q_start, S, q, trace):
     ng = 8 * n + 27
     Sc = np.empty((_capacity(ints), n))
     m, tried, ns = solve_pose(ints, GC[:ng], Tg, q_start, Sc, S, q, trace, clk)
-    code, claimed, success, dp, ang, inside = finish_packed(GC[ng:], q, Tg, SUCCESS if m > 0 else NO_SOLUTION)
+    # the check on borrowed views (no atomic reference counting in its calls)
+    code, claimed, success, dp, ang, inside = finish_packed(borrowed(GC)[ng:], borrowed(q), borrowed(Tg),
+                                                            SUCCESS if m > 0 else NO_SOLUTION)
     return m, tried, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
 
 

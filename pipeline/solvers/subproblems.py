@@ -58,39 +58,39 @@ MAX_SOL = 16
 
 
 # ---- 3-vectors as tuples ------------------------------------------------------------------------
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def scl(s, a):
     return (s * a[0], s * a[1], s * a[2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def perp(k, a):
     """``a`` minus its component along the unit vector ``k``."""
     t = dot(k, a)
     return (a[0] - t * k[0], a[1] - t * k[1], a[2] - t * k[2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def rot(k, c, s, v):
     """``rot(k, θ) v`` at cos θ = c, sin θ = s (Rodrigues)."""
     kv = cross(k, v)
@@ -98,31 +98,31 @@ def rot(k, c, s, v):
     return (c * v[0] + s * kv[0] + t * k[0], c * v[1] + s * kv[1] + t * k[1], c * v[2] + s * kv[2] + t * k[2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def rotz(k, z, v):
     """``rot(k, θ) v`` for the unit complex ``z = e^{iθ}``."""
     return rot(k, z.real, z.imag, v)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def cis(t):
     """``e^{it}`` (an angle as the unit complex the subproblems compute with)."""
     return complex(math.cos(t), math.sin(t))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def row(A, i):
     return (A[i, 0], A[i, 1], A[i, 2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def matvec(R, v):
     return (R[0, 0] * v[0] + R[0, 1] * v[1] + R[0, 2] * v[2],
             R[1, 0] * v[0] + R[1, 1] * v[1] + R[1, 2] * v[2],
             R[2, 0] * v[0] + R[2, 1] * v[1] + R[2, 2] * v[2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def matTvec(R, v):
     """``Rᵀ v`` for the rotation block of a 3 × 3 or 4 × 4 array."""
     return (R[0, 0] * v[0] + R[1, 0] * v[1] + R[2, 0] * v[2],
@@ -130,7 +130,7 @@ def matTvec(R, v):
             R[0, 2] * v[0] + R[1, 2] * v[1] + R[2, 2] * v[2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def any_perp(k):
     """A unit vector ⟂ the unit vector ``k``."""
     if abs(k[0]) < 0.9:
@@ -141,8 +141,44 @@ def any_perp(k):
     return scl(1.0 / n, a)
 
 
+# ---- angles -------------------------------------------------------------------------------------
+_ATAN_EIGHTHS = np.array([math.atan(j / 8.0) for j in range(9)])  # atan(j/8), j = 0..8
+_PIO2_HI, _PIO2_LO = 1.5707963267948966, 6.123233995736766e-17  # π/2 = HI + LO (LO its rounding error)
+_PI_HI, _PI_LO = 3.141592653589793, 1.2246467991473532e-16
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def angle_of(y, x):
+    """atan2(y, x) [rad], compiled inline: within a few units in the last place of libm's.
+
+    The ratio u = min/max of |x|, |y| (in [0, 1]) is split at its nearest eighth c = j/8:
+    atan(u) = atan(c) + atan(v) with v = (u − c)/(1 + u c), |v| ≤ 1/16, and atan(v) is its odd series
+    to v¹³ (truncation below 1e-18 relative); the octant is restored with π/2 and π each carried as
+    two floats. Zeros, infinities and NaN go to ``math.atan2``. A closed form turns every solution's
+    cosines and sines into angles with it (about three times faster than libm's call here, which
+    was the largest single cost of a spherical-wrist pose)."""
+    ax = abs(x)
+    ay = abs(y)
+    swap = ay > ax
+    num, den = (ax, ay) if swap else (ay, ax)
+    if not (0.0 < den < math.inf and num == num):
+        return math.atan2(y, x)
+    u = num / den
+    j = int(u * 8.0 + 0.5)
+    c = j * 0.125
+    v = (u - c) / (1.0 + u * c)
+    s = v * v
+    a = _ATAN_EIGHTHS[j] + (v + v * s * (-1.0 / 3.0 + s * (0.2 + s * (-1.0 / 7.0 + s * (1.0 / 9.0 + s * (
+        -1.0 / 11.0 + s / 13.0))))))
+    if swap:
+        a = (_PIO2_HI - a) + _PIO2_LO
+    if x < 0.0:
+        a = (_PI_HI - a) + _PI_LO
+    return math.copysign(a, y)
+
+
 # ---- subproblems --------------------------------------------------------------------------------
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def sp1(k, p, q, default):
     """e^{iθ} with rot(k, θ) p = q in the plane ⟂ k; e^{i default} (``default`` an angle [rad]) when p
     or q lies on the axis."""
@@ -157,7 +193,7 @@ def sp1(k, p, q, default):
     return complex(x / r, y / r)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def acos_branch(x, y, D, s, clip):
     """e^{iθ} with x cos θ + y sin θ = D, branch s = ±1 (θ = atan2(y, x) ± acos(D / ρ)), and validity
     (the cosine clipped within ``clip`` of ±1)."""
@@ -177,13 +213,13 @@ def acos_branch(x, y, D, s, clip):
     return complex(x / rho, y / rho) * complex(c, sa), True
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def sp4(h, k, p, d, s, clip):
     """e^{iθ} with h · rot(k, θ) p = d (branch s = ±1)."""
     return acos_branch(dot(h, perp(k, p)), dot(h, cross(k, p)), d - dot(h, k) * dot(k, p), s, clip)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def sp3(k, p, q, d, s, clip, planar):
     """e^{iθ} with |rot(k, θ) p − q| = d (in the plane ⟂ k when ``planar``), branch s = ±1."""
     pp = perp(k, p)
@@ -194,7 +230,7 @@ def sp3(k, p, q, d, s, clip, planar):
     return acos_branch(dot(pp, qp), dot(cross(k, pp), qp), D, s, clip)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def sp2pair(ka, kb, u, v, clip, def_a):
     """(za, zb) = (e^{iθa}, e^{iθb}) with u = rot(ka, θa) rot(kb, θb) v (|u| = |v|), both branches:
     (za+, zb+, za−, zb−, ok); ``def_a`` [rad] for θa when it is free."""
@@ -221,7 +257,7 @@ def sp2pair(ka, kb, u, v, clip, def_a):
 
 
 # ---- lines ------------------------------------------------------------------------------------------
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def meet_point(h1, p1, h2, p2):
     """Midpoint of the common normal of two non-parallel lines."""
     r = sub(p2, p1)
@@ -234,20 +270,20 @@ def meet_point(h1, p1, h2, p2):
     return scl(0.5, add(add(p1, scl(t1, h1)), add(p2, scl(t2, h2))))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def apply_E(H, P, i, z, x):
     """E_i(θ) x: rotation by θ (``z = e^{iθ}``) about line i."""
     pi = row(P, i)
     return add(pi, rotz(row(H, i), z, sub(x, pi)))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def apply_Einv(H, P, i, z, x):
     return apply_E(H, P, i, z.conjugate(), x)
 
 
 # ---- position of a point by joints 1-3 ----------------------------------------------------------
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def pos3pair(case, H, P, o, x, w, sa, clip, pref):
     """(z1, z2, z3) = e^{iθ} of joints 1-3 with E_1 E_2 E_3 x = w, for position case ``case`` (1: axes
     1-2 meet at ``o``; 2: 2-3 meet at ``o``; 3: 1 ∥ 2; 4: 2 ∥ 3): the first stage on branch ``sa``,
@@ -300,7 +336,7 @@ def pos3pair(case, H, P, o, x, w, sa, clip, pref):
     return t1, t2a, t3a, oka, t1, t2b, t3b, okb
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def case_point(case, H, P):
     """The meeting point the position case needs (zeros when it needs none)."""
     if case == 1:
@@ -310,7 +346,7 @@ def case_point(case, H, P):
     return (0.0, 0.0, 0.0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def gm(Rg, RM, v):
     """``R_goal R_Mᵀ v`` (``Rg`` may be the 4 × 4 goal: only its rotation block is read)."""
     x = matTvec(RM, v)
@@ -319,7 +355,7 @@ def gm(Rg, RM, v):
             Rg[2, 0] * x[0] + Rg[2, 1] * x[1] + Rg[2, 2] * x[2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def back3(H, z1, z2, z3, v):
     """``(R_1 R_2 R_3)ᵀ v``."""
     v = rotz(row(H, 0), z1.conjugate(), v)
@@ -327,7 +363,7 @@ def back3(H, z1, z2, z3, v):
     return rotz(row(H, 2), z3.conjugate(), v)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def wrist_target(Rg, pg, RM, pM, c):
     """w = T M⁻¹ c."""
     local = matTvec(RM, sub(c, (pM[0], pM[1], pM[2])))
@@ -337,7 +373,7 @@ def wrist_target(Rg, pg, RM, pM, c):
 
 
 # ---- the families ---------------------------------------------------------------------------------
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def wrap(x):
     """Angle wrapped to (-π, π]."""
     if -3.0 < x < 3.0:  # the formula below returns x itself here (floor of a value in (0, 1)); skip it
@@ -348,7 +384,7 @@ def wrap(x):
     return y
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def into_limits(x, lo, hi):
     """(x moved by 2π multiples into [lo, hi] where that fits, else x; whether the result lies within
     the limits up to the one joint-limit tolerance ``LIMIT_TOL``). Unbounded limits keep x."""
@@ -360,7 +396,7 @@ def into_limits(x, lo, hi):
     return x, lo - LIMIT_TOL <= x <= hi + LIMIT_TOL
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def fits(z, lim, j):
     """The angle of ``z``, moved by 2π multiples, lies within ``lim[j]`` (±inf: always, no atan2)."""
     lo, hi = lim[j, 0], lim[j, 1]
@@ -369,7 +405,7 @@ def fits(z, lim, j):
     return into_limits(math.atan2(z.imag, z.real), lo, hi)[1]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
     """Spherical wrist: up to 8 candidate solutions into Q; returns their count. A branch whose
     joints 1-3 (then 4-5) fall outside ``lim`` (6, 2) is dropped before the rest is computed (a 7R
@@ -405,7 +441,7 @@ def solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
     return n
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q):
     """Three parallel axes (2-4) and axes 5-6 meeting: up to 8 candidates."""
     h1, h2, h5, h6 = row(H, 0), row(H, 1), row(H, 4), row(H, 5)
@@ -454,7 +490,7 @@ def solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q):
     return n
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, t, clip, pref, F, V, TH):
     """The four branches at the searched angle ``t``: residual F[b], validity V[b], (θ1, θ2, θ3) TH[b].
 
@@ -493,7 +529,7 @@ def _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, t, clip, pref
             b += 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _dip(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, clip, pref, b, lo, hi, sg, F1, V1, TH):
     """Golden-section search for the minimum of ``sg · f_b`` on [lo, hi] (both ends of sign ``sg``),
     stopped as soon as it goes below 0: (found, where, f there). A close pair of roots (or one
@@ -523,7 +559,7 @@ def _dip(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, clip, pref, b, lo, hi
     return y2 < 0.0, x2, sg * y2
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q):
     """Position case for joints 1-3 and a one-dimensional search: mode 4, axes 5-6 meet and θ4 is
     searched; mode 6, axes 4-5 meet and θ6 is searched (see :func:`_search_eval`). Up to 16."""
