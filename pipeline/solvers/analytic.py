@@ -175,15 +175,16 @@ def pose_err(R, p, Tg):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def pose_within(R, p, Tg, tolp, tolr):
-    """:func:`pose_err` within (``tolp``, ``tolr``), without its square root and arcsine: |Δp|² against
-    ``tolp``², and ‖R − Rg‖² = 8 sin²(θ/2) against its value at ``tolr`` (``tolr`` < π)."""
+def pose_within(R, p, Tg, tolp2, f_max):
+    """:func:`pose_err` within tolerances, without its square root and arcsine: |Δp|² against ``tolp2``
+    (the position tolerance squared), and ‖R − Rg‖² = 8 sin²(θ/2) against ``f_max`` (its value at the
+    rotation tolerance, which is below π)."""
     dp2 = (p[0] - Tg[0, 3]) ** 2 + (p[1] - Tg[1, 3]) ** 2 + (p[2] - Tg[2, 3]) ** 2
     f = 0.0
     for r in range(3):
         for k in range(3):
             f += (R[r, k] - Tg[r, k]) ** 2
-    return dp2 <= tolp * tolp and f <= 8.0 * math.sin(0.5 * tolr) ** 2
+    return dp2 <= tolp2 and f <= f_max
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -280,30 +281,36 @@ def unpack(ints, G):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
+def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
     """The FK-valid solutions of one pose, nearest to ``q_start`` first (wrapped joint distance, sum of
-    squares), at most ``max_solutions`` into ``S``; ``q`` the chosen one. ``Sc`` (:func:`capacity`
+    squares), at most ``max_solutions`` into ``S``; ``q`` the chosen one. ``Sc`` (:func:`scratch`
     rows) holds the candidates: 6R, every closed-form candidate wrapped to (−π, π]; 7R, every
     candidate of every swept value moved into the joint limits (those that do not fit are dropped).
     Candidates are FK-checked nearest first until ``max_solutions`` pass or none is left, so a 7R
-    sweep checks about as many as it returns. Returns (solutions, candidates, solve time [ns])."""
+    sweep checks about as many as it returns. ``W``, ``Z``, ``I``: the float, complex and int scratch of
+    :func:`scratch` (the caller allocates them once, for a batch once per work item). Returns
+    (solutions, candidates, solve time [ns])."""
+    # every array below is a borrowed view: no atomic reference counting on the per-pose path
+    ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace = (
+        borrowed(ints), borrowed(G), borrowed(Tg), borrowed(q_start), borrowed(Sc), borrowed(W), borrowed(Z),
+        borrowed(I), borrowed(S), borrowed(q), borrowed(trace))
+    clk = I[0:2]
     t0 = now_ns(clk)
-    # every array below is a borrowed view (no atomic reference counting on the per-pose path);
-    # the locals allocated here are used again at the end, which keeps them alive
-    ints, G, Tg, q_start, Sc, S, q, trace = (borrowed(ints), borrowed(G), borrowed(Tg), borrowed(q_start),
-                                             borrowed(Sc), borrowed(S), borrowed(q), borrowed(trace))
     H, P, RM, pM, par, lim = unpack(ints, G)
     n, fam, case, rev, free, samples, nfree, mode = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5], ints[6], ints[7]
     max_sol = min(ints[8], S.shape[0])
     clip, tolp, tolr = par[0], par[1], par[2]
+    tolp2, f_max = tolp * tolp, 8.0 * math.sin(0.5 * tolr) ** 2
     Rg = Tg  # its rotation block is read
     pg = (Tg[0, 3], Tg[1, 3], Tg[2, 3])
-    Q_, R_, p_, dist_, cs_, qrow_ = (np.empty((sp.MAX_SOL, 6), np.complex128), np.empty((3, 3)), np.empty(3),
-                                     np.empty(Sc.shape[0]), np.full((n, 3), math.nan), np.empty(sp.MAX_SOL, np.int64))
-    Q, R, p, dist, cs, qrow = (borrowed(Q_), borrowed(R_), borrowed(p_), borrowed(dist_), borrowed(cs_),
-                               borrowed(qrow_))
-    chosen = -1  # 6R: the row of Q the chosen solution came from
     cap = Sc.shape[0]
+    Q, qrow = Z, I[2:2 + sp.MAX_SOL]
+    R, p, dist = W[0:9].reshape((3, 3)), W[9:12], W[12:12 + cap]
+    o = 12 + cap
+    cs = W[o:o + 3 * n].reshape((n, 3))
+    cs[:] = math.nan
+    o += 3 * n
+    chosen = -1  # 6R: the row of Q the chosen solution came from
     nc = 0  # candidates in Sc
     tried = 0
     refine = ints[9]
@@ -337,7 +344,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
                 if nc >= cap:
                     break
                 fk_linesz(H, P, RM, pM, Q[r], R, p)  # the check from the closed form's own cos/sin
-                if not pose_within(R, p, Tg, tolp, tolr):
+                if not pose_within(R, p, Tg, tolp2, f_max):
                     continue
                 qrow[nc] = r
                 d = 0.0
@@ -357,11 +364,8 @@ def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
                 nc += 1
                 inlim += inside
         else:
-            H6 = np.empty((6, 3))
-            P6 = np.empty((6, 3))
-            RM6 = np.empty((3, 3))
-            pM6 = np.empty(3)
-            pref = np.empty(6)
+            H6, P6 = W[o:o + 18].reshape((6, 3)), W[o + 18:o + 36].reshape((6, 3))
+            RM6, pM6, pref = W[o + 36:o + 45].reshape((3, 3)), W[o + 45:o + 48], W[o + 48:o + 54]
             r_ = 0
             for i in range(n):
                 if i != free:
@@ -450,21 +454,20 @@ def solve_pose(ints, G, Tg, q_start, Sc, S, q, trace, clk):
         else:
             fk_lines(H, P, RM, pM, q, R, p, cs)
         _doc_row(Tg, R, p, trace[1])
-    keep = Q_.shape[0] + R_.shape[0] + p_.shape[0] + dist_.shape[0] + cs_.shape[0] + qrow_.shape[0]  # alive until here
-    return m, tried, ns + 0 * keep
+    return m, tried, ns
 
 
 @numba.njit(cache=True, error_model="numpy", parallel=True)
-def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, nsol, tried, ns, cap):
+def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, nsol, tried, ns):
     """:func:`solve_pose` for every row, on every core: work items of 32 poses, one scratch each;
     every pose writes only its own rows (results independent of the thread count)."""
     N = goals.shape[0]
     chunk = 32
+    gb, sb, Sb, Qb, tb = borrowed(goals), borrowed(starts), borrowed(S), borrowed(Qo), borrowed(traces)
     for c in numba.prange((N + chunk - 1) // chunk):
-        clk = np.zeros(2, np.int64)
-        Sc = np.empty((cap, ints[0]))
+        Sc, W, Z, I = scratch(ints)
         for i in range(c * chunk, min(N, (c + 1) * chunk)):
-            m, t, dt = solve_pose(ints, G, goals[i], starts[i], Sc, S[i], Qo[i], traces[i], clk)
+            m, t, dt = solve_pose(ints, G, gb[i], sb[i], Sc, W, Z, I, Sb[i], Qb[i], tb[i])
             nsol[i] = m
             tried[i] = t
             ns[i] = dt
@@ -476,9 +479,15 @@ def _capacity(ints):
     return sp.MAX_SOL if ints[0] == 6 else sp.MAX_SOL * (ints[6] + 1)
 
 
-def capacity(k: Packed) -> int:
-    """:func:`_capacity` of a packed arm."""
-    return int(_capacity(k.ints))
+@numba.njit(cache=True, error_model="numpy")
+def scratch(ints):
+    """The scratch of :func:`solve_pose`: candidates ``Sc`` (capacity, n); floats ``W`` (the pose's R
+    and p, the candidates' distances, each joint's last cos/sin, a 7R sweep's fixed chain); the
+    closed form's e^{iθ} rows ``Z`` (16, 6); ints ``I`` (the clock buffer, each candidate's row)."""
+    n = ints[0]
+    cap = _capacity(ints)
+    return (np.empty((cap, n)), np.empty(12 + cap + 3 * n + 54), np.empty((sp.MAX_SOL, 6), np.complex128),
+            np.zeros(2 + sp.MAX_SOL, np.int64))
 
 
 _MESSAGES = ["no valid closed-form solution"] + [f"{m} FK-verified solutions" for m in range(1, 4097)]
@@ -497,17 +506,15 @@ def _family(prep: Prepared, s: AnalyticSettings) -> str:
 def bind(prep: Prepared, s: AnalyticSettings):
     """``run1(T_goal, q_start, seed) -> Raw`` with the geometry packed once."""
     k = packed(prep, s)
-    n, cap, fam = int(k.ints[0]), capacity(k), _family(prep, s)
+    n, fam = int(k.ints[0]), _family(prep, s)
     args = (k.ints, k.G)
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
-        Sc = np.empty((cap, n))
         S = np.empty((s.max_solutions, n))
         q = np.empty(n)
         trace = np.empty((2, TRACE_COLS))
-        clk = np.zeros(2, np.int64)
         m, tried, ns = solve_pose(*args, np.ascontiguousarray(T_goal, dtype=float),
-                                  np.ascontiguousarray(q_start, dtype=float), Sc, S, q, trace, clk)
+                                  np.ascontiguousarray(q_start, dtype=float), *scratch(k.ints), S, q, trace)
         return Raw(q=q, code=SUCCESS if m else NO_SOLUTION, iterations=1, solve_ns=ns, trace=trace,
                    solutions=S[:m], info=_info(m, tried, float(trace[1, 0]), fam))
 
@@ -517,7 +524,7 @@ def bind(prep: Prepared, s: AnalyticSettings):
 def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
     """N poses in one compiled call on every core (each pose writes only its own rows)."""
     k = packed(prep, s)
-    n, cap, fam = int(k.ints[0]), capacity(k), _family(prep, s)
+    n, fam = int(k.ints[0]), _family(prep, s)
     goals = np.ascontiguousarray(goals, dtype=float)
     starts = np.ascontiguousarray(starts, dtype=float)
     N = goals.shape[0]
@@ -527,7 +534,7 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     nsol = np.zeros(N, np.int64)
     tried = np.zeros(N, np.int64)
     ns = np.zeros(N, np.int64)
-    solve_batch_kernel(k.ints, k.G, goals, starts, S, Q, traces, nsol, tried, ns, cap)
+    solve_batch_kernel(k.ints, k.G, goals, starts, S, Q, traces, nsol, tried, ns)
     doc = traces[:, 1, 0].copy()
     rows = traces.reshape(2 * N, TRACE_COLS) if keep_traces else None
     offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces else None
@@ -543,11 +550,10 @@ def call_pose(ints, GC, Tg, q_start, S, q, trace):
     every finish (:func:`pipeline.solvers.base.finish_packed`: the independent FK check of the chosen
     ``q`` by the dual-quaternion FK, the limit record, the stop reason; without ``require_limits``).
     ``GC`` = :func:`packed`'s ``G`` followed by :func:`~pipeline.solvers.base.check_pack`."""
-    clk = np.zeros(2, np.int64)
     n = ints[0]
     ng = 8 * n + 27
-    Sc = np.empty((_capacity(ints), n))
-    m, tried, ns = solve_pose(ints, GC[:ng], Tg, q_start, Sc, S, q, trace, clk)
+    Sc, W, Z, I = scratch(ints)
+    m, tried, ns = solve_pose(ints, GC[:ng], Tg, q_start, Sc, W, Z, I, S, q, trace)
     # the check on borrowed views (no atomic reference counting in its calls)
     code, claimed, success, dp, ang, inside = finish_packed(borrowed(GC)[ng:], borrowed(q), borrowed(Tg),
                                                             SUCCESS if m > 0 else NO_SOLUTION)
@@ -563,7 +569,7 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
         return None
     k = packed(prep, s)
     ints, GC = k.ints, np.concatenate([k.G, check_pack(prep, s)])
-    n, cap, ms, fam = int(k.ints[0]), capacity(k), s.max_solutions, _family(prep, s)
+    n, ms, fam = int(k.ints[0]), s.max_solutions, _family(prep, s)
     inputs, unit, pos_only = fused_inputs(prep), prep.unit, s.criterion == "position"
     nan, empty = math.nan, np.empty
 

@@ -43,6 +43,7 @@ from pipeline.io.layout import STOP_REASONS, TRACE_COLS, StopReason  # noqa: F40
 from pipeline.robots import LENGTH_UNITS, RobotModel
 from pipeline.solvers._kin import CRITERIA, CRITERION_CODE  # noqa: F401  (re-exported: the one success-test code)
 from pipeline.solvers._kin import FK_CHECK_FAILED, LIMIT_TOL, NON_FINITE, OUT_OF_LIMITS, SUCCESS, TRACE_DP
+from pipeline.solvers._kin import borrowed
 
 
 class SettingsError(ValueError):
@@ -794,10 +795,11 @@ def _finish_one(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, code, require_l
 def _finish_many(F, prism, Q, goals, crit, tol_pos, tol_rot, tol_dq, require_limits, code, claimed, success, dp, ang,
                  inside):
     """:func:`_result` for every row of ``Q`` (N, n) against ``goals`` (N, 4, 4); ``code`` (N,) in and out."""
+    Fb, pb, Qb, gb = borrowed(F), borrowed(prism), borrowed(Q), borrowed(goals)  # no atomic counting per row
     for k in numba.prange(Q.shape[0]):
         buf = np.empty(8)
-        c, cl, su, d, a, w = _result(F, prism, Q[k], goals[k], crit, tol_pos, tol_rot, tol_dq, code[k], require_limits,
-                                     buf)
+        c, cl, su, d, a, w = _result(Fb, pb, Qb[k], gb[k], crit, tol_pos, tol_rot, tol_dq, code[k], require_limits,
+                                     borrowed(buf))
         code[k], claimed[k], success[k], dp[k], ang[k], inside[k] = c, cl, su, d, a, w
 
 
