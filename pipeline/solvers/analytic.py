@@ -188,10 +188,11 @@ def pose_within(R, p, Tg, tolp2, f_max):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
+def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr):
     """Candidates of a 6R chain of family ``fam`` into Q (complex (16, 6): rows of e^{iθ} of THIS
     chain's joints); ``pref`` (6,) the angles [rad] taken where one is free; ``lim6`` (6, 2) the
-    limits a spherical-wrist branch must fit (±inf: every solution)."""
+    limits a spherical-wrist branch must fit (±inf: every solution). ``Wr`` (75,) and ``Qr`` (16, 6):
+    scratch for a chain read from the tool back."""
     if rev == 0:
         if fam == sp.FAM_SPH:
             return sp.solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim6)
@@ -199,28 +200,24 @@ def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, li
             return sp.solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q)
         return sp.solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q)
     # read from the tool back: lines moved by M⁻¹ in reverse order, home M⁻¹, goal T⁻¹, angles −θ
-    Hr = np.empty((6, 3))
-    Pr = np.empty((6, 3))
+    Hr, Pr, RMr = Wr[0:18].reshape((6, 3)), Wr[18:36].reshape((6, 3)), Wr[36:45].reshape((3, 3))
+    pMr, Rgr, prefr, limr = Wr[45:48], Wr[48:57].reshape((3, 3)), Wr[57:63], Wr[63:75].reshape((6, 2))
     for i in range(6):
         j = 5 - i
         hv = sp.matTvec(RM, (H[j, 0], H[j, 1], H[j, 2]))
         pv = sp.matTvec(RM, sp.sub((P[j, 0], P[j, 1], P[j, 2]), (pM[0], pM[1], pM[2])))
         Hr[i, 0], Hr[i, 1], Hr[i, 2] = hv[0], hv[1], hv[2]
         Pr[i, 0], Pr[i, 1], Pr[i, 2] = pv[0], pv[1], pv[2]
-    RMr = RM.T.copy()
     pMv = sp.scl(-1.0, sp.matTvec(RM, (pM[0], pM[1], pM[2])))
-    pMr = np.array([pMv[0], pMv[1], pMv[2]])
-    Rgr = np.empty((3, 3))
+    pMr[0], pMr[1], pMr[2] = pMv[0], pMv[1], pMv[2]
     for r in range(3):
         for k in range(3):
+            RMr[r, k] = RM[k, r]
             Rgr[r, k] = Rg[k, r]
     pgr = sp.scl(-1.0, sp.matTvec(Rg, pg))
-    prefr = np.empty(6)
-    limr = np.empty((6, 2))
     for i in range(6):
         prefr[i] = -pref[5 - i]
         limr[i, 0], limr[i, 1] = -lim6[5 - i, 1], -lim6[5 - i, 0]
-    Qr = np.empty_like(Q)
     if fam == sp.FAM_SPH:
         k = sp.solve_sph(case, Hr, Pr, RMr, pMr, Rgr, pgr, clip, prefr, Qr, limr)
     elif fam == sp.FAM_3P:
@@ -304,12 +301,13 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
     Rg = Tg  # its rotation block is read
     pg = (Tg[0, 3], Tg[1, 3], Tg[2, 3])
     cap = Sc.shape[0]
-    Q, qrow = Z, I[2:2 + sp.MAX_SOL]
+    Q, Qr, qrow = Z[:sp.MAX_SOL], Z[sp.MAX_SOL:], I[2:2 + sp.MAX_SOL]
     R, p, dist = W[0:9].reshape((3, 3)), W[9:12], W[12:12 + cap]
     o = 12 + cap
     cs = W[o:o + 3 * n].reshape((n, 3))
     cs[:] = math.nan
     o += 3 * n
+    Wr = W[o + 54:o + 129]  # (after a 7R sweep's fixed chain)
     chosen = -1  # 6R: the row of Q the chosen solution came from
     nc = 0  # candidates in Sc
     tried = 0
@@ -336,7 +334,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
         if n == 6:
             # every candidate is checked (in the order the closed form gives them: shared angles reuse
             # their sine and cosine); the valid ones compete by distance below
-            k = min(core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, q_start, samples, Q, nolim),
+            k = min(core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, q_start, samples, Q, nolim, Wr, Qr),
                     sp.MAX_SOL)
             tried += k
             search = fam == sp.FAM_SEARCH  # only a search refines when nothing lies within the limits
@@ -381,7 +379,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                 if attempt == 1 and it == 0:
                     continue
                 _fix(H, P, RM, pM, free, v, H6, P6, RM6, pM6)
-                k = min(core6(fam, case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6),
+                k = min(core6(fam, case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr),
                         sp.MAX_SOL)
                 tried += k
                 for r in range(k):
@@ -483,10 +481,11 @@ def _capacity(ints):
 def scratch(ints):
     """The scratch of :func:`solve_pose`: candidates ``Sc`` (capacity, n); floats ``W`` (the pose's R
     and p, the candidates' distances, each joint's last cos/sin, a 7R sweep's fixed chain); the
-    closed form's e^{iθ} rows ``Z`` (16, 6); ints ``I`` (the clock buffer, each candidate's row)."""
+    closed form's e^{iθ} rows ``Z`` (32, 6: its own and a reversed chain's); ints ``I`` (the clock buffer, each candidate's row)."""
     n = ints[0]
     cap = _capacity(ints)
-    return (np.empty((cap, n)), np.empty(12 + cap + 3 * n + 54), np.empty((sp.MAX_SOL, 6), np.complex128),
+    return (np.empty((cap, n)), np.empty(12 + cap + 3 * n + 54 + 75),
+            np.empty((2 * sp.MAX_SOL, 6), np.complex128),
             np.zeros(2 + sp.MAX_SOL, np.int64))
 
 
