@@ -89,9 +89,10 @@ def borrowed(typingctx, arr):
     numba increments and decrements an array's reference count atomically wherever an array
     enters a compiled function that is not inlined or a view of it is made; in a closed form's
     per-pose path those atomic operations cost about as much as the arithmetic. A borrowed view
-    skips them. It is valid only while ``arr`` itself is alive (an argument of the calling
-    function, or a local the function uses again after its last use of the view), and it must
-    never be returned to Python.
+    skips them. It is valid only while ``arr`` itself is alive: an argument of the calling
+    function, or a local the function uses again after its last use of the view (numba frees a
+    local right after its last use, so ``f(borrowed(local))`` would hand ``f`` freed memory). It
+    must never be returned to Python.
     """
 
     def codegen(context, builder, signature, args):

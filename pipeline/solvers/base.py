@@ -799,7 +799,7 @@ def _finish_many(F, prism, Q, goals, crit, tol_pos, tol_rot, tol_dq, require_lim
     for k in numba.prange(Q.shape[0]):
         buf = np.empty(8)
         c, cl, su, d, a, w = _result(Fb, pb, Qb[k], gb[k], crit, tol_pos, tol_rot, tol_dq, code[k], require_limits,
-                                     borrowed(buf))
+                                     buf)  # (buf itself, not a borrowed view: its last use must be this call)
         code[k], claimed[k], success[k], dp[k], ang[k], inside[k] = c, cl, su, d, a, w
 
 
