@@ -484,7 +484,7 @@ def scratch(ints):
     closed form's e^{iθ} rows ``Z`` (32, 6: its own and a reversed chain's); ints ``I`` (the clock buffer, each candidate's row)."""
     n = ints[0]
     cap = _capacity(ints)
-    return (np.empty((cap, n)), np.empty(12 + cap + 3 * n + 54 + 75),
+    return (np.empty((cap, n)), np.empty(12 + cap + 3 * n + 54 + 75 + 16),
             np.empty((2 * sp.MAX_SOL, 6), np.complex128),
             np.zeros(2 + sp.MAX_SOL, np.int64))
 
@@ -548,13 +548,22 @@ def call_pose(ints, GC, Tg, q_start, S, q, trace):
     """The whole public single call in one compiled call: :func:`solve_pose`, then the result rule of
     every finish (:func:`pipeline.solvers.base.finish_packed`: the independent FK check of the chosen
     ``q`` by the dual-quaternion FK, the limit record, the stop reason; without ``require_limits``).
-    ``GC`` = :func:`packed`'s ``G`` followed by :func:`~pipeline.solvers.base.check_pack`."""
+    ``GC`` = :func:`packed`'s ``G``, then :func:`~pipeline.solvers.base.check_pack`, then the goal's
+    unit factor (the robot file's unit to the working unit: ``Tg`` is scaled here, not in Python)."""
     n = ints[0]
     ng = 8 * n + 27
     Sc, W, Z, I = scratch(ints)
+    scale = GC[GC.shape[0] - 1]
+    if scale != 1.0:  # the goal in the working unit (the last 16 floats of W)
+        Tw = W[W.shape[0] - 16:].reshape((4, 4))
+        for r in range(4):
+            for c in range(4):
+                Tw[r, c] = Tg[r, c] * scale if c == 3 and r < 3 else Tg[r, c]
+        Tg = Tw
     m, tried, ns = solve_pose(ints, GC[:ng], Tg, q_start, Sc, W, Z, I, S, q, trace)
-    # the check on borrowed views (no atomic reference counting in its calls)
-    code, claimed, success, dp, ang, inside = finish_packed(borrowed(GC)[ng:], borrowed(q), borrowed(Tg),
+    # the check on borrowed views (no atomic reference counting in its calls); Tg itself, which may be a
+    # view of this function's scratch (a borrowed view of it would outlive the scratch's last use)
+    code, claimed, success, dp, ang, inside = finish_packed(borrowed(GC)[ng:], borrowed(q), Tg,
                                                             SUCCESS if m > 0 else NO_SOLUTION)
     return m, tried, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
 
@@ -567,19 +576,19 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
     if s.require_limits:
         return None
     k = packed(prep, s)
-    ints, GC = k.ints, np.concatenate([k.G, check_pack(prep, s)])
+    ints, GC = k.ints, np.concatenate([k.G, check_pack(prep, s), [prep.goal_scale]])
     n, ms, fam = int(k.ints[0]), s.max_solutions, _family(prep, s)
-    inputs, unit, pos_only = fused_inputs(prep), prep.unit, s.criterion == "position"
+    inputs, unit, pos_only = fused_inputs(prep, scaled=False), prep.unit, s.criterion == "position"
     nan, empty = math.nan, np.empty
 
-    ndarray, f64, plain = np.ndarray, np.dtype(np.float64), prep.goal_scale == 1.0
+    ndarray, f64 = np.ndarray, np.dtype(np.float64)
     shape_T, shape_q, messages = (4, 4), (n,), _MESSAGES
 
     def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
-        if (plain and type(T_goal) is ndarray and type(q_start) is ndarray and T_goal.dtype is f64
+        if (type(T_goal) is ndarray and type(q_start) is ndarray and T_goal.dtype is f64
                 and q_start.dtype is f64 and T_goal.shape == shape_T and q_start.shape == shape_q
                 and T_goal.flags.c_contiguous and q_start.flags.c_contiguous):
-            Tg, q0 = T_goal, q_start  # already what the kernel takes (it writes into neither)
+            Tg, q0 = T_goal, q_start  # what the kernel takes (it writes into neither, and scales the goal)
         else:
             Tg, q0 = inputs(T_goal, q_start)
         S = empty((ms, n))

@@ -807,14 +807,19 @@ def _finish_many(F, prism, Q, goals, crit, tol_pos, tol_rot, tol_dq, require_lim
 C_CRIT, C_TOLP, C_TOLR, C_TOLDQ, C_F = 0, 1, 2, 3, 4  # criterion code, tolerances, then F (:func:`_finish_args`)
 
 
-def fused_inputs(prep: Prepared):
+def fused_inputs(prep: Prepared, scaled: bool = True):
     """The input half of a fused closed-form call (``Solver.bind_call``): ``inputs(T_goal, q_start) ->
-    (goal in the working unit (4, 4), start (n,))``, both contiguous float64, the start's shape
-    checked (one-line SettingsError) as :meth:`pipeline.solvers.driver.Bound.solve` does."""
+    (goal (4, 4), start (n,))``, both contiguous float64, the shapes checked (one-line SettingsError)
+    as :meth:`pipeline.solvers.driver.Bound.solve` does; the goal in the working unit, or left in the
+    robot file's unit when not ``scaled`` (a kernel that scales it itself)."""
     scale, working_goal, contiguous, shape = prep.goal_scale, prep.working_goal, np.ascontiguousarray, (prep.n,)
+    if not scaled:
+        scale = 1.0
 
     def inputs(T_goal, q_start):
         Tg = contiguous(T_goal, dtype=float) if scale == 1.0 else working_goal(T_goal)
+        if Tg.shape != (4, 4):
+            raise SettingsError(f"T_goal: expected shape (4, 4), got {Tg.shape}")
         q0 = contiguous(q_start, dtype=float)  # the kernels never write into the start
         if q0.shape != shape:
             raise SettingsError(f"q_start: expected shape {shape}, got {q0.shape}")
