@@ -114,13 +114,15 @@ def packed(prep: Prepared, s: AnalyticSettings) -> Packed:
 
 
 # ---- compiled: one pose ---------------------------------------------------------------------------
-@numba.njit(cache=True, error_model="numpy")
-def fk_linesz(H, P, RM, pM, Z, R, p):
-    """Pose of the POE chain ``E_1(θ_1) ... E_n(θ_n) M`` into R (3, 3), p (3,) from each joint's
-    e^{iθ} (the closed form's own cosines and sines: no trig), no allocation."""
-    a00, a01, a02, a10, a11, a12, a20, a21, a22 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
-    tx = ty = tz = 0.0
-    for i in range(H.shape[0]):
+_EYE_ACC = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def chain_acc(H, P, Z, i0, i1, acc):
+    """``acc`` (the rotation's 9 entries row by row, then the translation: 12 floats) times the POE
+    factors ``E_{i0+1} ... E_{i1}`` (0-based joints i0 .. i1 − 1) from each joint's e^{iθ} ``Z[i]``."""
+    a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz = acc
+    for i in range(i0, i1):
         x, y, z = H[i, 0], H[i, 1], H[i, 2]
         c, s_ = Z[i].real, Z[i].imag
         C = 1.0 - c
@@ -136,6 +138,13 @@ def fk_linesz(H, P, RM, pM, Z, R, p):
         a00, a01, a02 = a00 * r00 + a01 * r10 + a02 * r20, a00 * r01 + a01 * r11 + a02 * r21, a00 * r02 + a01 * r12 + a02 * r22
         a10, a11, a12 = a10 * r00 + a11 * r10 + a12 * r20, a10 * r01 + a11 * r11 + a12 * r21, a10 * r02 + a11 * r12 + a12 * r22
         a20, a21, a22 = a20 * r00 + a21 * r10 + a22 * r20, a20 * r01 + a21 * r11 + a22 * r21, a20 * r02 + a21 * r12 + a22 * r22
+    return a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def acc_pose(acc, RM, pM, R, p):
+    """The pose ``acc · M`` into R (3, 3), p (3,)."""
+    a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz = acc
     for k in range(3):
         m0, m1, m2 = RM[0, k], RM[1, k], RM[2, k]
         R[0, k] = a00 * m0 + a01 * m1 + a02 * m2
@@ -144,6 +153,13 @@ def fk_linesz(H, P, RM, pM, Z, R, p):
     p[0] = a00 * pM[0] + a01 * pM[1] + a02 * pM[2] + tx
     p[1] = a10 * pM[0] + a11 * pM[1] + a12 * pM[2] + ty
     p[2] = a20 * pM[0] + a21 * pM[1] + a22 * pM[2] + tz
+
+
+@numba.njit(cache=True, error_model="numpy")
+def fk_linesz(H, P, RM, pM, Z, R, p):
+    """Pose of the POE chain ``E_1(θ_1) ... E_n(θ_n) M`` into R (3, 3), p (3,) from each joint's
+    e^{iθ} (the closed form's own cosines and sines: no trig), no allocation."""
+    acc_pose(chain_acc(H, P, Z, 0, H.shape[0], _EYE_ACC), RM, pM, R, p)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -338,10 +354,15 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                     sp.MAX_SOL)
             tried += k
             search = fam == sp.FAM_SEARCH  # only a search refines when nothing lies within the limits
+            pre = _EYE_ACC
             for r in range(k):
                 if nc >= cap:
                     break
-                fk_linesz(H, P, RM, pM, Q[r], R, p)  # the check from the closed form's own cos/sin
+                # the check from the closed form's own cos/sin; joints 1-3 shared with the previous
+                # candidate (the closed forms give each arm solution's wrist branches in turn) reused
+                if r == 0 or not (Q[r, 0] == Q[r - 1, 0] and Q[r, 1] == Q[r - 1, 1] and Q[r, 2] == Q[r - 1, 2]):
+                    pre = chain_acc(H, P, Q[r], 0, 3, _EYE_ACC)
+                acc_pose(chain_acc(H, P, Q[r], 3, 6, pre), RM, pM, R, p)
                 if not pose_within(R, p, Tg, tolp2, f_max):
                     continue
                 qrow[nc] = r
