@@ -177,24 +177,12 @@ def fk_lines(H, P, RM, pM, th, R, p, cs):
     fk_linesz(H, P, RM, pM, Z, R, p)
 
 
-@numba.njit(cache=True, error_model="numpy")
-def pose_err(R, p, Tg):
-    """|Δp| and the rotation angle between (R, p) and ``Tg`` (angle from the Frobenius distance:
-    ‖R − Rg‖ = 2√2 sin(θ/2), accurate near 0)."""
-    dp = math.sqrt((p[0] - Tg[0, 3]) ** 2 + (p[1] - Tg[1, 3]) ** 2 + (p[2] - Tg[2, 3]) ** 2)
-    f = 0.0
-    for r in range(3):
-        for k in range(3):
-            f += (R[r, k] - Tg[r, k]) ** 2
-    x = math.sqrt(f) / (2.0 * math.sqrt(2.0))
-    return dp, 2.0 * math.asin(min(1.0, x))
-
-
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def pose_within(R, p, Tg, tolp2, f_max):
-    """:func:`pose_err` within tolerances, without its square root and arcsine: |Δp|² against ``tolp2``
-    (the position tolerance squared), and ‖R − Rg‖² = 8 sin²(θ/2) against ``f_max`` (its value at the
-    rotation tolerance, which is below π)."""
+    """(R, p) within the FK check's tolerances of the goal ``Tg``, without a square root or an arcsine:
+    |Δp|² against ``tolp2`` (the position tolerance squared), and the Frobenius distance
+    ‖R − Rg‖² = 8 sin²(θ/2) (θ the rotation angle between them) against ``f_max``, its value at the
+    rotation tolerance (which is below π)."""
     dp2 = (p[0] - Tg[0, 3]) ** 2 + (p[1] - Tg[1, 3]) ** 2 + (p[2] - Tg[2, 3]) ** 2
     f = 0.0
     for r in range(3):
@@ -319,11 +307,10 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
     cap = Sc.shape[0]
     Q, Qr, qrow = Z[:sp.MAX_SOL], Z[sp.MAX_SOL:], I[2:2 + sp.MAX_SOL]
     R, p, dist = W[0:9].reshape((3, 3)), W[9:12], W[12:12 + cap]
-    o = 12 + cap
-    cs = W[o:o + 3 * n].reshape((n, 3))
+    cs = W[12 + cap:12 + cap + 3 * n].reshape((n, 3))
     cs[:] = math.nan
-    o += 3 * n
-    Wr = W[o + 54:o + 129]  # (after a 7R sweep's fixed chain)
+    o, o_rev, _ = _w_blocks(n, cap)
+    Wr = W[o_rev:o_rev + W_REVERSED]
     chosen = -1  # 6R: the row of Q the chosen solution came from
     nc = 0  # candidates in Sc
     tried = 0
@@ -440,10 +427,9 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
         if best < 0:
             break
         dist[best] = math.inf
-        if n != 6:  # 7R: checked here, nearest first (6R candidates were checked above)
+        if n != 6:  # 7R candidates are FK-checked here, nearest first (6R ones were checked above)
             fk_lines(H, P, RM, pM, Sc[best], R, p, cs)
-            dp, ang = pose_err(R, p, Tg)
-        if n == 6 or (dp <= tolp and ang <= tolr):
+        if n == 6 or pose_within(R, p, Tg, tolp2, f_max):
             if m == 0 and n == 6:
                 chosen = qrow[best]
             for j in range(n):
@@ -498,6 +484,20 @@ def _capacity(ints):
     return sp.MAX_SOL if ints[0] == 6 else sp.MAX_SOL * (ints[6] + 1)
 
 
+# the float scratch W: R (9) and p (3) of a pose, the candidates' distances (capacity), each joint's
+# last angle with its cos and sin (3 n), then these blocks, the goal in the working unit last
+W_FIXED = 54  # a 7R sweep's fixed 6R chain: H (18), P (18), RM (9), pM (3), the start's other angles (6)
+W_REVERSED = 75  # a chain read from the tool back (core6): H, P, RM, pM, the goal's R, pref (6), limits (12)
+W_GOAL = 16  # the goal (4, 4) scaled to the working unit (call_pose)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _w_blocks(n, cap):
+    """Offsets in W of the fixed-chain, reversed-chain and goal blocks."""
+    o = 12 + cap + 3 * n
+    return o, o + W_FIXED, o + W_FIXED + W_REVERSED
+
+
 @numba.njit(cache=True, error_model="numpy")
 def scratch(ints):
     """The scratch of :func:`solve_pose`: candidates ``Sc`` (capacity, n); floats ``W`` (the pose's R
@@ -505,7 +505,7 @@ def scratch(ints):
     closed form's e^{iθ} rows ``Z`` (32, 6: its own and a reversed chain's); ints ``I`` (the clock buffer, each candidate's row)."""
     n = ints[0]
     cap = _capacity(ints)
-    return (np.empty((cap, n)), np.empty(12 + cap + 3 * n + 54 + 75 + 16),
+    return (np.empty((cap, n)), np.empty(_w_blocks(n, cap)[2] + W_GOAL),
             np.empty((2 * sp.MAX_SOL, 6), np.complex128),
             np.zeros(2 + sp.MAX_SOL, np.int64))
 
@@ -575,8 +575,9 @@ def call_pose(ints, GC, Tg, q_start, S, q, trace):
     ng = 8 * n + 27
     Sc, W, Z, I = scratch(ints)
     scale = GC[GC.shape[0] - 1]
-    if scale != 1.0:  # the goal in the working unit (the last 16 floats of W)
-        Tw = W[W.shape[0] - 16:].reshape((4, 4))
+    if scale != 1.0:  # the goal in the working unit (W's goal block)
+        o_goal = _w_blocks(n, Sc.shape[0])[2]
+        Tw = W[o_goal:o_goal + W_GOAL].reshape((4, 4))
         for r in range(4):
             for c in range(4):
                 Tw[r, c] = Tg[r, c] * scale if c == 3 and r < 3 else Tg[r, c]
