@@ -110,14 +110,6 @@ def now_ns(buf):
     return buf[0] * 1000000000 + buf[1]
 
 
-@numba.njit(cache=True)
-def cpu_ns(buf):
-    """The calling thread's CPU time in ns (``CLOCK_THREAD_CPUTIME_ID``; a system call, about 0.2 µs):
-    what machine load does not move, since time the thread waits for a core is not counted."""
-    _clock_gettime(CLOCK_THREAD_CPUTIME_ID, _data_ptr(buf))
-    return buf[0] * 1000000000 + buf[1]
-
-
 @numba.njit(cache=True, inline="always")
 def rodrigues(k0, k1, k2, angle):
     """Rows of the rotation about the unit axis (k0, k1, k2) by ``angle`` [rad] (Rodrigues), 9 floats."""
@@ -424,13 +416,13 @@ def position_distance(Ta, Tb):
     return np.sqrt(x * x + y * y + z * z)
 
 
-CLOCK_THREAD_CPUTIME_ID = 3  # Linux
 
 
 @numba.njit(cache=True)
 def thread_cpu_ns(buf):
-    """CPU time of the calling thread in ns (``buf``: int64 (2,)). For ``Raw.info`` only (a load-robust
-    companion of the solve time on a shared machine), never the solve time itself."""
+    """The calling thread's CPU time in ns (``CLOCK_THREAD_CPUTIME_ID``; ``buf``: int64 (2,); a system
+    call, about 0.2 µs): what machine load does not move, since time the thread waits for a core is
+    not counted. Read around a solve beside its monotonic solve time, never instead of it."""
     _clock_gettime(CLOCK_THREAD_CPUTIME_ID, _data_ptr(buf))
     return buf[0] * 1000000000 + buf[1]
 

@@ -30,8 +30,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers._jit as _jit
-from pipeline.solvers._kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NON_FINITE, SUCCESS, TRACE_DP, cpu_ns, now_ns, quat_from_rot,
-                                    quat_relative, relative_translation_norm, rodrigues)
+from pipeline.solvers._kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NON_FINITE, SUCCESS, TRACE_DP, now_ns, quat_from_rot,
+                                    quat_relative, relative_translation_norm, rodrigues, thread_cpu_ns)
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -221,7 +221,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     IK block, the thread's CPU time over the total) [ns]. Returns ``(stop code, iterations)``.
     """
     clk = np.zeros(2, np.int64)
-    c_start = cpu_ns(clk)
+    c_start = thread_cpu_ns(clk)
     t_start = now_ns(clk)
     n = q0.shape[0]
     for i in range(n):
@@ -308,7 +308,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
         code = _jit.stop_code(err, ok, stalled, grew, it, ip)
     times[0] = now_ns(clk) - t_start
     times[1] = t_ik
-    times[2] = cpu_ns(clk) - c_start
+    times[2] = thread_cpu_ns(clk) - c_start
     return code, it
 
 

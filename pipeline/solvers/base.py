@@ -433,7 +433,7 @@ class BatchRaw:
     code, iterations : ndarray, shape (N,)  the method's stop codes and iteration counts
     solve_ns, ik_ns : ndarray, shape (N,)   per-problem times [ns] (as in :class:`Raw`)
     cpu_ns : ndarray, shape (N,), optional  per-problem CPU time of the solving thread [ns], where the
-                                            kernel reads it (``_kin.cpu_ns``) around the same work
+                                            kernel reads it (``_kin.thread_cpu_ns``) around the same work
     trace_rows : ndarray, shape (M, 8), optional       every problem's trace rows, concatenated
     trace_offsets : ndarray, shape (N + 1,), optional  problem i's rows are ``offsets[i]:offsets[i+1]``
     solutions : ndarray, shape (N, m, n), optional     analytic methods: every solution ...

@@ -16,7 +16,7 @@
 
 ``cpu_time_s``
     The CPU time of the solving thread: read by the Jacobian loop's kernel around the same work as
-    ``solve_time_s`` (:func:`pipeline.solvers._kin.cpu_ns`, ``CLOCK_THREAD_CPUTIME_ID``), else by the
+    ``solve_time_s`` (:func:`pipeline.solvers._kin.thread_cpu_ns`, ``CLOCK_THREAD_CPUTIME_ID``), else by the
     runner around each call (of the whole process for a method with threads of its own, TRAC-IK), or
     the process's around another batch kernel, shared out over its problems by their solve times.
     Time the thread waits for a core is not counted, so this is the measure machine load does not
