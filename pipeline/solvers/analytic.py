@@ -35,7 +35,7 @@ import numpy as np
 
 from pipeline.kinematics import geometry
 from pipeline.solvers import subproblems as sp
-from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, now_ns
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, grid, now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, check_pack, finish_packed,
                                    fused_inputs, setting)
 from pipeline.solvers.timing import clock_ns
@@ -163,13 +163,12 @@ def fk_linesz(H, P, RM, pM, Z, R, p):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def fk_lines(H, P, RM, pM, th, R, p, cs):
+def fk_lines(H, P, RM, pM, th, R, p, cs, Z):
     """Pose of the POE chain ``E_1(θ_1) ... E_n(θ_n) M`` into R (3, 3), p (3,).
 
     ``cs`` (n, 3) keeps each joint's last angle with its cosine and sine: a joint whose angle is
-    bitwise the last one reuses them."""
+    bitwise the last one reuses them. ``Z`` (n,) complex: scratch for each joint's e^{iθ}."""
     n = H.shape[0]
-    Z = np.empty(n, np.complex128)
     for i in range(n):
         if th[i] != cs[i, 0]:
             cs[i, 0], cs[i, 1], cs[i, 2] = th[i], math.cos(th[i]), math.sin(th[i])
@@ -204,8 +203,8 @@ def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, li
             return sp.solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q)
         return sp.solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q)
     # read from the tool back: lines moved by M⁻¹ in reverse order, home M⁻¹, goal T⁻¹, angles −θ
-    Hr, Pr, RMr = Wr[0:18].reshape((6, 3)), Wr[18:36].reshape((6, 3)), Wr[36:45].reshape((3, 3))
-    pMr, Rgr, prefr, limr = Wr[45:48], Wr[48:57].reshape((3, 3)), Wr[57:63], Wr[63:75].reshape((6, 2))
+    Hr, Pr, RMr = grid(Wr, 6, 3), grid(Wr[18:], 6, 3), grid(Wr[36:], 3, 3)
+    pMr, Rgr, prefr, limr = Wr[45:48], grid(Wr[48:], 3, 3), Wr[57:63], grid(Wr[63:], 6, 2)
     for i in range(6):
         j = 5 - i
         hv = sp.matTvec(RM, (H[j, 0], H[j, 1], H[j, 2]))
@@ -277,8 +276,7 @@ def unpack(ints, G):
     par (3,), lim (n, 2)."""
     n = ints[0]
     o = 6 * n
-    return (G[0:3 * n].reshape((n, 3)), G[3 * n:o].reshape((n, 3)), G[o:o + 9].reshape((3, 3)), G[o + 9:o + 12],
-            G[o + 12:o + 15], G[o + 15:o + 15 + 2 * n].reshape((n, 2)))
+    return grid(G, n, 3), grid(G[3 * n:], n, 3), grid(G[o:], 3, 3), G[o + 9:o + 12], G[o + 12:o + 15], grid(G[o + 15:], n, 2)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -305,18 +303,19 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
     Rg = Tg  # its rotation block is read
     pg = (Tg[0, 3], Tg[1, 3], Tg[2, 3])
     cap = Sc.shape[0]
-    Q, Qr, qrow = Z[:sp.MAX_SOL], Z[sp.MAX_SOL:], I[2:2 + sp.MAX_SOL]
-    R, p, dist = W[0:9].reshape((3, 3)), W[9:12], W[12:12 + cap]
-    cs = W[12 + cap:12 + cap + 3 * n].reshape((n, 3))
+    Q, Qr, qrow = grid(Z, sp.MAX_SOL, 6), grid(Z[6 * sp.MAX_SOL:], sp.MAX_SOL, 6), I[2:2 + sp.MAX_SOL]
+    Zf = Z[12 * sp.MAX_SOL:]  # fk_lines' e^{iθ} of each joint
+    R, p, dist = grid(W, 3, 3), W[9:12], W[12:12 + cap]
+    cs = grid(W[12 + cap:], n, 3)
     cs[:] = math.nan
-    o, o_rev, _ = _w_blocks(n, cap)
-    Wr = W[o_rev:o_rev + W_REVERSED]
+    o, o_rev, _, o_ang = _w_blocks(n, cap)
+    Wr, Wa = W[o_rev:o_rev + W_REVERSED], W[o_ang:o_ang + W_ANGLES]
     chosen = -1  # 6R: the row of Q the chosen solution came from
     nc = 0  # candidates in Sc
     tried = 0
     refine = ints[9]
     inlim = 0
-    nolim = G[8 * n + 15:8 * n + 27].reshape((6, 2))  # ±inf: a 6R arm's closed form keeps every branch
+    nolim = grid(G[8 * n + 15:], 6, 2)  # ±inf: a 6R arm's closed form keeps every branch
     lim6 = nolim
     if n == 7:
         lim6 = np.empty((6, 2))
@@ -350,28 +349,25 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                 if r == 0 or not (Q[r, 0] == Q[r - 1, 0] and Q[r, 1] == Q[r - 1, 1] and Q[r, 2] == Q[r - 1, 2]):
                     pre = chain_acc(H, P, Q[r], 0, 3, _EYE_ACC)
                 acc_pose(chain_acc(H, P, Q[r], 3, 6, pre), RM, pM, R, p)
-                if not pose_within(R, p, Tg, tolp2, f_max):
-                    continue
-                qrow[nc] = r
+                if pose_within(R, p, Tg, tolp2, f_max):
+                    qrow[nc] = r
+                    nc += 1
+            Ang = _row_angles(Q, qrow, nc, Wa)  # the valid candidates' angles, in one vectorized pass
+            for c_ in range(nc):
                 d = 0.0
                 inside = True
                 for j in range(6):
-                    z = Q[r, j]
-                    if r > 0 and z == Q[r - 1, j] and nc > 0 and qrow[nc - 1] == r - 1:
-                        x = Sc[nc - 1, j]  # a joint shared with the previous candidate: its angle again
-                    else:
-                        x = sp.angle_of(z.imag, z.real)
-                    Sc[nc, j] = x
+                    x = Ang[6 * c_ + j]
+                    Sc[c_, j] = x
                     if search and not sp.into_limits(x, lim[j, 0], lim[j, 1])[1]:
                         inside = False
                     e = sp.wrap(x - q_start[j])
                     d += e * e
-                dist[nc] = d
-                nc += 1
+                dist[c_] = d
                 inlim += inside
         else:
-            H6, P6 = W[o:o + 18].reshape((6, 3)), W[o + 18:o + 36].reshape((6, 3))
-            RM6, pM6, pref = W[o + 36:o + 45].reshape((3, 3)), W[o + 45:o + 48], W[o + 48:o + 54]
+            H6, P6 = grid(W[o:], 6, 3), grid(W[o + 18:], 6, 3)
+            RM6, pM6, pref = grid(W[o + 36:], 3, 3), W[o + 45:o + 48], W[o + 48:o + 54]
             r_ = 0
             for i in range(n):
                 if i != free:
@@ -391,6 +387,9 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                         sp.MAX_SOL)
                 tried += k
                 for r in range(k):
+                    qrow[r] = r
+                Ang = _row_angles(Q, qrow, k, Wa)
+                for r in range(k):
                     if nc >= cap:
                         break
                     c_ = 0
@@ -400,7 +399,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                         if j == free:
                             x = v
                         else:
-                            x = sp.angle_of(Q[r, c_].imag, Q[r, c_].real)
+                            x = Ang[6 * r + c_]
                             c_ += 1
                         x, ok = sp.into_limits(sp.wrap(x), lim[j, 0], lim[j, 1])
                         if not ok:
@@ -413,8 +412,24 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                         dist[nc] = d
                         nc += 1
                         inlim += 1
-    # nearest first: select, FK-check, keep, until max_solutions pass
     m = 0
+    if n == 6:
+        # every candidate is checked already: each one's place among them by distance, ties in
+        # candidate order (the order of a selection nearest first), without a data-dependent branch
+        for i in range(nc):
+            di = dist[i]
+            rk = 0
+            for j in range(nc):
+                dj = dist[j]
+                rk += (dj < di) | ((dj == di) & (j < i))
+            if di < math.inf and rk < max_sol:  # (a NaN distance, from a NaN start, is never taken)
+                for j in range(6):
+                    S[rk, j] = Sc[i, j]
+                if rk == 0:
+                    chosen = qrow[i]
+                m += 1
+        nc = 0
+    # 7R: nearest first, select, FK-check, keep, until max_solutions pass
     for _ in range(nc):
         if m >= max_sol:
             break
@@ -427,11 +442,8 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
         if best < 0:
             break
         dist[best] = math.inf
-        if n != 6:  # 7R candidates are FK-checked here, nearest first (6R ones were checked above)
-            fk_lines(H, P, RM, pM, Sc[best], R, p, cs)
-        if n == 6 or pose_within(R, p, Tg, tolp2, f_max):
-            if m == 0 and n == 6:
-                chosen = qrow[best]
+        fk_lines(H, P, RM, pM, Sc[best], R, p, cs, Zf)
+        if pose_within(R, p, Tg, tolp2, f_max):
             for j in range(n):
                 S[m, j] = Sc[best, j]
             m += 1
@@ -448,7 +460,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
         for j in range(n):
             q[j] = S[0, j]
     ns = now_ns(clk) - t0
-    fk_lines(H, P, RM, pM, q_start, R, p, cs)
+    fk_lines(H, P, RM, pM, q_start, R, p, cs, Zf)
     _doc_row(Tg, R, p, trace[0])
     if m == 0:
         for c in range(TRACE_COLS):
@@ -457,7 +469,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
         if n == 6:  # q differs from the chosen candidate by turns only: its pose from the same cos/sin
             fk_linesz(H, P, RM, pM, Q[chosen], R, p)
         else:
-            fk_lines(H, P, RM, pM, q, R, p, cs)
+            fk_lines(H, P, RM, pM, q, R, p, cs, Zf)
         _doc_row(Tg, R, p, trace[1])
     return m, tried, ns
 
@@ -485,28 +497,44 @@ def _capacity(ints):
 
 
 # the float scratch W: R (9) and p (3) of a pose, the candidates' distances (capacity), each joint's
-# last angle with its cos and sin (3 n), then these blocks, the goal in the working unit last
+# last angle with its cos and sin (3 n), then these blocks
 W_FIXED = 54  # a 7R sweep's fixed 6R chain: H (18), P (18), RM (9), pM (3), the start's other angles (6)
 W_REVERSED = 75  # a chain read from the tool back (core6): H, P, RM, pM, the goal's R, pref (6), limits (12)
 W_GOAL = 16  # the goal (4, 4) scaled to the working unit (call_pose)
+W_ANGLES = 3 * 6 * sp.MAX_SOL  # the sines, cosines and angles of up to MAX_SOL candidate rows (_row_angles)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _w_blocks(n, cap):
-    """Offsets in W of the fixed-chain, reversed-chain and goal blocks."""
+    """Offsets in W of the fixed-chain, reversed-chain, goal and angle blocks."""
     o = 12 + cap + 3 * n
-    return o, o + W_FIXED, o + W_FIXED + W_REVERSED
+    return o, o + W_FIXED, o + W_FIXED + W_REVERSED, o + W_FIXED + W_REVERSED + W_GOAL
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _row_angles(Q, rows, m, Wa):
+    """The angles of the 6 joints of Q's rows ``rows[:m]`` (row c's at ``6 c .. 6 c + 5`` of the returned
+    view of ``Wa``, W's angle block), by :func:`~pipeline.solvers.subproblems.angles_of`."""
+    Y, X, A = Wa[0:6 * sp.MAX_SOL], Wa[6 * sp.MAX_SOL:12 * sp.MAX_SOL], Wa[12 * sp.MAX_SOL:18 * sp.MAX_SOL]
+    for c in range(m):
+        r = rows[c]
+        for j in range(6):
+            Y[6 * c + j] = Q[r, j].imag
+            X[6 * c + j] = Q[r, j].real
+    sp.angles_of(Y, X, A, 6 * m)
+    return A
 
 
 @numba.njit(cache=True, error_model="numpy")
 def scratch(ints):
     """The scratch of :func:`solve_pose`: candidates ``Sc`` (capacity, n); floats ``W`` (the pose's R
-    and p, the candidates' distances, each joint's last cos/sin, a 7R sweep's fixed chain); the
-    closed form's e^{iθ} rows ``Z`` (32, 6: its own and a reversed chain's); ints ``I`` (the clock buffer, each candidate's row)."""
+    and p, the candidates' distances, each joint's last cos/sin, then the blocks of :func:`_w_blocks`);
+    complex ``Z`` (the closed form's e^{iθ} rows, 16 × 6 its own and 16 × 6 a reversed chain's, then 7
+    for :func:`fk_lines`); ints ``I`` (the clock buffer, each candidate's row)."""
     n = ints[0]
     cap = _capacity(ints)
-    return (np.empty((cap, n)), np.empty(_w_blocks(n, cap)[2] + W_GOAL),
-            np.empty((2 * sp.MAX_SOL, 6), np.complex128),
+    return (np.empty((cap, n)), np.empty(_w_blocks(n, cap)[3] + W_ANGLES),
+            np.empty(12 * sp.MAX_SOL + 7, np.complex128),
             np.zeros(2 + sp.MAX_SOL, np.int64))
 
 
@@ -577,7 +605,7 @@ def call_pose(ints, GC, Tg, q_start, S, q, trace):
     scale = GC[GC.shape[0] - 1]
     if scale != 1.0:  # the goal in the working unit (W's goal block)
         o_goal = _w_blocks(n, Sc.shape[0])[2]
-        Tw = W[o_goal:o_goal + W_GOAL].reshape((4, 4))
+        Tw = grid(W[o_goal:], 4, 4)
         for r in range(4):
             for c in range(4):
                 Tw[r, c] = Tg[r, c] * scale if c == 3 and r < 3 else Tg[r, c]

@@ -43,7 +43,7 @@ from pipeline.io.layout import STOP_REASONS, TRACE_COLS, StopReason  # noqa: F40
 from pipeline.robots import LENGTH_UNITS, RobotModel
 from pipeline.solvers._kin import CRITERIA, CRITERION_CODE  # noqa: F401  (re-exported: the one success-test code)
 from pipeline.solvers._kin import FK_CHECK_FAILED, LIMIT_TOL, NON_FINITE, OUT_OF_LIMITS, SUCCESS, TRACE_DP
-from pipeline.solvers._kin import borrowed
+from pipeline.solvers._kin import borrowed, grid
 
 
 class SettingsError(ValueError):
@@ -771,7 +771,7 @@ def _unpack(F, n):
     o2 = o1 + 3 * n
     o3 = o2 + n
     o4 = o3 + 2 * n
-    return F[:o1].reshape((n + 1, 8)), F[o1:o2].reshape((n, 3)), F[o2:o3], F[o3:o4].reshape((n, 2)), F[o4:o4 + 8]
+    return grid(F, n + 1, 8), grid(F[o1:], n, 3), F[o2:o3], grid(F[o3:], n, 2), F[o4:o4 + 8]
 
 
 @numba.njit(cache=True, inline="always")

@@ -148,33 +148,54 @@ _PI_HI, _PI_LO = 3.141592653589793, 1.2246467991473532e-16
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def angle_of(y, x):
-    """atan2(y, x) [rad], compiled inline: within a few units in the last place of libm's.
+def _atan2_core(y, x):
+    """(atan2(y, x), whether the pair is ordinary), branch-free so that a loop over it vectorizes.
 
     The ratio u = min/max of |x|, |y| (in [0, 1]) is split at its nearest eighth c = j/8:
     atan(u) = atan(c) + atan(v) with v = (u − c)/(1 + u c), |v| ≤ 1/16, and atan(v) is its odd series
     to v¹³ (truncation below 1e-18 relative); the octant is restored with π/2 and π each carried as
-    two floats. Zeros, infinities and NaN go to ``math.atan2``. A closed form turns every solution's
-    cosines and sines into angles with it (about three times faster than libm's call here, which
-    was the largest single cost of a spherical-wrist pose)."""
+    two floats. A pair with a zero, infinite or NaN ratio part is not ordinary: its angle here is
+    meaningless, and the callers take ``math.atan2``'s."""
     ax = abs(x)
     ay = abs(y)
     swap = ay > ax
-    num, den = (ax, ay) if swap else (ay, ax)
-    if not (0.0 < den < math.inf and num == num):
-        return math.atan2(y, x)
-    u = num / den
+    num = ax if swap else ay
+    den = ay if swap else ax
+    ok = (den > 0.0) & (den < math.inf) & (x == x) & (y == y)
+    u = num / den if ok else 0.0
     j = int(u * 8.0 + 0.5)
     c = j * 0.125
     v = (u - c) / (1.0 + u * c)
     s = v * v
     a = _ATAN_EIGHTHS[j] + (v + v * s * (-1.0 / 3.0 + s * (0.2 + s * (-1.0 / 7.0 + s * (1.0 / 9.0 + s * (
         -1.0 / 11.0 + s / 13.0))))))
-    if swap:
-        a = (_PIO2_HI - a) + _PIO2_LO
-    if x < 0.0:
-        a = (_PI_HI - a) + _PI_LO
-    return math.copysign(a, y)
+    a = ((_PIO2_HI - a) + _PIO2_LO) if swap else a
+    a = ((_PI_HI - a) + _PI_LO) if x < 0.0 else a
+    return math.copysign(a, y), ok
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def angle_of(y, x):
+    """atan2(y, x) [rad], compiled inline: within a few units in the last place of libm's
+    (:func:`_atan2_core`; zeros, infinities and NaN go to ``math.atan2``)."""
+    a, ok = _atan2_core(y, x)
+    return a if ok else math.atan2(y, x)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def angles_of(Y, X, A, m):
+    """``A[i] = angle_of(Y[i], X[i])`` for i < m, the same values: one branch-free pass the compiler
+    vectorizes (a closed form turns up to 96 cosines and sines a pose into angles; about six times
+    faster than one :func:`angle_of` call each), then ``math.atan2`` for the pairs that are not ordinary."""
+    special = 0
+    for i in range(m):
+        a, ok = _atan2_core(Y[i], X[i])
+        A[i] = a
+        special += not ok
+    if special:
+        for i in range(m):
+            if not _atan2_core(Y[i], X[i])[1]:
+                A[i] = math.atan2(Y[i], X[i])
 
 
 # ---- subproblems --------------------------------------------------------------------------------
