@@ -118,41 +118,102 @@ _EYE_ACC = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def chain_acc(H, P, Z, i0, i1, acc):
-    """``acc`` (the rotation's 9 entries row by row, then the translation: 12 floats) times the POE
-    factors ``E_{i0+1} ... E_{i1}`` (0-based joints i0 .. i1 − 1) from each joint's e^{iθ} ``Z[i]``."""
+def _step(acc, x, y, z, px, py, pz, c, s_):
+    """``acc`` (the rotation's 9 entries row by row, then the translation: 12 floats) times one POE
+    factor: the rotation by θ (``c``, ``s_`` = cos θ, sin θ) about the line through (px, py, pz) along
+    the unit (x, y, z)."""
     a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz = acc
+    C = 1.0 - c
+    r00, r01, r02 = c + x * x * C, x * y * C - z * s_, x * z * C + y * s_
+    r10, r11, r12 = y * x * C + z * s_, c + y * y * C, y * z * C - x * s_
+    r20, r21, r22 = z * x * C - y * s_, z * y * C + x * s_, c + z * z * C
+    ux = px - (r00 * px + r01 * py + r02 * pz)
+    uy = py - (r10 * px + r11 * py + r12 * pz)
+    uz = pz - (r20 * px + r21 * py + r22 * pz)
+    return (a00 * r00 + a01 * r10 + a02 * r20, a00 * r01 + a01 * r11 + a02 * r21, a00 * r02 + a01 * r12 + a02 * r22,
+            a10 * r00 + a11 * r10 + a12 * r20, a10 * r01 + a11 * r11 + a12 * r21, a10 * r02 + a11 * r12 + a12 * r22,
+            a20 * r00 + a21 * r10 + a22 * r20, a20 * r01 + a21 * r11 + a22 * r21, a20 * r02 + a21 * r12 + a22 * r22,
+            a00 * ux + a01 * uy + a02 * uz + tx, a10 * ux + a11 * uy + a12 * uz + ty, a20 * ux + a21 * uy + a22 * uz + tz)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def chain_acc(H, P, Z, i0, i1, acc):
+    """``acc`` (12 floats, as :func:`_step`) times the POE factors ``E_{i0+1} ... E_{i1}`` (0-based
+    joints i0 .. i1 − 1) from each joint's e^{iθ} ``Z[i]``."""
     for i in range(i0, i1):
-        x, y, z = H[i, 0], H[i, 1], H[i, 2]
-        c, s_ = Z[i].real, Z[i].imag
-        C = 1.0 - c
-        r00, r01, r02 = c + x * x * C, x * y * C - z * s_, x * z * C + y * s_
-        r10, r11, r12 = y * x * C + z * s_, c + y * y * C, y * z * C - x * s_
-        r20, r21, r22 = z * x * C - y * s_, z * y * C + x * s_, c + z * z * C
-        px, py, pz = P[i, 0], P[i, 1], P[i, 2]
-        ux = px - (r00 * px + r01 * py + r02 * pz)
-        uy = py - (r10 * px + r11 * py + r12 * pz)
-        uz = pz - (r20 * px + r21 * py + r22 * pz)
-        tx, ty, tz = (a00 * ux + a01 * uy + a02 * uz + tx, a10 * ux + a11 * uy + a12 * uz + ty,
-                      a20 * ux + a21 * uy + a22 * uz + tz)
-        a00, a01, a02 = a00 * r00 + a01 * r10 + a02 * r20, a00 * r01 + a01 * r11 + a02 * r21, a00 * r02 + a01 * r12 + a02 * r22
-        a10, a11, a12 = a10 * r00 + a11 * r10 + a12 * r20, a10 * r01 + a11 * r11 + a12 * r21, a10 * r02 + a11 * r12 + a12 * r22
-        a20, a21, a22 = a20 * r00 + a21 * r10 + a22 * r20, a20 * r01 + a21 * r11 + a22 * r21, a20 * r02 + a21 * r12 + a22 * r22
-    return a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz
+        acc = _step(acc, H[i, 0], H[i, 1], H[i, 2], P[i, 0], P[i, 1], P[i, 2], Z[i].real, Z[i].imag)
+    return acc
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _twelve(R, p):
+    """R (3, 3) row by row, then p (3,): 12 floats (a home pose, a goal's or a reached one)."""
+    return R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2], p[0], p[1], p[2]
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _times_home(acc, m):
+    """The pose ``acc · M`` (12 floats each, as :func:`_step`; ``m`` the home pose M)."""
+    a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz = acc
+    m00, m01, m02, m10, m11, m12, m20, m21, m22, q0, q1, q2 = m
+    return (a00 * m00 + a01 * m10 + a02 * m20, a00 * m01 + a01 * m11 + a02 * m21, a00 * m02 + a01 * m12 + a02 * m22,
+            a10 * m00 + a11 * m10 + a12 * m20, a10 * m01 + a11 * m11 + a12 * m21, a10 * m02 + a11 * m12 + a12 * m22,
+            a20 * m00 + a21 * m10 + a22 * m20, a20 * m01 + a21 * m11 + a22 * m21, a20 * m02 + a21 * m12 + a22 * m22,
+            a00 * q0 + a01 * q1 + a02 * q2 + tx, a10 * q0 + a11 * q1 + a12 * q2 + ty, a20 * q0 + a21 * q1 + a22 * q2 + tz)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def acc_pose(acc, RM, pM, R, p):
     """The pose ``acc · M`` into R (3, 3), p (3,)."""
-    a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz = acc
-    for k in range(3):
-        m0, m1, m2 = RM[0, k], RM[1, k], RM[2, k]
-        R[0, k] = a00 * m0 + a01 * m1 + a02 * m2
-        R[1, k] = a10 * m0 + a11 * m1 + a12 * m2
-        R[2, k] = a20 * m0 + a21 * m1 + a22 * m2
-    p[0] = a00 * pM[0] + a01 * pM[1] + a02 * pM[2] + tx
-    p[1] = a10 * pM[0] + a11 * pM[1] + a12 * pM[2] + ty
-    p[2] = a20 * pM[0] + a21 * pM[1] + a22 * pM[2] + tz
+    v = _times_home(acc, _twelve(RM, pM))
+    for r in range(3):
+        for k in range(3):
+            R[r, k] = v[3 * r + k]
+        p[r] = v[9 + r]
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _within(v, g, tolp2, f_max):
+    """The pose ``v`` within the FK check's tolerances of the goal ``g`` (12 floats each, as
+    :func:`_twelve`), without a square root or an arcsine: |Δp|² against ``tolp2`` (the position
+    tolerance squared), and the Frobenius distance ‖R − Rg‖² = 8 sin²(θ/2) (θ the rotation angle
+    between them) against ``f_max``, its value at the rotation tolerance (which is below π)."""
+    v00, v01, v02, v10, v11, v12, v20, v21, v22, vx, vy, vz = v
+    g00, g01, g02, g10, g11, g12, g20, g21, g22, gx, gy, gz = g
+    dp2 = (vx - gx) ** 2 + (vy - gy) ** 2 + (vz - gz) ** 2
+    f = ((((((((v00 - g00) ** 2 + (v01 - g01) ** 2) + (v02 - g02) ** 2) + (v10 - g10) ** 2) + (v11 - g11) ** 2)
+            + (v12 - g12) ** 2) + (v20 - g20) ** 2) + (v21 - g21) ** 2) + (v22 - g22) ** 2
+    return (dp2 <= tolp2) & (f <= f_max)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def check_rows(H, P, m, g, Cz, Sz, k, tolp2, f_max, ok, ACC):
+    """FK check of the closed form's k candidate rows at once, one candidate per vector lane: ``ok[r]``
+    = 1.0 where row r's pose lies within the tolerances of the goal ``g`` (:func:`_within`), else 0.
+    ``Cz``, ``Sz``: each joint's cos and sin, joint-major (joint i of row r at ``i k + r``); ``m``
+    the home pose (12 floats); ``ACC`` (12, ≥ k): scratch for the rows' accumulated products."""
+    for r in range(k):
+        _acc_store(ACC, r, _EYE_ACC)
+    for i in range(6):
+        x, y, z, px, py, pz = H[i, 0], H[i, 1], H[i, 2], P[i, 0], P[i, 1], P[i, 2]
+        o = i * k
+        for r in range(k):
+            _acc_store(ACC, r, _step(_acc_load(ACC, r), x, y, z, px, py, pz, Cz[o + r], Sz[o + r]))
+    for r in range(k):
+        ok[r] = 1.0 if _within(_times_home(_acc_load(ACC, r), m), g, tolp2, f_max) else 0.0
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _acc_load(ACC, r):
+    return (ACC[0, r], ACC[1, r], ACC[2, r], ACC[3, r], ACC[4, r], ACC[5, r], ACC[6, r], ACC[7, r], ACC[8, r],
+            ACC[9, r], ACC[10, r], ACC[11, r])
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _acc_store(ACC, r, a):
+    a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz = a
+    ACC[0, r], ACC[1, r], ACC[2, r], ACC[3, r], ACC[4, r], ACC[5, r] = a00, a01, a02, a10, a11, a12
+    ACC[6, r], ACC[7, r], ACC[8, r], ACC[9, r], ACC[10, r], ACC[11, r] = a20, a21, a22, tx, ty, tz
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -178,16 +239,8 @@ def fk_lines(H, P, RM, pM, th, R, p, cs, Z):
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def pose_within(R, p, Tg, tolp2, f_max):
-    """(R, p) within the FK check's tolerances of the goal ``Tg``, without a square root or an arcsine:
-    |Δp|² against ``tolp2`` (the position tolerance squared), and the Frobenius distance
-    ‖R − Rg‖² = 8 sin²(θ/2) (θ the rotation angle between them) against ``f_max``, its value at the
-    rotation tolerance (which is below π)."""
-    dp2 = (p[0] - Tg[0, 3]) ** 2 + (p[1] - Tg[1, 3]) ** 2 + (p[2] - Tg[2, 3]) ** 2
-    f = 0.0
-    for r in range(3):
-        for k in range(3):
-            f += (R[r, k] - Tg[r, k]) ** 2
-    return dp2 <= tolp2 and f <= f_max
+    """(R, p) within the FK check's tolerances of the goal ``Tg`` (:func:`_within`)."""
+    return _within(_twelve(R, p), _twelve(Tg, Tg[:, 3]), tolp2, f_max)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -300,6 +353,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
     max_sol = min(ints[8], S.shape[0])
     clip, tolp, tolr = par[0], par[1], par[2]
     tolp2, f_max = tolp * tolp, 8.0 * math.sin(0.5 * tolr) ** 2
+    m12, g12 = _twelve(RM, pM), _twelve(Tg, Tg[:, 3])  # the home pose and the goal, 12 floats each
     Rg = Tg  # its rotation block is read
     pg = (Tg[0, 3], Tg[1, 3], Tg[2, 3])
     cap = Sc.shape[0]
@@ -340,30 +394,29 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                     sp.MAX_SOL)
             tried += k
             search = fam == sp.FAM_SEARCH  # only a search refines when nothing lies within the limits
-            pre = _EYE_ACC
+            # every candidate FK-checked from the closed form's own cos/sin and turned into angles, both
+            # in vectorized passes over the candidates; the valid ones compete by distance below
+            Cz, Sz, Ang = _joint_major(Q, k, Wa)
+            okv, ACC = Wa[18 * sp.MAX_SOL:19 * sp.MAX_SOL], grid(Wa[19 * sp.MAX_SOL:], 12, sp.MAX_SOL)
+            check_rows(H, P, m12, g12, Cz, Sz, k, tolp2, f_max, okv, ACC)
+            sp.angles_of(Sz, Cz, Ang, 6 * k)
             for r in range(k):
+                if okv[r] == 0.0:
+                    continue
                 if nc >= cap:
                     break
-                # the check from the closed form's own cos/sin; joints 1-3 shared with the previous
-                # candidate (the closed forms give each arm solution's wrist branches in turn) reused
-                if r == 0 or not (Q[r, 0] == Q[r - 1, 0] and Q[r, 1] == Q[r - 1, 1] and Q[r, 2] == Q[r - 1, 2]):
-                    pre = chain_acc(H, P, Q[r], 0, 3, _EYE_ACC)
-                acc_pose(chain_acc(H, P, Q[r], 3, 6, pre), RM, pM, R, p)
-                if pose_within(R, p, Tg, tolp2, f_max):
-                    qrow[nc] = r
-                    nc += 1
-            Ang = _row_angles(Q, qrow, nc, Wa)  # the valid candidates' angles, in one vectorized pass
-            for c_ in range(nc):
+                qrow[nc] = r
                 d = 0.0
                 inside = True
                 for j in range(6):
-                    x = Ang[6 * c_ + j]
-                    Sc[c_, j] = x
+                    x = Ang[j * k + r]
+                    Sc[nc, j] = x
                     if search and not sp.into_limits(x, lim[j, 0], lim[j, 1])[1]:
                         inside = False
                     e = sp.wrap(x - q_start[j])
                     d += e * e
-                dist[c_] = d
+                dist[nc] = d
+                nc += 1
                 inlim += inside
         else:
             H6, P6 = grid(W[o:], 6, 3), grid(W[o + 18:], 6, 3)
@@ -386,9 +439,8 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                 k = min(core6(fam, case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr),
                         sp.MAX_SOL)
                 tried += k
-                for r in range(k):
-                    qrow[r] = r
-                Ang = _row_angles(Q, qrow, k, Wa)
+                Cz, Sz, Ang = _joint_major(Q, k, Wa)
+                sp.angles_of(Sz, Cz, Ang, 6 * k)
                 for r in range(k):
                     if nc >= cap:
                         break
@@ -399,7 +451,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                         if j == free:
                             x = v
                         else:
-                            x = Ang[6 * r + c_]
+                            x = Ang[c_ * k + r]
                             c_ += 1
                         x, ok = sp.into_limits(sp.wrap(x), lim[j, 0], lim[j, 1])
                         if not ok:
@@ -501,7 +553,8 @@ def _capacity(ints):
 W_FIXED = 54  # a 7R sweep's fixed 6R chain: H (18), P (18), RM (9), pM (3), the start's other angles (6)
 W_REVERSED = 75  # a chain read from the tool back (core6): H, P, RM, pM, the goal's R, pref (6), limits (12)
 W_GOAL = 16  # the goal (4, 4) scaled to the working unit (call_pose)
-W_ANGLES = 3 * 6 * sp.MAX_SOL  # the sines, cosines and angles of up to MAX_SOL candidate rows (_row_angles)
+W_ANGLES = 31 * sp.MAX_SOL  # up to MAX_SOL candidate rows: their cosines, sines and angles (6 each, _joint_major),
+# their check verdicts (1) and products (12, check_rows)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -512,17 +565,16 @@ def _w_blocks(n, cap):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def _row_angles(Q, rows, m, Wa):
-    """The angles of the 6 joints of Q's rows ``rows[:m]`` (row c's at ``6 c .. 6 c + 5`` of the returned
-    view of ``Wa``, W's angle block), by :func:`~pipeline.solvers.subproblems.angles_of`."""
-    Y, X, A = Wa[0:6 * sp.MAX_SOL], Wa[6 * sp.MAX_SOL:12 * sp.MAX_SOL], Wa[12 * sp.MAX_SOL:18 * sp.MAX_SOL]
-    for c in range(m):
-        r = rows[c]
-        for j in range(6):
-            Y[6 * c + j] = Q[r, j].imag
-            X[6 * c + j] = Q[r, j].real
-    sp.angles_of(Y, X, A, 6 * m)
-    return A
+def _joint_major(Q, k, Wa):
+    """Views (Cz, Sz, Ang) of W's angle block ``Wa``, with the cos and sin of the 6 joints of Q's first
+    k rows written joint-major into Cz and Sz (joint i of row r at ``i k + r``), for the passes over
+    all candidates at once (:func:`check_rows`, :func:`~pipeline.solvers.subproblems.angles_of` into Ang)."""
+    Cz, Sz, Ang = Wa[0:6 * sp.MAX_SOL], Wa[6 * sp.MAX_SOL:12 * sp.MAX_SOL], Wa[12 * sp.MAX_SOL:18 * sp.MAX_SOL]
+    for r in range(k):
+        for i in range(6):
+            Cz[i * k + r] = Q[r, i].real
+            Sz[i * k + r] = Q[r, i].imag
+    return Cz, Sz, Ang
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -539,6 +591,13 @@ def scratch(ints):
 
 
 _MESSAGES = ["no valid closed-form solution"] + [f"{m} FK-verified solutions" for m in range(1, 4097)]
+
+
+def most_solutions(ints: np.ndarray) -> int:
+    """Solutions a pose can have at most: 8 for a 6R spherical wrist or three parallel axes, 16 for
+    an offset wrist (the search), any number for a 7R sweep (``max_solutions`` bounds them)."""
+    n, fam = int(ints[0]), int(ints[1])
+    return sp.MAX_SOL if n == 6 and fam == sp.FAM_SEARCH else 8 if n == 6 else 2**31
 
 
 def _info(m: int, tried: int, doc: float, family: str) -> dict:
@@ -576,7 +635,7 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     goals = np.ascontiguousarray(goals, dtype=float)
     starts = np.ascontiguousarray(starts, dtype=float)
     N = goals.shape[0]
-    S = np.empty((N, s.max_solutions, n))
+    S = np.empty((N, min(s.max_solutions, most_solutions(k.ints)), n))
     Q = np.empty((N, n))
     traces = np.empty((N, 2, TRACE_COLS))
     nsol = np.zeros(N, np.int64)

@@ -172,8 +172,8 @@ class Bound:
         :meth:`solve` per problem, stacked."""
         t0 = clock_ns() if t0 is None else t0
         prep, sc = self.prep, self.sc
-        G = np.array(goals, dtype=float, order="C")
-        S = np.array(starts, dtype=float, order="C")
+        G = np.ascontiguousarray(goals, dtype=float)  # read only below: the caller's own arrays where they fit
+        S = np.ascontiguousarray(starts, dtype=float)
         if G.ndim != 3 or G.shape[1:] != (4, 4):
             raise SettingsError(f"goals: expected shape (N, 4, 4), got {G.shape}")
         if S.shape != (G.shape[0], prep.n):
@@ -183,8 +183,10 @@ class Bound:
             res = stack([self.solve(G[i], S[i], int(seeds[i])) for i in range(len(G))], prep.unit, traces)
         else:
             if prep.goal_scale != 1.0:
+                G = G.copy()
                 G[:, :3, 3] *= prep.goal_scale
             if self.scaled:
+                S = S.copy()
                 S[:, prep.prismatic] *= prep.goal_scale
             with numba_threads(threads):
                 raw = self.spec.batch(prep, sc, G, S, seeds, traces)
