@@ -165,7 +165,12 @@ def _times_home(acc, m):
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def acc_pose(acc, RM, pM, R, p):
     """The pose ``acc · M`` into R (3, 3), p (3,)."""
-    v = _times_home(acc, _twelve(RM, pM))
+    _put(_times_home(acc, _twelve(RM, pM)), R, p)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _put(v, R, p):
+    """A pose of 12 floats (as :func:`_twelve`) into R (3, 3), p (3,)."""
     for r in range(3):
         for k in range(3):
             R[r, k] = v[3 * r + k]
@@ -333,15 +338,16 @@ def unpack(ints, G):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
+def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True):
     """The FK-valid solutions of one pose, nearest to ``q_start`` first (wrapped joint distance, sum of
     squares), at most ``max_solutions`` into ``S``; ``q`` the chosen one. ``Sc`` (:func:`scratch`
     rows) holds the candidates: 6R, every closed-form candidate wrapped to (−π, π]; 7R, every
     candidate of every swept value moved into the joint limits (those that do not fit are dropped).
     Candidates are FK-checked nearest first until ``max_solutions`` pass or none is left, so a 7R
     sweep checks about as many as it returns. ``W``, ``Z``, ``I``: the float, complex and int scratch of
-    :func:`scratch` (the caller allocates them once, for a batch once per work item). Returns
-    (solutions, candidates, solve time [ns])."""
+    :func:`scratch` (the caller allocates them once, for a batch once per work item). ``start_row``
+    False: the trace's row at ``q_start`` is left unwritten unless no solution is found (a batch
+    that keeps no traces needs only the row at ``q``). Returns (solutions, candidates, solve time [ns])."""
     # every array below is a borrowed view: no atomic reference counting on the per-pose path
     ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace = (
         borrowed(ints), borrowed(G), borrowed(Tg), borrowed(q_start), borrowed(Sc), borrowed(W), borrowed(Z),
@@ -364,6 +370,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
     cs[:] = math.nan
     o, o_rev, _, o_ang = _w_blocks(n, cap)
     Wr, Wa = W[o_rev:o_rev + W_REVERSED], W[o_ang:o_ang + W_ANGLES]
+    okv, ACC = Wa[18 * sp.MAX_SOL:19 * sp.MAX_SOL], grid(Wa[19 * sp.MAX_SOL:], 12, sp.MAX_SOL)  # (check_rows)
     chosen = -1  # 6R: the row of Q the chosen solution came from
     nc = 0  # candidates in Sc
     tried = 0
@@ -396,10 +403,9 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
             search = fam == sp.FAM_SEARCH  # only a search refines when nothing lies within the limits
             # every candidate FK-checked from the closed form's own cos/sin and turned into angles, both
             # in vectorized passes over the candidates; the valid ones compete by distance below
-            Cz, Sz, Ang = _joint_major(Q, k, Wa)
-            okv, ACC = Wa[18 * sp.MAX_SOL:19 * sp.MAX_SOL], grid(Wa[19 * sp.MAX_SOL:], 12, sp.MAX_SOL)
-            check_rows(H, P, m12, g12, Cz, Sz, k, tolp2, f_max, okv, ACC)
-            sp.angles_of(Sz, Cz, Ang, 6 * k)
+            Cz, Sz, Ang, kv = _joint_major(Q, k, Wa)
+            check_rows(H, P, m12, g12, Cz, Sz, kv, tolp2, f_max, okv, ACC)
+            sp.angles_of(Sz, Cz, Ang, 6 * kv)
             for r in range(k):
                 if okv[r] == 0.0:
                     continue
@@ -409,7 +415,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                 d = 0.0
                 inside = True
                 for j in range(6):
-                    x = Ang[j * k + r]
+                    x = Ang[j * kv + r]
                     Sc[nc, j] = x
                     if search and not sp.into_limits(x, lim[j, 0], lim[j, 1])[1]:
                         inside = False
@@ -439,8 +445,8 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                 k = min(core6(fam, case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr),
                         sp.MAX_SOL)
                 tried += k
-                Cz, Sz, Ang = _joint_major(Q, k, Wa)
-                sp.angles_of(Sz, Cz, Ang, 6 * k)
+                Cz, Sz, Ang, kv = _joint_major(Q, k, Wa)
+                sp.angles_of(Sz, Cz, Ang, 6 * kv)
                 for r in range(k):
                     if nc >= cap:
                         break
@@ -451,7 +457,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
                         if j == free:
                             x = v
                         else:
-                            x = Ang[c_ * k + r]
+                            x = Ang[c_ * kv + r]
                             c_ += 1
                         x, ok = sp.into_limits(sp.wrap(x), lim[j, 0], lim[j, 1])
                         if not ok:
@@ -512,14 +518,15 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
         for j in range(n):
             q[j] = S[0, j]
     ns = now_ns(clk) - t0
-    fk_lines(H, P, RM, pM, q_start, R, p, cs, Zf)
-    _doc_row(Tg, R, p, trace[0])
+    if start_row or m == 0:
+        fk_lines(H, P, RM, pM, q_start, R, p, cs, Zf)
+        _doc_row(Tg, R, p, trace[0])
     if m == 0:
         for c in range(TRACE_COLS):
             trace[1, c] = trace[0, c]
     else:
-        if n == 6:  # q differs from the chosen candidate by turns only: its pose from the same cos/sin
-            fk_linesz(H, P, RM, pM, Q[chosen], R, p)
+        if n == 6:  # q differs from the chosen candidate by turns only: its pose as check_rows computed it
+            _put(_times_home(_acc_load(ACC, chosen), m12), R, p)
         else:
             fk_lines(H, P, RM, pM, q, R, p, cs, Zf)
         _doc_row(Tg, R, p, trace[1])
@@ -527,16 +534,17 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace):
 
 
 @numba.njit(cache=True, error_model="numpy", parallel=True)
-def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, nsol, tried, ns):
+def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, nsol, tried, ns, start_rows):
     """:func:`solve_pose` for every row, on every core: work items of 32 poses, one scratch each;
-    every pose writes only its own rows (results independent of the thread count)."""
+    every pose writes only its own rows (results independent of the thread count). ``start_rows``
+    False: only the trace rows at ``q`` are needed (see :func:`solve_pose`)."""
     N = goals.shape[0]
     chunk = 32
     gb, sb, Sb, Qb, tb = borrowed(goals), borrowed(starts), borrowed(S), borrowed(Qo), borrowed(traces)
     for c in numba.prange((N + chunk - 1) // chunk):
         Sc, W, Z, I = scratch(ints)
         for i in range(c * chunk, min(N, (c + 1) * chunk)):
-            m, t, dt = solve_pose(ints, G, gb[i], sb[i], Sc, W, Z, I, Sb[i], Qb[i], tb[i])
+            m, t, dt = solve_pose(ints, G, gb[i], sb[i], Sc, W, Z, I, Sb[i], Qb[i], tb[i], start_rows)
             nsol[i] = m
             tried[i] = t
             ns[i] = dt
@@ -566,15 +574,19 @@ def _w_blocks(n, cap):
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _joint_major(Q, k, Wa):
-    """Views (Cz, Sz, Ang) of W's angle block ``Wa``, with the cos and sin of the 6 joints of Q's first
-    k rows written joint-major into Cz and Sz (joint i of row r at ``i k + r``), for the passes over
-    all candidates at once (:func:`check_rows`, :func:`~pipeline.solvers.subproblems.angles_of` into Ang)."""
+    """(Cz, Sz, Ang, kv): views of W's angle block ``Wa``, with the cos and sin of the 6 joints of Q's
+    first k rows written joint-major into Cz and Sz (joint i of row r at ``i kv + r``), for the passes
+    over all candidates at once (:func:`check_rows`, :func:`~pipeline.solvers.subproblems.angles_of`
+    into Ang). The rows are padded to kv, k rounded up to a multiple of 8 with the zero angle: a
+    vector pass then has no scalar remainder (one of 7 rows took 2.6 times as long per row as 8)."""
+    kv = (k + 7) // 8 * 8
     Cz, Sz, Ang = Wa[0:6 * sp.MAX_SOL], Wa[6 * sp.MAX_SOL:12 * sp.MAX_SOL], Wa[12 * sp.MAX_SOL:18 * sp.MAX_SOL]
-    for r in range(k):
+    for r in range(kv):
         for i in range(6):
-            Cz[i * k + r] = Q[r, i].real
-            Sz[i * k + r] = Q[r, i].imag
-    return Cz, Sz, Ang
+            z = Q[r, i] if r < k else 1.0 + 0.0j
+            Cz[i * kv + r] = z.real
+            Sz[i * kv + r] = z.imag
+    return Cz, Sz, Ang, kv
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -641,7 +653,7 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     nsol = np.zeros(N, np.int64)
     tried = np.zeros(N, np.int64)
     ns = np.zeros(N, np.int64)
-    solve_batch_kernel(k.ints, k.G, goals, starts, S, Q, traces, nsol, tried, ns)
+    solve_batch_kernel(k.ints, k.G, goals, starts, S, Q, traces, nsol, tried, ns, bool(keep_traces))
     doc = traces[:, 1, 0].copy()
     rows = traces.reshape(2 * N, TRACE_COLS) if keep_traces else None
     offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces else None

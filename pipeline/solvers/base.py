@@ -796,11 +796,13 @@ def _finish_many(F, prism, Q, goals, crit, tol_pos, tol_rot, tol_dq, require_lim
                  inside):
     """:func:`_result` for every row of ``Q`` (N, n) against ``goals`` (N, 4, 4); ``code`` (N,) in and out."""
     Fb, pb, Qb, gb = borrowed(F), borrowed(prism), borrowed(Q), borrowed(goals)  # no atomic counting per row
-    for k in numba.prange(Q.shape[0]):
+    N, chunk = Q.shape[0], 32
+    for c_ in numba.prange((N + chunk - 1) // chunk):  # work items of 32 rows, one scratch each
         buf = np.empty(8)
-        c, cl, su, d, a, w = _result(Fb, pb, Qb[k], gb[k], crit, tol_pos, tol_rot, tol_dq, code[k], require_limits,
-                                     buf)  # (buf itself, not a borrowed view: its last use must be this call)
-        code[k], claimed[k], success[k], dp[k], ang[k], inside[k] = c, cl, su, d, a, w
+        for k in range(c_ * chunk, min(N, (c_ + 1) * chunk)):
+            c, cl, su, d, a, w = _result(Fb, pb, Qb[k], gb[k], crit, tol_pos, tol_rot, tol_dq, code[k],
+                                         require_limits, buf)
+            code[k], claimed[k], success[k], dp[k], ang[k], inside[k] = c, cl, su, d, a, w
 
 
 # ---- the check packed for a fused call (an analytic solver's kernel, choice and check in one call) ----
