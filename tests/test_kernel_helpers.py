@@ -1,5 +1,6 @@
-"""The compiled helpers under the closed form's per-pose path: the inline ``atan2`` (``angle_of``)
-and the reference-count-free array views (``borrowed``)."""
+"""The compiled helpers under the closed form's per-pose path: the inline ``atan2`` (``angle_of``) and
+its vectorized pass (``angles_of``), the reference-count-free array views (``borrowed``), the 2-D views
+without numba's reshape (``grid``) and the check of all candidates at once (``check_rows``)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pipeline.solvers._kin import borrowed
-from pipeline.solvers.subproblems import angle_of
+from pipeline.solvers._kin import borrowed, grid
+from pipeline.solvers.subproblems import angle_of, angles_of
 
 
 @numba.njit(cache=False)
@@ -76,3 +77,70 @@ def test_borrowed_view_is_the_same_memory_and_shape():
     shape, total = _write_through(a)
     assert shape == 32 and total == 12.0
     assert a[1, 0] == 7.0 and a[0, 1] == 5.0
+
+
+@numba.njit(cache=False)
+def _angles_pass(Y, X, out, m):
+    angles_of(Y, X, out, m)
+
+
+def test_angles_of_is_angle_of_bit_for_bit_edges_included():
+    """The vectorized pass gives angle_of's own values (every pair, its length not a multiple of the
+    vector width), the pairs it must hand to libm (zeros, infinities, NaN) among them."""
+    rng = np.random.default_rng(5)
+    t = rng.uniform(-np.pi, np.pi, 997)
+    Y, X = 10.0 ** rng.uniform(-3, 3, t.size) * np.sin(t), np.cos(t)
+    edges_y = np.array([0.0, -0.0, 0.0, -0.0, 1.0, np.inf, -np.inf, np.nan, 1.0, 5e-324])
+    edges_x = np.array([1.0, -1.0, -0.0, 0.0, 0.0, 1.0, -np.inf, 1.0, np.nan, -1.0])
+    Y, X = np.concatenate([Y[:500], edges_y, Y[500:]]), np.concatenate([X[:500], edges_x, X[500:]])
+    one, many = np.empty(Y.size), np.full(Y.size + 3, -9.0)
+    _angles(Y, X, one)
+    _angles_pass(Y, X, many, Y.size)
+    assert np.array_equal(one.view(np.int64), many[:Y.size].view(np.int64))  # bit for bit, NaN and -0.0 too
+    assert np.all(many[Y.size:] == -9.0)  # nothing written past m
+
+
+@numba.njit(cache=False)
+def _grid_views(a):
+    g = grid(borrowed(a)[3:], 2, 4)
+    g[1, 2] = -1.0
+    return g.shape[0], g.shape[1], g[0, 0], g[1, 3], grid(a, 3, 3).copy()
+
+
+def test_grid_is_the_reshaped_view():
+    a = np.arange(20.0)
+    r, c, first, last, whole = _grid_views(a)
+    assert (r, c, first, last) == (2, 4, 3.0, 10.0)
+    assert a[9] == -1.0  # the view writes through to the same memory
+    assert np.array_equal(whole, a[:9].reshape(3, 3))
+
+
+def test_check_rows_agrees_with_the_one_row_check():
+    """Every candidate row's verdict from the vectorized pass equals the scalar FK check's
+    (``fk_linesz`` + ``pose_within``), for row counts around the vector width, valid and invalid rows."""
+    from pipeline.solvers import analytic as A
+
+    rng = np.random.default_rng(11)
+    H = rng.normal(size=(6, 3))
+    H /= np.linalg.norm(H, axis=1)[:, None]
+    Pt = rng.normal(size=(6, 3))
+    RM, pM = np.linalg.qr(rng.normal(size=(3, 3)))[0], rng.normal(size=3)
+    for k in (1, 7, 8, 9, 16):
+        th = rng.uniform(-np.pi, np.pi, (k, 6))
+        Z = np.cos(th) + 1j * np.sin(th)
+        goal = np.eye(4)
+        R, p = np.empty((3, 3)), np.empty(3)
+        A.fk_linesz(H, Pt, RM, pM, Z[0], R, p)
+        goal[:3, :3], goal[:3, 3] = R, p
+        th[k // 2] = th[0] + rng.normal(scale=1e-13, size=6)  # a second row on the goal, within tolerance
+        Z = np.cos(th) + 1j * np.sin(th)
+        tolp2, fmax = 1e-18, 8.0 * np.sin(0.5e-9) ** 2
+        Cz, Sz = np.cos(th).T.ravel().copy(), np.sin(th).T.ravel().copy()  # joint-major: joint i of row r at i k + r
+        ok = np.full(k, -1.0)
+        A.check_rows(H, Pt, A._twelve(RM, pM), A._twelve(goal, goal[:, 3]), Cz, Sz, k, tolp2, fmax, ok)
+        want = []
+        for r in range(k):
+            A.fk_linesz(H, Pt, RM, pM, Z[r], R, p)
+            want.append(1.0 if A.pose_within(R, p, goal, tolp2, fmax) else 0.0)
+        assert ok.tolist() == want
+        assert ok[0] == 1.0 and (k < 2 or ok[k // 2] == 1.0)
