@@ -222,3 +222,32 @@ def test_puma_single_call_info():
     deg = [k for k, w in enumerate(words) if w.endswith("d")]
     assert r.success and r.info["degenerate_wrist"] == len(deg) == 2 and r.info["chosen"] in deg
     assert np.all(r.solutions[deg, 3] == 0.0)
+
+
+@pytest.mark.parametrize("robot", ["abb_irb2400", "puma560", "franka_panda"])
+def test_fused_call_takes_any_array_form_and_refuses_wrong_shapes(robot):
+    """The fused ``analytic`` call hands C-contiguous float64 arrays to the kernel unchecked; every
+    other form (list, int or float32 dtype, Fortran order, read-only, a strided view) gives the same
+    result through the converting path, and a wrong shape is one SettingsError line naming it."""
+    from pipeline.solvers import SettingsError
+
+    model = load_robot(ROBOTS / f"{robot}.yaml")
+    prep = prepare("analytic", model, make_settings("analytic", {}))
+    rng = np.random.default_rng(4)
+    lim = np.clip(np.asarray(model.limits, dtype=float), -np.pi, np.pi)
+    qg = lim[:, 0] + (lim[:, 1] - lim[:, 0]) * rng.random(model.n)
+    T = fk_htm(model.chain, qg)
+    q0 = np.zeros(model.n)
+    ref = solve("analytic", prep, T, q0)
+    assert ref.success
+    ro = T.copy()
+    ro.flags.writeable = False
+    forms = [(T.tolist(), q0.tolist()), (np.asfortranarray(T), q0), (ro, q0), (T, np.zeros(2 * model.n)[::2]),
+             (T, q0.astype(np.int64)), (T, q0.astype(np.float32))]
+    for Tg, qs in forms:
+        r = solve("analytic", prep, Tg, qs)
+        assert r.success == ref.success and _same(r.q, ref.q) and _same(r.solutions, ref.solutions)
+    for Tg, qs, field in ((T[:3], q0, "T_goal"), (T, q0[:-1], "q_start"), (T[..., None], q0, "T_goal"),
+                          (T.ravel(), q0, "T_goal")):
+        with pytest.raises(SettingsError, match=field):
+            solve("analytic", prep, Tg, qs)

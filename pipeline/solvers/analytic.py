@@ -36,8 +36,8 @@ import numpy as np
 from pipeline.kinematics import geometry
 from pipeline.solvers import subproblems as sp
 from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, grid, now_ns
-from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, check_pack, finish_packed,
-                                   fused_inputs, setting)
+from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, SettingsError, check_pack,
+                                   finish_packed, fused_inputs, setting)
 from pipeline.solvers.timing import clock_ns
 from pipeline.solvers.driver import run_of
 from pipeline.solvers.optimizers import half_cross
@@ -625,7 +625,7 @@ def bind(prep: Prepared, s: AnalyticSettings):
     args = (k.ints, k.G)
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
-        S = np.empty((s.max_solutions, n))
+        S = np.empty((min(s.max_solutions, most_solutions(k.ints)), n))
         q = np.empty(n)
         trace = np.empty((2, TRACE_COLS))
         m, tried, ns = solve_pose(*args, np.ascontiguousarray(T_goal, dtype=float),
@@ -665,8 +665,11 @@ def call_pose(ints, GC, Tg, q_start, S, q, trace):
     every finish (:func:`pipeline.solvers.base.finish_packed`: the independent FK check of the chosen
     ``q`` by the dual-quaternion FK, the limit record, the stop reason; without ``require_limits``).
     ``GC`` = :func:`packed`'s ``G``, then :func:`~pipeline.solvers.base.check_pack`, then the goal's
-    unit factor (the robot file's unit to the working unit: ``Tg`` is scaled here, not in Python)."""
+    unit factor (the robot file's unit to the working unit: ``Tg`` is scaled here, not in Python).
+    Solutions ``-1`` (and nothing written) when ``Tg`` is not (4, 4) or ``q_start`` not (n,)."""
     n = ints[0]
+    if Tg.shape[0] != 4 or Tg.shape[1] != 4 or q_start.shape[0] != n:
+        return -1, 0, 0, NO_SOLUTION, False, False, math.nan, math.nan, False, math.nan
     ng = 8 * n + 27
     Sc, W, Z, I = scratch(ints)
     scale = GC[GC.shape[0] - 1]
@@ -685,6 +688,23 @@ def call_pose(ints, GC, Tg, q_start, S, q, trace):
     return m, tried, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
 
 
+_CALL_SIGNATURE = (numba.types.int64[::1], numba.types.float64[::1], numba.types.float64[:, ::1],
+                   numba.types.float64[::1], numba.types.float64[:, ::1], numba.types.float64[::1],
+                   numba.types.float64[:, ::1])
+
+
+def _one_signature():
+    """:func:`call_pose` compiled for its one signature (C-contiguous float64 arrays) and closed to any
+    other: the fused call hands it the caller's arrays without checking them in Python (about 0.2 µs
+    a call), and any other array (another dtype or layout, read-only, a list) is a TypeError on
+    which the call converts its inputs first."""
+    if not call_pose._can_compile:
+        return call_pose
+    call_pose.compile(_CALL_SIGNATURE)
+    call_pose.disable_compile()
+    return call_pose
+
+
 def bind_call(prep: Prepared, s: AnalyticSettings):
     """The public single call fused (``Solver.bind_call``): closed form, independent FK check and limit
     record in one compiled call, the result built positionally; None under ``require_limits`` (the
@@ -694,26 +714,27 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
         return None
     k = packed(prep, s)
     ints, GC = k.ints, np.concatenate([k.G, check_pack(prep, s), [prep.goal_scale]])
-    n, ms, fam = int(k.ints[0]), s.max_solutions, _family(prep, s)
+    n, ms, fam = int(k.ints[0]), min(s.max_solutions, most_solutions(k.ints)), _family(prep, s)
     inputs, unit, pos_only = fused_inputs(prep, scaled=False), prep.unit, s.criterion == "position"
     nan, empty = math.nan, np.empty
 
-    ndarray, f64 = np.ndarray, np.dtype(np.float64)
-    shape_T, shape_q, messages = (4, 4), (n,), _MESSAGES
+    kernel, messages = _one_signature(), _MESSAGES
 
     def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
-        if (type(T_goal) is ndarray and type(q_start) is ndarray and T_goal.dtype is f64
-                and q_start.dtype is f64 and T_goal.shape == shape_T and q_start.shape == shape_q
-                and T_goal.flags.c_contiguous and q_start.flags.c_contiguous):
-            Tg, q0 = T_goal, q_start  # what the kernel takes (it writes into neither, and scales the goal)
-        else:
-            Tg, q0 = inputs(T_goal, q_start)
         S = empty((ms, n))
         q = empty(n)
         trace = empty((2, TRACE_COLS))
-        m, tried, ns, code, claimed, success, dp, ang, inside, doc = call_pose(ints, GC, Tg, q0, S, q, trace)
+        try:  # the caller's arrays as they are when they are C-contiguous float64 (the kernel writes into neither)
+            m, tried, ns, code, claimed, success, dp, ang, inside, doc = kernel(ints, GC, T_goal, q_start, S, q, trace)
+        except TypeError:  # anything else: converted as every solver's inputs are (a wrong shape: SettingsError)
+            Tg, q0 = inputs(T_goal, q_start)
+            m, tried, ns, code, claimed, success, dp, ang, inside, doc = kernel(
+                ints, GC, np.array(Tg, order="C"), np.array(q0, order="C"), S, q, trace)
+        if m < 0:  # a shape the kernel refused
+            inputs(T_goal, q_start)
+            raise SettingsError(f"T_goal / q_start: expected shapes (4, 4) and ({n},)")
         res = IKResult(q, success, code, 1, trace, ns * 1e-9, 0.0, dp, nan if pos_only else ang, claimed, inside,
-                       nan, unit, S[:m], {"n_solutions": m, "candidates": tried, "nfev": tried, "njev": 0,
+                       nan, unit, S if m == ms else S[:m], {"n_solutions": m, "candidates": tried, "nfev": tried, "njev": 0,
                                           "doc_error": doc, "family": fam, "message": messages[m]})
         res.call_time_s = (clock_ns() - t0) * 1e-9
         return res
