@@ -718,12 +718,12 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
     inputs, unit, pos_only = fused_inputs(prep, scaled=False), prep.unit, s.criterion == "position"
     nan, empty = math.nan, np.empty
 
-    kernel, messages = _one_signature(), _MESSAGES
+    kernel, messages, shape_S, shape_trace = _one_signature(), _MESSAGES, (ms, n), (2, TRACE_COLS)
 
     def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
-        S = empty((ms, n))
+        S = empty(shape_S)
         q = empty(n)
-        trace = empty((2, TRACE_COLS))
+        trace = empty(shape_trace)
         try:  # the caller's arrays as they are when they are C-contiguous float64 (the kernel writes into neither)
             m, tried, ns, code, claimed, success, dp, ang, inside, doc = kernel(ints, GC, T_goal, q_start, S, q, trace)
         except TypeError:  # anything else: converted as every solver's inputs are (a wrong shape: SettingsError)
