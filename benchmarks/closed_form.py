@@ -17,10 +17,11 @@ Sections (times per pose; medians and 95th percentiles over the poses):
             Interleaved by blocks of 100 poses, so a slow phase of the machine hits every method alike.
             Verdict per arm: our median <= EAIK's; also the solutions per goal of each.
 ``batch``   ``pipeline.solvers.solve_batch('analytic', ...)`` on ``--batch`` poses of the UR5 and the
-            PUMA 560 (``traces=False``), after 3 warm-up calls of the same size, 5 calls on 2 threads, then
+            PUMA 560 (``traces=False``), after 5 warm-up calls of the same size, 5 calls on 2 threads, then
             5 on 1: poses per second of the whole batch call, the best call and the median one (the
             verdict, >= 1 M on 2 threads, is read on the median). The first calls in a process are
-            slower (fresh memory is faulted in while the allocator's arenas grow).
+            slower: while its memory grows, the kernel's system time per call is 80-240 ms (huge-page
+            compaction; 5-12 ms once grown) for the same page-fault count.
 ``search``  the offset-wrist arms (one-dimensional search): the method's own time per pose
             (``solve_time_s``, compiled) and the public call, over ``--poses`` goals.
 ``seven``   the 7R arms: our public call against TRAC-IK's (default 5 ms budget) on the same goals
@@ -126,7 +127,7 @@ def section_batch(n: int) -> dict:
         reps = max(1, n // 2000)
         T, q0 = np.tile(T1, (reps, 1, 1)), np.tile(q1, (reps, 1))
         st = make_settings("analytic", {})
-        for _ in range(3):  # warm-up: compiled code loaded, the allocator's arenas grown to this size
+        for _ in range(5):  # warm-up: compiled code loaded, the process's memory grown to this size
             solve_batch("analytic", model, T, q0, st, traces=False)
         took = {2: [], 1: []}
         for threads in took:
