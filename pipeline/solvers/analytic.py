@@ -122,7 +122,6 @@ def _step(acc, line, c, s_):
     """``acc`` (the rotation's 9 entries row by row, then the translation: 12 floats) times one POE
     factor: the rotation by θ (``c``, ``s_`` = cos θ, sin θ) about the joint line ``line`` = (x, y, z,
     px, py, pz), through (px, py, pz) along the unit (x, y, z)."""
-    a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz = acc
     x, y, z, px, py, pz = line
     C = 1.0 - c
     r00, r01, r02 = c + x * x * C, x * y * C - z * s_, x * z * C + y * s_
@@ -131,11 +130,7 @@ def _step(acc, line, c, s_):
     ux = px - (r00 * px + r01 * py + r02 * pz)
     uy = py - (r10 * px + r11 * py + r12 * pz)
     uz = pz - (r20 * px + r21 * py + r22 * pz)
-    return (a00 * r00 + a01 * r10 + a02 * r20, a00 * r01 + a01 * r11 + a02 * r21, a00 * r02 + a01 * r12 + a02 * r22,
-            a10 * r00 + a11 * r10 + a12 * r20, a10 * r01 + a11 * r11 + a12 * r21, a10 * r02 + a11 * r12 + a12 * r22,
-            a20 * r00 + a21 * r10 + a22 * r20, a20 * r01 + a21 * r11 + a22 * r21, a20 * r02 + a21 * r12 + a22 * r22,
-            a00 * ux + a01 * uy + a02 * uz + tx, a10 * ux + a11 * uy + a12 * uz + ty,
-            a20 * ux + a21 * uy + a22 * uz + tz)
+    return _times_home(acc, (r00, r01, r02, r10, r11, r12, r20, r21, r22, ux, uy, uz))  # acc · (R | u)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -161,7 +156,7 @@ def _twelve(R, p):
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _times_home(acc, m):
-    """The pose ``acc · M`` (12 floats each, as :func:`_step`; ``m`` the home pose M)."""
+    """The pose ``acc · m`` (12 floats each, as :func:`_step`; ``m`` the home pose M, or one POE factor)."""
     a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz = acc
     m00, m01, m02, m10, m11, m12, m20, m21, m22, q0, q1, q2 = m
     return (a00 * m00 + a01 * m10 + a02 * m20, a00 * m01 + a01 * m11 + a02 * m21, a00 * m02 + a01 * m12 + a02 * m22,
