@@ -1,6 +1,6 @@
-"""The compiled helpers under the closed form's per-pose path: the inline ``atan2`` (``angle_of``) and
-its vectorized pass (``angles_of``), the reference-count-free array views (``borrowed``), the 2-D views
-without numba's reshape (``grid``) and the check of all candidates at once (``check_rows``)."""
+"""The compiled helpers under the closed form's per-pose path: the inline ``atan2`` pass (``angles_of``),
+the reference-count-free array views (``borrowed``), the 2-D views without numba's reshape (``grid``)
+and the check of all candidates at once (``check_rows``)."""
 
 from __future__ import annotations
 
@@ -12,20 +12,21 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pipeline.solvers._kin import borrowed, grid
-from pipeline.solvers.subproblems import angle_of, angles_of
+from pipeline.solvers.subproblems import angles_of
 
 
 @numba.njit(cache=False)
 def _angles(Y, X, out):
+    """One pair at a time (a pass of length 1: the compiler's scalar code, never its vector loop)."""
     for i in range(Y.shape[0]):
-        out[i] = angle_of(Y[i], X[i])
+        angles_of(Y[i:i + 1], X[i:i + 1], out[i:i + 1], 1)
 
 
 def _ulps(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.abs(a - b) / np.spacing(np.maximum(np.abs(b), 1e-300))
 
 
-def test_angle_of_within_a_few_ulps_of_libm_on_the_unit_circle_and_beyond():
+def test_angles_of_within_a_few_ulps_of_libm_on_the_unit_circle_and_beyond():
     rng = np.random.default_rng(3)
     t = rng.uniform(-np.pi, np.pi, 200_000)
     r = 10.0 ** rng.uniform(-6, 6, t.size)
@@ -37,7 +38,7 @@ def test_angle_of_within_a_few_ulps_of_libm_on_the_unit_circle_and_beyond():
         assert np.array_equal(np.signbit(out), np.signbit(ref))
 
 
-def test_angle_of_edges_match_libm():
+def test_angles_of_edges_match_libm():
     """Zeros, infinities and NaN are libm's own answer; denormal and huge ratios within 4 ulps."""
     Y = np.array([0.0, -0.0, 0.0, -0.0, 1.0, -1.0, np.inf, -np.inf, np.nan, 1.0, 5e-324, -0.0, 1.0, 1.0])
     X = np.array([1.0, 1.0, -1.0, -1.0, 0.0, -0.0, 1.0, -np.inf, 1.0, np.nan, 1.0, -1.0, 1e300, -5e-324])
@@ -55,7 +56,7 @@ finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
 
 @settings(max_examples=400, deadline=None)
 @given(finite, finite)
-def test_angle_of_any_finite_pair(y, x):
+def test_angles_of_any_finite_pair(y, x):
     out = np.empty(1)
     _angles(np.array([y]), np.array([x]), out)
     ref = math.atan2(y, x)
@@ -84,9 +85,9 @@ def _angles_pass(Y, X, out, m):
     angles_of(Y, X, out, m)
 
 
-def test_angles_of_is_angle_of_bit_for_bit_edges_included():
-    """The vectorized pass gives angle_of's own values (every pair, its length not a multiple of the
-    vector width), the pairs it must hand to libm (zeros, infinities, NaN) among them."""
+def test_angles_of_vector_pass_is_the_scalar_one_bit_for_bit_edges_included():
+    """The vectorized pass gives the values of one pair at a time (every pair, its length not a
+    multiple of the vector width), the pairs it must hand to libm (zeros, infinities, NaN) among them."""
     rng = np.random.default_rng(5)
     t = rng.uniform(-np.pi, np.pi, 997)
     Y, X = 10.0 ** rng.uniform(-3, 3, t.size) * np.sin(t), np.cos(t)

@@ -82,6 +82,7 @@ def _data_ptr(typingctx, arr):
 
     return types.voidptr(arr), codegen
 
+
 @intrinsic
 def borrowed(typingctx, arr):
     """``arr`` as an array view that carries no reference count (its meminfo pointer null).
@@ -444,8 +445,6 @@ def position_distance(Ta, Tb):
     y = Ta[1, 3] - Tb[1, 3]
     z = Ta[2, 3] - Tb[2, 3]
     return np.sqrt(x * x + y * y + z * z)
-
-
 
 
 @numba.njit(cache=True)

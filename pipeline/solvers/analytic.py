@@ -476,25 +476,24 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True):
                 if rk == 0:
                     chosen = qrow[i]
                 m += 1
-        nc = 0
-    # 7R: nearest first, select, FK-check, keep, until max_solutions pass
-    for _ in range(nc):
-        if m >= max_sol:
-            break
-        best = -1
-        bd = math.inf
-        for r in range(nc):
-            if dist[r] < bd:
-                bd = dist[r]
-                best = r
-        if best < 0:
-            break
-        dist[best] = math.inf
-        fk_lines(H, P, RM, pM, Sc[best], R, p, cs, Zf)
-        if pose_within(R, p, Tg, tolp2, f_max):
-            for j in range(n):
-                S[m, j] = Sc[best, j]
-            m += 1
+    else:  # 7R: nearest first, select, FK-check, keep, until max_solutions pass
+        for _ in range(nc):
+            if m >= max_sol:
+                break
+            best = -1
+            bd = math.inf
+            for r in range(nc):
+                if dist[r] < bd:
+                    bd = dist[r]
+                    best = r
+            if best < 0:
+                break
+            dist[best] = math.inf
+            fk_lines(H, P, RM, pM, Sc[best], R, p, cs, Zf)
+            if pose_within(R, p, Tg, tolp2, f_max):
+                for j in range(n):
+                    S[m, j] = Sc[best, j]
+                m += 1
     for a_ in range(m, S.shape[0]):
         for j in range(n):
             S[a_, j] = math.nan
@@ -697,10 +696,9 @@ def _one_signature():
     other: the fused call hands it the caller's arrays without checking them in Python (about 0.2 µs
     a call), and any other array (another dtype or layout, read-only, a list) is a TypeError on
     which the call converts its inputs first."""
-    if not call_pose._can_compile:
-        return call_pose
-    call_pose.compile(_CALL_SIGNATURE)
-    call_pose.disable_compile()
+    if _CALL_SIGNATURE not in call_pose.overloads:
+        call_pose.compile(_CALL_SIGNATURE)
+        call_pose.disable_compile()
     return call_pose
 
 

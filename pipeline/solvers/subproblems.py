@@ -175,18 +175,11 @@ def _atan2_core(y, x):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def angle_of(y, x):
-    """atan2(y, x) [rad], compiled inline: within a few units in the last place of libm's
-    (:func:`_atan2_core`; zeros, infinities and NaN go to ``math.atan2``)."""
-    a, ok = _atan2_core(y, x)
-    return a if ok else math.atan2(y, x)
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
 def angles_of(Y, X, A, m):
-    """``A[i] = angle_of(Y[i], X[i])`` for i < m, the same values: one branch-free pass the compiler
-    vectorizes (a closed form turns up to 96 cosines and sines a pose into angles; about six times
-    faster than one :func:`angle_of` call each), then ``math.atan2`` for the pairs that are not ordinary."""
+    """``A[i] = atan2(Y[i], X[i])`` [rad] for i < m, within a few units in the last place of libm's:
+    one branch-free pass of :func:`_atan2_core` the compiler vectorizes (a closed form turns up to 96
+    cosines and sines a pose into angles; about six times faster than one scalar call each), then
+    ``math.atan2`` itself for the pairs that are not ordinary (zeros, infinities, NaN)."""
     special = 0
     for i in range(m):
         a, ok = _atan2_core(Y[i], X[i])
