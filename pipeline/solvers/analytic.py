@@ -532,16 +532,20 @@ def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, doc, nsol, tried, 
     chunk = 32
     keep = traces.shape[0] == N
     gb, sb, Sb, Qb, tb = borrowed(goals), borrowed(starts), borrowed(S), borrowed(Qo), borrowed(traces)
+    ib, Gb = borrowed(ints), borrowed(G)  # shared by the threads: no count updates on one cache line
     for c in numba.prange((N + chunk - 1) // chunk):
         Sc, W, Z, I = scratch(ints)
         own = np.empty((2, TRACE_COLS))
+        Scb, Wb, Zb, Ib, ob = borrowed(Sc), borrowed(W), borrowed(Z), borrowed(I), borrowed(own)
         for i in range(c * chunk, min(N, (c + 1) * chunk)):
-            tr = tb[i] if keep else own
-            m, t, dt = solve_pose(ints, G, gb[i], sb[i], Sc, W, Z, I, Sb[i], Qb[i], tr, keep)
+            tr = tb[i] if keep else ob
+            m, t, dt = solve_pose(ib, Gb, gb[i], sb[i], Scb, Wb, Zb, Ib, Sb[i], Qb[i], tr, keep)
             doc[i] = tr[1, 0]
             nsol[i] = m
             tried[i] = t
             ns[i] = dt
+        # the work item's scratch read after its last borrowed use (numba frees a local after its last use)
+        I[0] = Sc.shape[0] + W.shape[0] + Z.shape[0] + own.shape[0]
 
 
 @numba.njit(cache=True, error_model="numpy")
