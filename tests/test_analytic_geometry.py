@@ -542,9 +542,11 @@ def test_ur_solution_count_matches_eaik(name):
 
 # ---- refusals and the document solvers ----------------------------------------------------------------
 
-def _general_dh_6r(seed: int) -> RobotModel:
+def _parallel_base_6r(seed: int) -> RobotModel:
+    """A 6R arm whose only special feature is axes 1 and 2 parallel: no subproblem family fits, and the
+    general elimination degenerates (the products of joints 1 and 2 are not independent)."""
     rng = np.random.default_rng(seed)
-    return dh_model("standard", rng.uniform(0.1, 0.5, 6), rng.uniform(0.3, 1.2, 6), rng.uniform(0.1, 0.5, 6),
+    return dh_model("standard", rng.uniform(0.1, 0.5, 6), [0.0, 0.9, 0.5, 1.1, 0.7, 0.4], rng.uniform(0.1, 0.5, 6),
                     np.zeros(6))
 
 
@@ -557,8 +559,8 @@ def _refusal_cases():
         {"type": "revolute", "a": 0.0, "alpha": -np.pi / 2, "d": 0.0, "theta_offset": 0.0},
         {"type": "revolute", "a": 0.0, "alpha": np.pi / 2, "d": 0.0, "theta_offset": 0.0},
         {"type": "revolute", "a": 0.0, "alpha": 0.0, "d": 0.1, "theta_offset": 0.0}]})
-    return {"four_joints": four, "prismatic": pris, "general_6r": _general_dh_6r(0),
-            "general_6r_urdf": as_general(_general_dh_6r(1)), "stanford": robot("stanford"),
+    return {"four_joints": four, "prismatic": pris, "parallel_base_6r": _parallel_base_6r(0),
+            "parallel_base_6r_urdf": as_general(_parallel_base_6r(1)), "stanford": robot("stanford"),
             "mariano_4dof": robot("mariano_4dof")}
 
 
@@ -567,14 +569,18 @@ REFUSALS = _refusal_cases()
 
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), conv=st.sampled_from(["standard", "modified"]))
-def test_random_general_6r_fits_no_family(seed, conv):
+def test_random_general_6r_fits_no_family_and_is_solved_by_elimination(seed, conv):
+    """No subproblem family fits a random 6R arm; ``analytic`` solves it by the general elimination
+    (:mod:`pipeline.solvers.general6r`), and the configuration that made the goal is among the solutions."""
     rng = np.random.default_rng(seed)
     m = dh_model(conv, _lengths(rng, 6), _twists(rng, 6), _lengths(rng, 6), rng.uniform(-np.pi, np.pi, 6),
                  random_transform(rng, 0.5), random_transform(rng, 0.1))
     d = geometry.classify(m.chain)
     assert d.family is None and d.reason.startswith("no closed-form family fits: axes 4, 5 and 6")
-    with pytest.raises(NotApplicableError, match="axes"):
-        solve("analytic", m, fk_htm(m.chain, np.zeros(6)), np.zeros(6), {})
+    q = rng.uniform(-np.pi, np.pi, 6)
+    r = solve("analytic", m, fk_htm(m.chain, q), np.zeros(6), {})
+    assert r.success and r.info["family"] == "general 6R (algebraic elimination)"
+    assert np.abs(wrapped(r.solutions - q)).max(axis=1).min() < 1e-5
 
 
 @pytest.mark.parametrize("case", sorted(REFUSALS))

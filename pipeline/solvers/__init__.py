@@ -19,6 +19,8 @@ Layout
 ``optimizers`` J+ gradient descent, BFGS, L-BFGS-B, Nelder-Mead (004); ``analytic_ur`` UR closed form (004)
 ``zero_position``, ``newton_raphson``, ``geometric``, ``analytic_puma``   (001)
 ``analytic_4dof``  the closed form of the 4-DOF arm (003)
+``analytic``  closed forms by subproblem decomposition found from the joint axes; ``general_6r`` every
+              solution of any other 6R arm by algebraic elimination (Raghavan-Roth, Manocha-Canny)
 
 Importing this package registers every method (kernels compile lazily, on first use).
 """
@@ -42,6 +44,7 @@ from pipeline.solvers.registry import (Bound, Solver, bind, catalogue, get, make
 from pipeline.solvers import jacobian  # noqa: F401  (registers the four Jacobian methods)
 from pipeline.solvers import _methods  # noqa: F401  (registers the methods of the other studies)
 from pipeline.solvers import peers_geo  # noqa: F401  (registers the EAIK and IK-Geo peers)
+from pipeline.solvers import general6r  # noqa: F401  (registers general_6r)
 
 __all__ = ["STOP_REASONS", "BatchResult", "Bound", "IKResult", "NotApplicableError", "Prepared", "Raw", "Settings", "SettingsError",
            "Solver", "StopReason", "bind", "catalogue", "finish", "get", "make_settings", "names", "prepare", "register",

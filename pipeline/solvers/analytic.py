@@ -34,8 +34,8 @@ import numba
 import numpy as np
 
 from pipeline.kinematics import geometry
-from pipeline.solvers import subproblems as sp
-from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, grid, now_ns
+from pipeline.solvers import general6r, subproblems as sp
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, forward_pose, grid, now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, SettingsError, check_pack,
                                    finish_packed, fused_inputs, setting)
 from pipeline.solvers.timing import clock_ns
@@ -78,9 +78,51 @@ def decomposition(prep: Prepared, s: AnalyticSettings) -> geometry.Decomposition
 
 
 def applies_to(prep: Prepared) -> str | None:
-    """One-line reason why no closed form fits the arm's geometry (default settings), or None."""
+    """One-line reason why no closed form fits the arm's geometry (default settings), or None: a 6R arm
+    that fits no subproblem family is solved by the general elimination (:mod:`general6r`) where it
+    applies."""
     d = decomposition(prep, AnalyticSettings())
-    return None if d.family else d.reason
+    if d.family:
+        return None
+    if prep.n != 6 or prep.prismatic.any():
+        return d.reason
+    why = general6r.degenerate(prep)
+    return None if why is None else f"{d.reason}; {why}"
+
+
+def _general(prep: Prepared, s: AnalyticSettings) -> bool:
+    """The arm fits no subproblem family: the general 6R elimination solves it (:func:`applies_to`)."""
+    return decomposition(prep, s).family is None
+
+
+GENERAL = "general 6R (algebraic elimination)"
+
+
+def _bind_general(prep: Prepared, s: AnalyticSettings):
+    """``run1`` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.run` (every solution,
+    nearest to the start first), with this solver's trace (the document's error at the start and at
+    ``q``) and ``info``."""
+    from dataclasses import fields
+
+    names = {f.name for f in fields(general6r.General6RSettings)}
+    gs = general6r.General6RSettings(**{f.name: getattr(s, f.name) for f in fields(s) if f.name in names
+                                        and f.name != "max_solutions"},
+                                     max_solutions=min(s.max_solutions, sp.MAX_SOL))
+    args = prep.args
+
+    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        raw = general6r.run(prep, T_goal, q_start, gs, seed)
+        trace = np.empty((2, TRACE_COLS))
+        T = np.empty((4, 4))
+        Tg = np.ascontiguousarray(T_goal, dtype=float)
+        for k, qq in enumerate((np.ascontiguousarray(q_start, dtype=float), raw.q)):
+            forward_pose(*args, qq, T)
+            _doc_row(Tg, T[:3, :3], T[:3, 3], trace[k])
+        m = 0 if raw.solutions is None else len(raw.solutions)
+        return Raw(q=raw.q, code=raw.code, iterations=1, solve_ns=raw.solve_ns, trace=trace,
+                   solutions=raw.solutions, info=_info(m, raw.info["roots"], float(trace[1, 0]), GENERAL))
+
+    return run1
 
 
 FAMILY_CODE = {"spherical_wrist": sp.FAM_SPH, "three_parallel": sp.FAM_3P, "two_intersecting_search": sp.FAM_SEARCH}
@@ -622,6 +664,8 @@ def _family(prep: Prepared, s: AnalyticSettings) -> str:
 
 def bind(prep: Prepared, s: AnalyticSettings):
     """``run1(T_goal, q_start, seed) -> Raw`` with the geometry packed once."""
+    if _general(prep, s):
+        return _bind_general(prep, s)
     k = packed(prep, s)
     n, fam = int(k.ints[0]), _family(prep, s)
     args = (k.ints, k.G)
@@ -639,7 +683,10 @@ def bind(prep: Prepared, s: AnalyticSettings):
 
 
 def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
-    """N poses in one compiled call on every core (each pose writes only its own rows)."""
+    """N poses in one compiled call on every core (each pose writes only its own rows); an arm that fits
+    no family: the general elimination pose by pose."""
+    if _general(prep, s):
+        return _batch_general(prep, s, goals, starts, seeds, keep_traces)
     k = packed(prep, s)
     n, fam = int(k.ints[0]), _family(prep, s)
     goals = np.ascontiguousarray(goals, dtype=float)
@@ -659,6 +706,23 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     code = np.where(nsol > 0, SUCCESS, NO_SOLUTION).astype(np.int64)
     return BatchRaw(q=Q, code=code, iterations=np.ones(N, np.int64), solve_ns=ns, ik_ns=np.zeros(N, np.int64),
                     trace_rows=rows, trace_offsets=offsets, solutions=S, n_solutions=nsol, info=info)
+
+
+def _batch_general(prep: Prepared, s: AnalyticSettings, goals, starts, seeds, keep_traces: bool) -> BatchRaw:
+    run1, N, n = _bind_general(prep, s), goals.shape[0], prep.n
+    raws = [run1(goals[i], starts[i], int(seeds[i])) for i in range(N)]
+    S = np.full((N, min(s.max_solutions, sp.MAX_SOL), n), np.nan)
+    nsol = np.zeros(N, np.int64)
+    for i, r in enumerate(raws):
+        nsol[i] = len(r.solutions)
+        S[i, :nsol[i]] = r.solutions
+    rows = np.concatenate([r.trace for r in raws]) if keep_traces and N else None
+    offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces and N else None
+    return BatchRaw(q=np.array([r.q for r in raws], dtype=float).reshape(N, n),
+                    code=np.array([r.code for r in raws], np.int64), iterations=np.ones(N, np.int64),
+                    solve_ns=np.array([r.solve_ns for r in raws], np.int64), ik_ns=np.zeros(N, np.int64),
+                    trace_rows=rows, trace_offsets=offsets, solutions=S, n_solutions=nsol,
+                    info=[r.info for r in raws])
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -711,7 +775,7 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
     record in one compiled call, the result built positionally; None under ``require_limits`` (the
     generic path then chooses among the solutions within the limits). Same values as ``bind`` +
     :func:`~pipeline.solvers.base.finish`, timings aside."""
-    if s.require_limits:
+    if s.require_limits or _general(prep, s):
         return None
     k = packed(prep, s)
     ints, GC = k.ints, np.concatenate([k.G, check_pack(prep, s), [prep.goal_scale]])

@@ -1,0 +1,498 @@
+"""``general_6r``: every real solution of a 6R arm by algebraic elimination, whatever its geometry.
+
+The subproblem closed forms (:mod:`pipeline.solvers.analytic`) need intersecting or parallel axes.
+An arm with neither is the general 6R problem, which has at most 16 solutions (Lee & Liang 1988;
+Raghavan & Roth 1993). This solver follows the elimination of Raghavan and Roth in the matrix form
+of Manocha and Canny (1994, "Efficient inverse kinematics for general 6R manipulators", IEEE Trans.
+Robotics and Automation 10(5)), written here on the joint lines of the arm (product of
+exponentials: ``E_i(θ)`` the rotation by θ about joint line i, ``T = E_1 ⋯ E_6 M``), so any robot
+file form works:
+
+1. With ``c`` a point on axis 6 and ``h_6`` its direction, ``E_6`` leaves both alone, so
+   ``E_3 E_4 E_5 (c, h_6) = E_2⁻¹ E_1⁻¹ (w, g)`` with ``w = T M⁻¹ c`` and ``g = R_T R_Mᵀ h_6``.
+   Measured from a point on axis 3, the point ``p`` and direction ``l`` of each side give the 14
+   quantities of Raghavan and Roth: ``l``, ``p``, ``p·p``, ``l·p``, ``l × p`` and
+   ``(p·p) l − 2 (l·p) p``. On the left they are linear in the nine products
+   ``(s4, c4, 1) ⊗ (s5, c5, 1)`` with coefficients linear in ``(s3, c3, 1)``; on the right linear in
+   ``(s1, c1, 1) ⊗ (s2, c2, 1)``. Both coefficient sets are found exactly by evaluating the
+   quantities on a 3 × 3 (× 3) grid of angles and solving the (Kronecker) system: no symbolic
+   expansion. The left set depends on the arm only (once per robot), the right one on the goal.
+2. The 8 products of joints 1-2 are eliminated: the 6 rows of the left null space of their 14 × 8
+   coefficient matrix give 6 equations in joints 3-5 only.
+3. Half-angle tangents ``x_i = tan(θ_i / 2)`` (each joint shifted by a fixed offset first, so that
+   no solution sits at θ = π where ``x`` is infinite) turn them into 6 equations in the 9 monomials
+   ``x4^i x5^j`` (i, j ≤ 2), quadratic in ``x3``; with the same equations times ``x4`` they are 12 in
+   12 monomials, ``(M2 x3² + M1 x3 + M0) m = 0``. Its real eigenvalues ``x3`` (a 24 × 24 generalized
+   eigenproblem) give joint 3, the null vector ``m`` joints 4 and 5, the 14 equations joints 1 and 2
+   (least squares on the eliminated products) and the pose joint 6.
+4. Each root is polished by ``polish_steps`` Newton steps on the full pose and kept when the FK check
+   (the compiled dual-quaternion check every result gets, with the settings' tolerances) passes;
+   duplicates (a double root) are merged. ``q`` is the kept solution nearest ``q_start``, as for
+   the other all-solution methods (:func:`pipeline.solvers.peers_geo._result`).
+
+Near a singular configuration two roots merge: the eigenvalue turns slightly complex or the null
+space of ``M(x3)`` two-dimensional, the root is then inaccurate or missed, and the Newton polish and
+the FK check decide; a goal on the boundary of the workspace may lose its double root. Arms with
+special geometry (a spherical wrist, parallel axes) make the 12 × 12 pencil singular for every
+``x3`` (their solutions are not isolated in this formulation): :func:`applies_to` solves three goals
+of the arm's own configurations once per robot and refuses the arm, naming why, when any generating
+configuration is not found. The subproblem solver ``analytic`` takes those arms.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from scipy.linalg.lapack import dgeev as _dgeev
+
+from pipeline.solvers.base import Prepared, Raw, Settings, setting
+from pipeline.solvers.peers import _metric
+from pipeline.solvers.peers_geo import _poe, _result, _revolute_only
+from pipeline.solvers.registry import Solver, register
+from pipeline.solvers.timing import clock_ns
+
+SOURCE = ("Raghavan & Roth (1993), Inverse kinematics of the general 6R manipulator and related linkages, ASME J. "
+          "Mech. Des. 115; Manocha & Canny (1994), Efficient inverse kinematics for general 6R manipulators, IEEE "
+          "Trans. Robot. Autom. 10(5) (their matrix formulation, written on the joint lines)")
+SHIFT = (0.5 * math.sqrt(2.0), -0.5 * math.sqrt(3.0), 0.25 * math.sqrt(5.0))  # [rad] fixed offsets of joints 3-5
+_GRID = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)  # [rad] where the coefficient sets are evaluated
+_CHECK_Q = np.random.default_rng(606).uniform(-math.pi, math.pi, (3, 6))  # the arm's own test configurations
+
+
+@dataclass(frozen=True)
+class General6RSettings(Settings):
+    max_solutions: int = setting(16, "solutions returned per goal at most, the nearest to the start", minimum=1,
+                                 maximum=16)
+    polish_steps: int = setting(4, "Newton steps on the full pose for each root of the eigenproblem", minimum=0,
+                                maximum=50)
+    real_tol: float = setting(1e-6, "an eigenvalue x3 counts as real when |Im x3| <= this times (1 + |x3|)",
+                              above=0.0, maximum=1e-1)
+
+
+# ---- pure kinematics on joint lines (metres) ---------------------------------------------------------
+def _rot(h: np.ndarray, t: float) -> np.ndarray:
+    K = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
+    return np.eye(3) + math.sin(t) * K + (1.0 - math.cos(t)) * (K @ K)
+
+
+def _motion(h: np.ndarray, p: np.ndarray, t: float) -> np.ndarray:
+    """(4, 4) rotation by ``t`` [rad] about the line through ``p`` along the unit ``h``."""
+    T = np.eye(4)
+    R = _rot(h, t)
+    T[:3, :3], T[:3, 3] = R, p - R @ p
+    return T
+
+
+def _fourteen(p: np.ndarray, l: np.ndarray) -> np.ndarray:
+    """The 14 quantities of Raghavan and Roth of points ``p`` (k, 3) and directions ``l`` (k, 3): (k, 14)."""
+    pp = np.einsum("ij,ij->i", p, p)[:, None]
+    lp = np.einsum("ij,ij->i", l, p)[:, None]
+    return np.hstack([l, p, pp, lp, np.cross(l, p), pp * l - 2.0 * lp * p])
+
+
+def _nine(a: float, b: float) -> np.ndarray:
+    """(sa sb, sa cb, ca sb, ca cb, sa, ca, sb, cb, 1): the products of two joints' (sin, cos, 1)."""
+    sa, ca, sb, cb = math.sin(a), math.cos(a), math.sin(b), math.cos(b)
+    return np.array([sa * sb, sa * cb, ca * sb, ca * cb, sa, ca, sb, cb, 1.0])
+
+
+_ORDER = [(0, 0), (0, 1), (1, 0), (1, 1), (0, 2), (1, 2), (2, 0), (2, 1), (2, 2)]  # _nine's terms in (sin, cos, 1)
+
+
+def _grid_nine(a: float, b: float) -> np.ndarray:
+    """:func:`_nine` in the Kronecker order of ``(s, c, 1)_a ⊗ (s, c, 1)_b``."""
+    u, v = (math.sin(a), math.cos(a), 1.0), (math.sin(b), math.cos(b), 1.0)
+    return np.array([u[i] * v[j] for i in range(3) for j in range(3)])
+
+
+_TO_NINE = np.array([[1.0 if _ORDER[t] == (i, j) else 0.0 for i in range(3) for j in range(3)] for t in range(9)])
+
+
+@dataclass(frozen=True)
+class _Model:
+    H: np.ndarray        # (6, 3) unit axes
+    P: np.ndarray        # (6, 3) a point on each
+    T0: np.ndarray       # (4, 4) the tool at q = 0
+    left: tuple          # (Ps, Pc, P1), each (14, 9): coefficients of (s3, c3, 1), columns in _nine's order
+    right_inv: np.ndarray  # (9, 9) inverse of the right side's design on the grid
+    right_T: np.ndarray  # (9, 4, 4) (E_1 E_2)⁻¹ on the grid
+    C: np.ndarray        # (9, 9) _nine's terms times (1 + x4²)(1 + x5²) as monomials x4^i x5^j (index 3i + j)
+
+
+def _model(prep: Prepared) -> _Model:
+    g = _poe(prep)
+    H, P, T0 = g.H, g.pts, g.T0
+    o3, c, h6 = P[2], P[5], H[5]
+    rows, vals = [], []
+    for f3 in _GRID:
+        for f4 in _GRID:
+            for f5 in _GRID:
+                T = (_motion(H[2], P[2], f3 + SHIFT[0]) @ _motion(H[3], P[3], f4 + SHIFT[1])
+                     @ _motion(H[4], P[4], f5 + SHIFT[2]))
+                rows.append(np.kron((math.sin(f3), math.cos(f3), 1.0), _grid_nine(f4, f5)))
+                vals.append(_fourteen((T[:3, :3] @ c + T[:3, 3] - o3)[None], (T[:3, :3] @ h6)[None])[0])
+    coef = np.linalg.solve(np.array(rows), np.array(vals))  # (27, 14), exact: a Kronecker product of 3 × 3 grids
+    left = tuple(np.ascontiguousarray((coef[9 * k:9 * k + 9].T) @ _TO_NINE.T) for k in range(3))
+    design, Ts = [], []
+    for f1 in _GRID:
+        for f2 in _GRID:
+            design.append(_grid_nine(f1, f2))
+            Ts.append(np.linalg.inv(_motion(H[0], P[0], f1) @ _motion(H[1], P[1], f2)))
+    s_, c_, o_ = np.array([0.0, 2.0, 0.0]), np.array([1.0, 0.0, -1.0]), np.array([1.0, 0.0, 1.0])
+    half = {0: s_, 1: c_, 2: o_}
+    C = np.array([np.outer(half[a], half[b]).ravel() for a, b in _ORDER])
+    c = np.ascontiguousarray
+    return _Model(c(H, dtype=float), c(P, dtype=float), c(T0, dtype=float), left, c(np.linalg.inv(np.array(design))),
+                  c(np.array(Ts)), c(C))
+
+
+def _fk(m: _Model, q: np.ndarray) -> np.ndarray:
+    T = np.eye(4)
+    for i in range(6):
+        T = T @ _motion(m.H[i], m.P[i], q[i])
+    return T @ m.T0
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _motion_into(h, p, t, R, u):
+    """Rotation ``R`` (3, 3) and translation ``u`` (3,) of the motion by ``t`` [rad] about the line
+    through ``p`` along the unit ``h`` (Rodrigues), written into R and u."""
+    c, s_ = math.cos(t), math.sin(t)
+    C = 1.0 - c
+    x, y, z = h[0], h[1], h[2]
+    R[0, 0], R[0, 1], R[0, 2] = c + x * x * C, x * y * C - z * s_, x * z * C + y * s_
+    R[1, 0], R[1, 1], R[1, 2] = y * x * C + z * s_, c + y * y * C, y * z * C - x * s_
+    R[2, 0], R[2, 1], R[2, 2] = z * x * C - y * s_, z * y * C + x * s_, c + z * z * C
+    for r in range(3):
+        u[r] = p[r] - (R[r, 0] * p[0] + R[r, 1] * p[1] + R[r, 2] * p[2])
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _times_motion(A, h, p, t, R, u, B):
+    """``A`` (4, 4) times the motion E(t) about the line (h, p), in place (R, u, B scratch)."""
+    _motion_into(h, p, t, R, u)
+    for r in range(3):
+        for c in range(3):
+            B[r, c] = A[r, 0] * R[0, c] + A[r, 1] * R[1, c] + A[r, 2] * R[2, c]
+        B[r, 3] = A[r, 0] * u[0] + A[r, 1] * u[1] + A[r, 2] * u[2] + A[r, 3]
+    for r in range(3):
+        for c in range(4):
+            A[r, c] = B[r, c]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _chain(H, P, q, k, A):
+    """``A`` (4, 4) = E_1(q_1) ⋯ E_k(q_k)."""
+    R, u, B = np.empty((3, 3)), np.empty(3), np.empty((4, 4))
+    for r in range(4):
+        for c in range(4):
+            A[r, c] = 1.0 if r == c else 0.0
+    for i in range(k):
+        _times_motion(A, H[i], P[i], q[i], R, u, B)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _newton(H, P, T0, Tg, q, steps):
+    """``steps`` Newton steps of the joint values ``q`` (6,) towards the goal ``Tg`` (4, 4) (spatial
+    twist error, geometric Jacobian, least squares); returns the polished ``q``."""
+    q = q.copy()
+    J, e = np.empty((6, 6)), np.empty(6)
+    A, T = np.empty((4, 4)), np.empty((4, 4))
+    R, u, B, h, pt = np.empty((3, 3)), np.empty(3), np.empty((4, 4)), np.empty(3), np.empty(3)
+    for _ in range(steps):
+        for r in range(4):
+            for c in range(4):
+                A[r, c] = 1.0 if r == c else 0.0
+        for i in range(6):  # joint i's line moved by E_1 ⋯ E_i-1: (h, -h × p) of the spatial Jacobian
+            for r in range(3):
+                h[r] = A[r, 0] * H[i, 0] + A[r, 1] * H[i, 1] + A[r, 2] * H[i, 2]
+                pt[r] = A[r, 0] * P[i, 0] + A[r, 1] * P[i, 1] + A[r, 2] * P[i, 2] + A[r, 3]
+            J[0, i], J[1, i], J[2, i] = h[0], h[1], h[2]
+            J[3, i] = -(h[1] * pt[2] - h[2] * pt[1])
+            J[4, i] = -(h[2] * pt[0] - h[0] * pt[2])
+            J[5, i] = -(h[0] * pt[1] - h[1] * pt[0])
+            _times_motion(A, H[i], P[i], q[i], R, u, B)
+        for r in range(3):
+            for c in range(4):
+                T[r, c] = A[r, 0] * T0[0, c] + A[r, 1] * T0[1, c] + A[r, 2] * T0[2, c] + (A[r, 3] if c == 3 else 0.0)
+        d = np.empty((3, 3))  # Rg Rᵀ
+        for r in range(3):
+            for c in range(3):
+                d[r, c] = Tg[r, 0] * T[c, 0] + Tg[r, 1] * T[c, 1] + Tg[r, 2] * T[c, 2]
+        w0, w1, w2 = 0.5 * (d[2, 1] - d[1, 2]), 0.5 * (d[0, 2] - d[2, 0]), 0.5 * (d[1, 0] - d[0, 1])
+        e[0], e[1], e[2] = w0, w1, w2
+        # spatial linear error: goal position minus reached, less ω × reached position
+        e[3] = Tg[0, 3] - T[0, 3] - (w1 * T[2, 3] - w2 * T[1, 3])
+        e[4] = Tg[1, 3] - T[1, 3] - (w2 * T[0, 3] - w0 * T[2, 3])
+        e[5] = Tg[2, 3] - T[2, 3] - (w0 * T[1, 3] - w1 * T[0, 3])
+        if max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5])) < 1e-15:
+            break
+        dq = np.linalg.lstsq(J, e)[0]
+        step = 0.0
+        for i in range(6):
+            q[i] += dq[i]
+            step = max(step, abs(dq[i]))
+        if step <= 1e-12:  # converged (quadratically): a further step would move q by rounding only
+            break
+    return q
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _mm(A, B):
+    """A @ B by loops (small matrices; no BLAS)."""
+    out = np.zeros((A.shape[0], B.shape[1]))
+    for r in range(A.shape[0]):
+        for k in range(A.shape[1]):
+            a = A[r, k]
+            for c in range(B.shape[1]):
+                out[r, c] += a * B[k, c]
+    return out
+
+
+_KRON_OF = np.array([3 * i + j for i, j in _ORDER], np.int64)  # _nine's term t sits at Kronecker index _KRON_OF[t]
+_MOBIUS = (0.0, 0.25 * math.pi, 0.5 * math.pi, 0.75 * math.pi)  # x3 = tan(atan(y) + φ), tried in this order
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _pencil(H, P, T0, Ps, Pc, P1, Rinv, RT, C, kron_of, T, mobius):
+    """The goal's eliminated system: (ok, companion (24, 24), (a, b, c, d) of the change of variable
+    ``x3 = (a y + b) / (c y + d)``, N (3, 12, 12) the pencil in ``y`` (N0, N1, N2), Qp (8, 14) the
+    pseudo-inverse of the products of joints 1-2, P1 (14, 9) with the goal's constant folded in)."""
+    # E_1 ⋯ E_6 = T M⁻¹: the point c on axis 6 and its direction h6 carried by it
+    R0, p0 = T0[:3, :3], T0[:3, 3]
+    TM = np.empty((3, 4))
+    for r in range(3):
+        for c_ in range(3):
+            TM[r, c_] = T[r, 0] * R0[c_, 0] + T[r, 1] * R0[c_, 1] + T[r, 2] * R0[c_, 2]
+        TM[r, 3] = T[r, 3] - (TM[r, 0] * p0[0] + TM[r, 1] * p0[1] + TM[r, 2] * p0[2])
+    w, g = np.empty(3), np.empty(3)
+    for r in range(3):
+        w[r] = TM[r, 0] * P[5, 0] + TM[r, 1] * P[5, 1] + TM[r, 2] * P[5, 2] + TM[r, 3]
+        g[r] = TM[r, 0] * H[5, 0] + TM[r, 1] * H[5, 1] + TM[r, 2] * H[5, 2]
+    Y = np.empty((9, 14))
+    for k in range(9):
+        pr, lr = np.empty(3), np.empty(3)
+        for r in range(3):
+            pr[r] = RT[k, r, 0] * w[0] + RT[k, r, 1] * w[1] + RT[k, r, 2] * w[2] + RT[k, r, 3] - P[2, r]
+            lr[r] = RT[k, r, 0] * g[0] + RT[k, r, 1] * g[1] + RT[k, r, 2] * g[2]
+        _fourteen_into(pr, lr, Y[k])
+    coef = _mm(Rinv, Y)  # (9, 14), Kronecker order of (s1, c1, 1) ⊗ (s2, c2, 1)
+    Q = np.empty((14, 8))
+    P1m = P1.copy()
+    for t in range(9):
+        for r in range(14):
+            if t < 8:
+                Q[r, t] = coef[kron_of[t], r]
+            else:
+                P1m[r, 8] -= coef[kron_of[t], r]
+    U, sv, Vt = np.linalg.svd(Q)
+    N2 = np.zeros((12, 12))
+    pen = np.zeros((3, 12, 12))
+    comp = np.zeros((24, 24))
+    Qp = np.zeros((8, 14))
+    if not sv[7] > 1e-12 * sv[0]:
+        return False, comp, (1.0, 0.0, 0.0, 1.0), pen, Qp, P1m
+    for r in range(8):
+        for c_ in range(14):
+            acc = 0.0
+            for k in range(8):
+                acc += Vt[k, r] / sv[k] * U[c_, k]
+            Qp[r, c_] = acc
+    Nl = np.ascontiguousarray(U[:, 8:14].T)  # (6, 14): the left null space of Q
+    Ss, Sc, S1 = _mm(Nl, Ps), _mm(Nl, Pc), _mm(Nl, P1m)
+    A0, A1, A2 = _mm(S1 + Sc, C), _mm(2.0 * Ss, C), _mm(S1 - Sc, C)  # x3^0, x3^1, x3^2: (6, 9) each
+    M = np.zeros((3, 12, 12))
+    for k, Ak in enumerate((A0, A1, A2)):
+        for i in range(3):
+            for j in range(3):
+                for r in range(6):
+                    M[k, r, 3 * i + j] = Ak[r, 3 * i + j]
+                    M[k, 6 + r, 3 * (i + 1) + j] = Ak[r, 3 * i + j]
+    # x3 = (a y + b) / (c y + d): (c y + d)² M(x3) = N2 y² + N1 y + N0, N2 = c² M(a / c) well conditioned
+    for phi in mobius:
+        a, b, c_, d = math.cos(phi), math.sin(phi), -math.sin(phi), math.cos(phi)
+        pen[2] = a * a * M[2] + a * c_ * M[1] + c_ * c_ * M[0]
+        pen[1] = 2.0 * a * b * M[2] + (a * d + b * c_) * M[1] + 2.0 * c_ * d * M[0]
+        pen[0] = b * b * M[2] + b * d * M[1] + d * d * M[0]
+        X = np.linalg.solve(pen[2] + 0.0, np.hstack((pen[0], pen[1])))  # (12, 24)
+        big = 0.0
+        for r in range(12):
+            for c2 in range(24):
+                big = max(big, abs(X[r, c2]))
+        if big <= 1e10:  # N2 well conditioned enough: the companion's entries stay moderate (NaN fails too)
+            for r in range(12):
+                comp[r, 12 + r] = 1.0
+                for c2 in range(24):
+                    comp[12 + r, c2] = -X[r, c2]
+            return True, comp, (a, b, c_, d), pen, Qp, P1m
+    return False, comp, (1.0, 0.0, 0.0, 1.0), pen, Qp, P1m
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _fourteen_into(p, l, out):
+    pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
+    lp = l[0] * p[0] + l[1] * p[1] + l[2] * p[2]
+    cx, cy, cz = l[1] * p[2] - l[2] * p[1], l[2] * p[0] - l[0] * p[2], l[0] * p[1] - l[1] * p[0]
+    for r in range(3):
+        out[r] = l[r]
+        out[3 + r] = p[r]
+        out[11 + r] = pp * l[r] - 2.0 * lp * p[r]
+    out[6], out[7], out[8], out[9], out[10] = pp, lp, cx, cy, cz
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps):
+    """Joint values of each real eigenvalue ``y`` of the pencil, polished by ``steps`` Newton steps and
+    wrapped to (−π, π], duplicates merged: (k, 6) [rad]."""
+    a, b, c_, d = abcd
+    out = np.empty((ys.shape[0], 6))
+    k = 0
+    R5, R6 = np.empty((4, 4)), np.empty((3, 3))
+    q = np.empty(6)
+    v9 = np.empty(9)
+    rhs12 = np.empty(12)
+    for r in range(12):  # a fixed start vector with no special structure
+        rhs12[r] = 1.0 + 0.1 * r * (-1.0) ** r
+    h6 = H[5]
+    ux, uy, uz = (1.0, 0.0, 0.0) if abs(h6[0]) < 0.9 else (0.0, 1.0, 0.0)
+    u = np.array([h6[1] * uz - h6[2] * uy, h6[2] * ux - h6[0] * uz, h6[0] * uy - h6[1] * ux])
+    u /= math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    for y in ys:
+        Ny = pen[2] * (y * y) + pen[1] * y + pen[0]
+        # the null vector (x4^i x5^j, i <= 3, j <= 2) by one step of inverse iteration, the matrix nudged
+        # off exact singularity by a relative 1e-13 on its diagonal
+        big = 0.0
+        for r in range(12):
+            for c2 in range(12):
+                big = max(big, abs(Ny[r, c2]))
+        for r in range(12):
+            Ny[r, r] += 1e-13 * big
+        z = np.linalg.solve(Ny, rhs12)
+        mono = np.empty((4, 3))
+        for r in range(12):
+            mono[r // 3, r % 3] = z[r]
+        j, i = 0, 0
+        for r in range(3):
+            if abs(mono[0, r]) > abs(mono[0, j]):
+                j = r
+        for r in range(4):
+            if abs(mono[r, 0]) > abs(mono[i, 0]):
+                i = r
+        if mono[0, j] == 0.0 or mono[i, 0] == 0.0:
+            continue
+        den = c_ * y + d
+        f3 = 2.0 * math.atan2(a * y + b, den)  # 2 atan(x3), up to a whole turn
+        f4, f5 = 2.0 * math.atan(mono[1, j] / mono[0, j]), 2.0 * math.atan(mono[i, 1] / mono[i, 0])
+        s4, c4, s5, c5 = math.sin(f4), math.cos(f4), math.sin(f5), math.cos(f5)
+        v9[0], v9[1], v9[2], v9[3], v9[4], v9[5], v9[6], v9[7], v9[8] = (s4 * s5, s4 * c5, c4 * s5, c4 * c5, s4, c4,
+                                                                           s5, c5, 1.0)
+        s3, c3 = math.sin(f3), math.cos(f3)
+        v = np.zeros(8)
+        for r in range(14):
+            rhs = 0.0
+            for t in range(9):
+                rhs += (Ps[r, t] * s3 + Pc[r, t] * c3 + P1m[r, t]) * v9[t]
+            for t in range(8):
+                v[t] += Qp[t, r] * rhs
+        q[0], q[1] = math.atan2(v[4], v[5]), math.atan2(v[6], v[7])
+        q[2], q[3], q[4] = f3 + shift[0], f4 + shift[1], f5 + shift[2]
+        _chain(H, P, q, 5, R5)
+        for r in range(3):  # R6 = R5ᵀ R(T M⁻¹)
+            for cc in range(3):
+                acc = 0.0
+                for k2 in range(3):
+                    g = T[k2, 0] * T0[cc, 0] + T[k2, 1] * T0[cc, 1] + T[k2, 2] * T0[cc, 2]
+                    acc += R5[k2, r] * g
+                R6[r, cc] = acc
+        Ru = (R6[0, 0] * u[0] + R6[0, 1] * u[1] + R6[0, 2] * u[2], R6[1, 0] * u[0] + R6[1, 1] * u[1] + R6[1, 2] * u[2],
+              R6[2, 0] * u[0] + R6[2, 1] * u[1] + R6[2, 2] * u[2])
+        cr = (u[1] * Ru[2] - u[2] * Ru[1], u[2] * Ru[0] - u[0] * Ru[2], u[0] * Ru[1] - u[1] * Ru[0])
+        q[5] = math.atan2(h6[0] * cr[0] + h6[1] * cr[1] + h6[2] * cr[2], u[0] * Ru[0] + u[1] * Ru[1] + u[2] * Ru[2])
+        qp = _newton(H, P, T0, T, q, steps)
+        new = True
+        for r in range(6):
+            x = qp[r]
+            if not math.isfinite(x):
+                new = False
+            qp[r] = x - 2.0 * math.pi * math.floor((x + math.pi) / (2.0 * math.pi))
+        for r in range(k):
+            far = 0.0
+            for t in range(6):
+                e = qp[t] - out[r, t]
+                e = abs(e - 2.0 * math.pi * math.floor((e + math.pi) / (2.0 * math.pi)))
+                far = max(far, e)
+            if far <= 1e-7:
+                new = False
+        if new:
+            out[k] = qp
+            k += 1
+    return out[:k].copy()
+
+
+def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
+    """Every root of the elimination for the goal ``T`` (4, 4) [m], polished: (k, 6) [rad], k <= 24
+    (not yet FK-checked; duplicates merged)."""
+    T = np.ascontiguousarray(T, dtype=float)
+    ok, comp, abcd, pen, Qp, P1m = _pencil(m.H, m.P, m.T0, *m.left, m.right_inv, m.right_T, m.C, _KRON_OF, T,
+                                           _MOBIUS)
+    if not ok:
+        return np.empty((0, 6))
+    wr, wi, _, _, info = _dgeev(comp, compute_vl=0, compute_vr=0, overwrite_a=1)  # LAPACK: eigenvalues only
+    if info != 0:
+        return np.empty((0, 6))
+    ys = wr[np.abs(wi) <= s.real_tol * (1.0 + np.hypot(wr, wi))]
+    return _roots(m.H, m.P, m.T0, T, *m.left[:2], P1m, Qp, abcd, pen, np.ascontiguousarray(ys), SHIFT,
+                  s.polish_steps)
+
+
+def model(prep: Prepared) -> _Model:
+    return prep.memo(("general_6r", "model"), lambda: _model(prep))
+
+
+def degenerate(prep: Prepared) -> str | None:
+    """Why the elimination does not solve this 6R revolute arm (one line), or None: once per robot, the
+    goals of three configurations of the arm are solved and each configuration must be among the
+    roots. Arms with intersecting or parallel axes make the pencil singular for every ``x3``."""
+
+    def test() -> str | None:
+        m, s = model(prep), General6RSettings()
+        for q in _CHECK_Q:
+            roots = candidates(m, _fk(m, q), s)
+            if not any(np.abs((q - r + math.pi) % (2.0 * math.pi) - math.pi).max() < 1e-6 for r in roots):
+                return ("the general 6R elimination degenerates for this geometry (a configuration of the arm is "
+                        "not among the roots of its own pose, as with intersecting or parallel axes)")
+        return None
+
+    return prep.memo(("general_6r", "degenerate"), test)
+
+
+def applies_to(prep: Prepared) -> str | None:
+    why = _revolute_only(prep, "general_6r")
+    if why:
+        return why
+    if prep.n != 6:
+        return f"general_6r solves 6R arms, the robot has {prep.n} joints"
+    why = degenerate(prep)
+    return None if why is None else f"{why}; `analytic` solves such arms by subproblems where a family fits"
+
+
+def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: General6RSettings, seed: int) -> Raw:
+    m = model(prep)
+    Tm = _metric(prep).goal(T_goal)
+    t0 = clock_ns()
+    S = candidates(m, Tm, s)
+    ns = clock_ns() - t0
+    d = (S - np.asarray(q_start, dtype=float) + math.pi) % (2.0 * math.pi) - math.pi
+    S = S[np.argsort((d * d).sum(axis=1), kind="stable")]  # nearest to the start first
+    raw = _result(prep, T_goal, q_start, s, S, np.zeros(len(S), bool), ns, {"roots": int(len(S))})
+    if raw.solutions is not None and len(raw.solutions) > s.max_solutions:
+        raw.solutions = raw.solutions[:s.max_solutions]
+    return raw
+
+
+register(Solver("general_6r", "every real solution of any 6R arm by algebraic elimination (Raghavan-Roth, "
+                "Manocha-Canny: a 24 x 24 eigenproblem, roots polished by Newton and FK-checked), nearest to the "
+                "start", "analytic", General6RSettings, run, applies_to=applies_to, source=SOURCE))

@@ -1,0 +1,156 @@
+"""The general 6R elimination (``general_6r``, and ``analytic`` on arms no subproblem family fits).
+
+Random 6R arms (random DH lengths and twists: no intersecting or parallel axes) in every file form
+and unit: the configuration that made a goal is among the solutions, every solution reaches the goal
+by the numpy forward kinematics, and on fixed arms the solution set equals that of a dense Newton
+search from many starts. Refusals name the geometry in one line.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pipeline.kinematics import fk_htm
+from pipeline.solvers import NotApplicableError, SettingsError, StopReason, solve, solve_batch
+from pipeline.solvers import general6r
+from pipeline.solvers.base import Prepared
+from pipeline.solvers.peers import _metric
+from pipeline.solvers.registry import get
+from tests.conftest import random_transform
+from tests.test_analytic_geometry import _lengths, _twists, as_general, dh_model, robot, wrapped
+
+
+def general_arm(seed: int, conv: str = "standard", unit: str = "m", form: str = "dh"):
+    rng = np.random.default_rng(seed)
+    f = 1000.0 if unit == "mm" else 1.0
+    m = dh_model(conv, _lengths(rng, 6) * f, _twists(rng, 6), _lengths(rng, 6) * f, rng.uniform(-np.pi, np.pi, 6),
+                 random_transform(rng, 0.5 * f), random_transform(rng, 0.1 * f), unit=unit)
+    return as_general(m) if form == "general" else m
+
+
+def reaches(m, q, T, tol=1e-9) -> bool:
+    R = fk_htm(m.chain, q)
+    scale = 1000.0 if m.length_unit == "mm" else 1.0
+    return bool(np.abs(R[:3, 3] - T[:3, 3]).max() <= tol * scale and np.abs(R[:3, :3] - T[:3, :3]).max() <= tol)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), conv=st.sampled_from(["standard", "modified"]),
+       unit=st.sampled_from(["m", "mm"]), form=st.sampled_from(["dh", "general"]),
+       method=st.sampled_from(["general_6r", "analytic"]))
+def test_generating_configuration_is_among_the_solutions(seed, conv, unit, form, method):
+    m = general_arm(seed, conv, unit, form)
+    rng = np.random.default_rng(seed + 1)
+    q = rng.uniform(-np.pi, np.pi, 6)
+    T = fk_htm(m.chain, q)
+    r = solve(method, m, T, rng.uniform(-np.pi, np.pi, 6), {})
+    assert r.success, (r.stop_reason, r.info)
+    assert len(r.solutions) % 2 == 0 and 2 <= len(r.solutions) <= 16  # real roots come in pairs here
+    assert np.abs(wrapped(r.solutions - q)).max(axis=1).min() < 1e-5
+    assert all(reaches(m, s, T) for s in r.solutions)
+
+
+def _dense(m6, T, starts) -> list[np.ndarray]:
+    """Distinct solutions Newton reaches from ``starts`` (the same polish as the solver, 40 steps)."""
+    found = []
+    for s0 in starts:
+        x = general6r._newton(m6.H, m6.P, m6.T0, T, s0, 40)
+        if np.all(np.isfinite(x)) and np.abs(general6r._fk(m6, x) - T).max() < 1e-10:
+            x = wrapped(x)
+            if all(np.abs(wrapped(x - y)).max() > 1e-6 for y in found):
+                found.append(x)
+    return found
+
+
+@pytest.mark.parametrize("seed", [3, 8])
+def test_solution_set_equals_a_dense_newton_search(seed):
+    m = general_arm(seed)
+    prep = Prepared(m)
+    m6 = general6r.model(prep)
+    rng = np.random.default_rng(seed)
+    for _ in range(3):
+        T = _metric(prep).goal(fk_htm(m.chain, rng.uniform(-np.pi, np.pi, 6)))
+        ours = general6r.candidates(m6, T, general6r.General6RSettings())
+        ours = [x for x in ours if np.abs(general6r._fk(m6, x) - T).max() < 1e-9]
+        dense = _dense(m6, T, rng.uniform(-np.pi, np.pi, (600, 6)))
+        assert len(dense) >= 2
+        for y in dense:  # every solution the search finds, the elimination finds
+            assert min(np.abs(wrapped(y - x)).max() for x in ours) < 1e-6
+        assert len(ours) <= 16
+
+
+def test_batch_equals_one_by_one_on_a_general_arm():
+    m = general_arm(21, "modified", "mm")
+    rng = np.random.default_rng(5)
+    Q = rng.uniform(-np.pi, np.pi, (12, 6))
+    goals = np.array([fk_htm(m.chain, q) for q in Q])
+    starts = rng.uniform(-np.pi, np.pi, (12, 6))
+    b = solve_batch("analytic", m, goals, starts, {})
+    for i in range(12):
+        r = solve("analytic", m, goals[i], starts[i], {})
+        assert r.success == b.success[i] and np.array_equal(r.q, b.q[i])
+        assert np.array_equal(r.solutions, b.solutions[i, :b.n_solutions[i]])
+        assert r.trace.shape == (2, 8) and np.isfinite(r.trace).all()
+
+
+def test_solutions_nearest_first_and_capped():
+    m = general_arm(4)
+    rng = np.random.default_rng(9)
+    q = rng.uniform(-np.pi, np.pi, 6)
+    T, q0 = fk_htm(m.chain, q), rng.uniform(-np.pi, np.pi, 6)
+    r = solve("general_6r", m, T, q0, {})
+    d = (wrapped(r.solutions - q0) ** 2).sum(axis=1)
+    assert np.all(np.diff(d) >= 0)
+    assert np.abs(wrapped(r.q - r.solutions[0])).max() < 1e-12
+    one = solve("general_6r", m, T, q0, {"max_solutions": 1})
+    assert len(one.solutions) == 1 and np.allclose(one.solutions[0], r.solutions[0])
+
+
+def test_unreachable_goal_is_no_solution():
+    m = general_arm(6)
+    T = fk_htm(m.chain, np.zeros(6))
+    T[:3, 3] *= 50.0
+    q0 = np.full(6, 0.3)
+    for method in ("general_6r", "analytic"):
+        r = solve(method, m, T, q0, {})
+        assert not r.success and r.stop_reason == StopReason.NO_SOLUTION
+        assert np.array_equal(r.q, q0) and np.isfinite(r.position_error)
+
+
+@pytest.mark.parametrize("name, words", [("franka_panda", "6R arms, the robot has 7 joints"),
+                                         ("stanford", "revolute joints only, joint(s) 3"),
+                                         ("puma560", "the general 6R elimination degenerates")])
+def test_refusals_name_the_geometry(name, words):
+    m = robot(name)
+    why = get("general_6r").refusal(Prepared(m))
+    assert why and words in why and "\n" not in why
+    with pytest.raises(NotApplicableError):
+        solve("general_6r", m, fk_htm(m.chain, np.full(m.n, 0.2)), np.zeros(m.n), {})
+
+
+def test_special_arms_keep_their_subproblem_family():
+    """Arms a family fits are still solved by subproblems, not by the elimination."""
+    for name in ("ur5", "puma560", "ufactory_xarm6"):
+        m = robot(name)
+        r = solve("analytic", m, fk_htm(m.chain, np.full(6, 0.4)), np.zeros(6), {})
+        assert r.success and "general" not in r.info["family"]
+
+
+@pytest.mark.parametrize("field, value", [("polish_steps", -1), ("real_tol", 0.0), ("max_solutions", 17)])
+def test_bad_setting_is_one_line(field, value):
+    with pytest.raises(SettingsError) as exc:
+        solve("general_6r", general_arm(1), np.eye(4), np.zeros(6), {field: value})
+    assert field in str(exc.value) and "\n" not in str(exc.value).strip()
+
+
+def test_shifted_angles_are_not_special():
+    """A configuration at θ = π on joints 3-5 (where an unshifted half-angle tangent is infinite)."""
+    m = general_arm(12)
+    q = np.array([0.3, -0.7, math.pi, math.pi, -math.pi, 1.1])
+    r = solve("general_6r", m, fk_htm(m.chain, q), np.zeros(6), {})
+    assert r.success and np.abs(wrapped(r.solutions - q)).max(axis=1).min() < 1e-6
