@@ -3,7 +3,7 @@ poses, interleaved in one process.
 
 Usage::
 
-    python benchmarks/closed_form.py [--poses 2000] [--batch 200000] [--only eaik,batch,search,seven]
+    python benchmarks/closed_form.py [--poses 2000] [--batch 200000] [--only eaik,batch,search,general,seven]
                                      [--json out.json]
 
 Sections (times per pose; medians and 95th percentiles over the poses):
@@ -24,6 +24,10 @@ Sections (times per pose; medians and 95th percentiles over the poses):
             compaction; 5-12 ms once grown) for the same page-fault count.
 ``search``  the offset-wrist arms (one-dimensional search): the method's own time per pose
             (``solve_time_s``, compiled) and the public call, over ``--poses`` goals.
+``general`` four random general 6R arms (no meeting or parallel axes; standard and modified DH, m and
+            mm; seeds 100-103), solved by ``analytic`` through the general elimination: the method's own
+            time per pose (``solve_time_s``) and the public call over ``--poses`` / 4 goals, success,
+            and on 10 goals per arm the solution set against a dense Newton search (600 starts).
 ``seven``   the 7R arms: our public call against TRAC-IK's (default 5 ms budget) on the same goals
             (``--poses`` / 4 of them), interleaved by blocks of 25: success within limits and
             median call time, and their ratio.
@@ -43,9 +47,11 @@ import numpy as np
 
 from pipeline.kinematics import fk_htm
 from pipeline.kinematics.geometry import classify
-from pipeline.robots import load_robot
+from pipeline.robots import load_robot, parse_robot
 from pipeline.solvers import make_settings, solve
+from pipeline.solvers import general6r
 from pipeline.solvers.base import NotApplicableError, Prepared
+from pipeline.solvers.peers import _metric
 from pipeline.solvers.registry import get, solve_batch
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -166,6 +172,66 @@ def section_search(n: int) -> dict:
     return out
 
 
+def general_arm(seed: int, conv: str, unit: str):
+    """A random 6R arm with no meeting or parallel axes (random DH lengths and twists)."""
+    rng = np.random.default_rng(seed)
+    f = 1000.0 if unit == "mm" else 1.0
+    sign = lambda: rng.choice([-1.0, 1.0], 6)  # noqa: E731
+    a, alpha, d = rng.uniform(0.05, 0.6, 6) * sign() * f, rng.uniform(0.3, np.pi - 0.3, 6) * sign(), \
+        rng.uniform(0.05, 0.6, 6) * sign() * f
+    joints = [{"type": "revolute", "a": float(a[i]), "alpha": float(alpha[i]), "d": float(d[i]),
+               "theta_offset": float(rng.uniform(-np.pi, np.pi)), "limits": [-np.pi, np.pi]} for i in range(6)]
+    return parse_robot({"name": f"general_{seed}", "source": "random test arm", "length_unit": unit,
+                        "convention": conv, "joints": joints})
+
+
+def _dense_count(m6, T, starts) -> set:
+    """Distinct solutions a Newton search reaches from ``starts`` (rounded keys)."""
+    found = []
+    for s0 in starts:
+        x = general6r._newton(m6.H, m6.P, m6.T0, T, s0, 40)
+        if np.all(np.isfinite(x)) and np.abs(general6r._fk(m6, x) - T).max() < 1e-10:
+            x = (x + np.pi) % (2 * np.pi) - np.pi
+            if all(np.abs((x - y + np.pi) % (2 * np.pi) - np.pi).max() > 1e-6 for y in found):
+                found.append(x)
+    return found
+
+
+def section_general(n: int) -> dict:
+    out = {}
+    for k, (conv, unit) in enumerate([("standard", "m"), ("modified", "m"), ("standard", "mm"), ("modified", "mm")]):
+        model = general_arm(100 + k, conv, unit)
+        prep = Prepared(model)
+        T, q0 = problems(model, n, 11)
+        st = make_settings("analytic", {})
+        solve("analytic", prep, T[0], q0[0], st)
+        kern, pub, ok, nsol = [], [], 0, []
+        for i in range(n):
+            t0 = time.perf_counter_ns()
+            r = solve("analytic", prep, T[i], q0[i], st)
+            pub.append((time.perf_counter_ns() - t0) * 1e-3)
+            kern.append(r.solve_time_s * 1e6)
+            ok += r.success
+            nsol.append(len(r.solutions))
+        m6, rng, agree = general6r.model(prep), np.random.default_rng(k), 0
+        for i in range(10):
+            Tm = _metric(prep).goal(T[i])
+            ours = general6r.candidates(m6, Tm, general6r.General6RSettings())
+            ours = [x for x in ours if np.abs(general6r._fk(m6, x) - Tm).max() < 1e-9]
+            dense = _dense_count(m6, Tm, rng.uniform(-np.pi, np.pi, (600, 6)))
+            agree += len(ours) == len(dense) and all(
+                min(np.abs((y - x + np.pi) % (2 * np.pi) - np.pi).max() for x in ours) < 1e-6 for y in dense)
+        name = f"general_{100 + k} ({conv}, {unit})"
+        out[name] = {"solve_us": stats(kern), "public_us": stats(pub), "success": ok / n,
+                     "solutions_per_goal": float(np.mean(nsol)), "same_set_as_dense_search_of_10": agree,
+                     "eaik": get("eaik").refusal(prep) or "applies"}
+        print(f"general {name:28s} method {out[name]['solve_us']['p50']:6.1f} us (p95 "
+              f"{out[name]['solve_us']['p95']:.1f}) | public {out[name]['public_us']['p50']:6.1f} us | success "
+              f"{ok / n:.4f} | {np.mean(nsol):.2f} solutions/goal | same set as a dense search: {agree}/10 | "
+              f"EAIK: {out[name]['eaik'][:60]}")
+    return out
+
+
 def section_seven(n: int) -> dict:
     out = {}
     for robot in SEVEN:
@@ -201,7 +267,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--poses", type=int, default=2000)
     ap.add_argument("--batch", type=int, default=200000)
-    ap.add_argument("--only", default="eaik,batch,search,seven")
+    ap.add_argument("--only", default="eaik,batch,search,general,seven")
     ap.add_argument("--json")
     a = ap.parse_args(argv)
     only = set(a.only.split(","))
@@ -212,6 +278,8 @@ def main(argv=None) -> int:
         res["batch"] = section_batch(a.batch)
     if "search" in only:
         res["search"] = section_search(a.poses)
+    if "general" in only:
+        res["general"] = section_general(max(25, a.poses // 4))
     if "seven" in only:
         res["seven"] = section_seven(max(25, a.poses // 4))
     if a.json:

@@ -195,6 +195,36 @@ def _chain(H, P, q, k, A):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _gauss(A, b):
+    """Solve ``A x = b`` (A (k, k), b (k,); both overwritten) by Gaussian elimination with partial
+    pivoting; returns (x, ok), ok False at a zero pivot (no LAPACK call for these small systems)."""
+    k = A.shape[0]
+    for c in range(k):
+        piv = c
+        for r in range(c + 1, k):
+            if abs(A[r, c]) > abs(A[piv, c]):
+                piv = r
+        if A[piv, c] == 0.0:
+            return b, False
+        if piv != c:
+            for j in range(c, k):
+                A[c, j], A[piv, j] = A[piv, j], A[c, j]
+            b[c], b[piv] = b[piv], b[c]
+        for r in range(c + 1, k):
+            f = A[r, c] / A[c, c]
+            if f != 0.0:
+                for j in range(c + 1, k):
+                    A[r, j] -= f * A[c, j]
+                b[r] -= f * b[c]
+    for c in range(k - 1, -1, -1):
+        acc = b[c]
+        for j in range(c + 1, k):
+            acc -= A[c, j] * b[j]
+        b[c] = acc / A[c, c]
+    return b, True
+
+
+@numba.njit(cache=True, error_model="numpy")
 def _newton(H, P, T0, Tg, q, steps):
     """``steps`` Newton steps of the joint values ``q`` (6,) towards the goal ``Tg`` (4, 4) (spatial
     twist error, geometric Jacobian, least squares); returns the polished ``q``."""
@@ -230,7 +260,9 @@ def _newton(H, P, T0, Tg, q, steps):
         e[5] = Tg[2, 3] - T[2, 3] - (w0 * T[1, 3] - w1 * T[0, 3])
         if max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5])) < 1e-15:
             break
-        dq = np.linalg.lstsq(J, e)[0]
+        dq, ok = _gauss(J, e)
+        if not ok:  # a singular Jacobian: the root is left as it is
+            break
         step = 0.0
         for i in range(6):
             q[i] += dq[i]
@@ -370,7 +402,9 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps):
                 big = max(big, abs(Ny[r, c2]))
         for r in range(12):
             Ny[r, r] += 1e-13 * big
-        z = np.linalg.solve(Ny, rhs12)
+        z, ok = _gauss(Ny, rhs12.copy())
+        if not ok:
+            continue
         mono = np.empty((4, 3))
         for r in range(12):
             mono[r // 3, r % 3] = z[r]
