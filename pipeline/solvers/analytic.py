@@ -9,6 +9,8 @@ evidence) and :mod:`pipeline.solvers.subproblems` solves it:
 - 6R, axes 5 and 6 meeting (or 1 and 2) with a position case for the other end: a one-dimensional
   search over joint 4 (``search_samples`` grid points, sign changes of each branch's residual
   refined by regula falsi): up to 16 (the offset-wrist arms);
+- 6R, no family: every solution by algebraic elimination (:mod:`pipeline.solvers.general6r`, the
+  solver ``general_6r``; Raghavan-Roth / Manocha-Canny), up to 16;
 - 7R: one joint (chosen from the geometry, or ``free_joint``) held at ``free_samples`` values
   evenly spread over its limits, plus the start's own value; the other six by the 6R closed form
   of their family. Solutions outside the joint limits are dropped (revolute joints moved by 2π
@@ -21,8 +23,10 @@ start first (wrapped joint distance, sum of squares); ``q`` is the first, unwrap
 angle is the start's. No valid candidate: ``NO_SOLUTION`` with ``q = q_start``. The trace has two
 rows, the document's error ``[‖e‖, e, |Δp|]`` at ``q_start`` and at ``q``.
 
-A robot whose geometry fits no family is refused in one line naming the geometry (e.g. "axes 4,
-5 and 6 do not meet (closest common point 12.3 mm off) ...").
+A robot whose geometry fits no family (and, for a 6R arm, whose elimination degenerates) is refused
+in one line naming the geometry (e.g. "axes 4, 5 and 6 do not meet (closest common point 12.3 mm
+off) ..."). The general path runs pose by pose in Python around compiled parts (no fused call, its
+batch a loop).
 """
 
 from __future__ import annotations
@@ -102,12 +106,7 @@ def _bind_general(prep: Prepared, s: AnalyticSettings):
     """``run1`` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.run` (every solution,
     nearest to the start first), with this solver's trace (the document's error at the start and at
     ``q``) and ``info``."""
-    from dataclasses import fields
-
-    names = {f.name for f in fields(general6r.General6RSettings)}
-    gs = general6r.General6RSettings(**{f.name: getattr(s, f.name) for f in fields(s) if f.name in names
-                                        and f.name != "max_solutions"},
-                                     max_solutions=min(s.max_solutions, sp.MAX_SOL))
+    gs = settings_as(general6r.General6RSettings, s, max_solutions=min(s.max_solutions, sp.MAX_SOL))
     args = prep.args
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
@@ -811,13 +810,19 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
 run = run_of(bind)
 
 
-def as_analytic(s: Settings) -> AnalyticSettings:
-    """``s`` (another closed form's settings, already in the working unit) as this solver's: the base
-    fields and the FK check's tolerances carried over, the rest at their defaults."""
+def settings_as(cls, s: Settings, **override):
+    """``s`` (another solver's settings, already in the working unit) as ``cls``: the fields both have
+    carried over (``override`` replacing some), the rest at their defaults."""
     from dataclasses import fields
 
-    names = {f.name for f in fields(AnalyticSettings)}
-    return AnalyticSettings(**{f.name: getattr(s, f.name) for f in fields(s) if f.name in names})
+    names = {f.name for f in fields(cls)}
+    return cls(**{**{f.name: getattr(s, f.name) for f in fields(s) if f.name in names}, **override})
+
+
+def as_analytic(s: Settings) -> AnalyticSettings:
+    """``s`` (another closed form's settings) as this solver's: the base fields and the FK check's
+    tolerances carried over, the rest at their defaults."""
+    return settings_as(AnalyticSettings, s)
 
 
 def alias_hooks(family: str, what: str, own_reason, own_bind, own_batch, own_bind_call) -> dict:
