@@ -154,3 +154,18 @@ def test_shifted_angles_are_not_special():
     q = np.array([0.3, -0.7, math.pi, math.pi, -math.pi, 1.1])
     r = solve("general_6r", m, fk_htm(m.chain, q), np.zeros(6), {})
     assert r.success and np.abs(wrapped(r.solutions - q)).max(axis=1).min() < 1e-6
+
+
+@pytest.mark.parametrize("alpha, reversed_", [([0.0, 0.9, 0.5, 1.1, 0.7, 0.4], True),   # axes 1 ∥ 2
+                                              ([0.6, 0.9, 0.5, 1.1, 0.0, 0.4], False)])  # axes 5 ∥ 6
+def test_chain_read_from_the_tool_back_where_the_base_end_degenerates(alpha, reversed_):
+    """Axes 1 and 2 parallel make the elimination degenerate on the arm's own chain, not on the chain
+    read from the tool back (and the other way round for axes 5 and 6)."""
+    rng = np.random.default_rng(2)
+    m = dh_model("standard", rng.uniform(0.1, 0.5, 6), alpha, rng.uniform(0.1, 0.5, 6), np.zeros(6))
+    assert general6r.model(Prepared(m)).reversed == reversed_
+    for q in rng.uniform(-np.pi, np.pi, (8, 6)):
+        T = fk_htm(m.chain, q)
+        r = solve("analytic", m, T, np.zeros(6), {})
+        assert r.success and np.abs(wrapped(r.solutions - q)).max(axis=1).min() < 1e-6
+        assert all(reaches(m, x, T) for x in r.solutions)

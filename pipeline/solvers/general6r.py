@@ -33,10 +33,14 @@ file form works:
 Near a singular configuration two roots merge: the eigenvalue turns slightly complex or the null
 space of ``M(x3)`` two-dimensional, the root is then inaccurate or missed, and the Newton polish and
 the FK check decide; a goal on the boundary of the workspace may lose its double root. Arms with
-special geometry (a spherical wrist, parallel axes) make the 12 × 12 pencil singular for every
-``x3`` (their solutions are not isolated in this formulation): :func:`applies_to` solves three goals
-of the arm's own configurations once per robot and refuses the arm, naming why, when any generating
-configuration is not found. The subproblem solver ``analytic`` takes those arms.
+special geometry (a spherical wrist, parallel axes) can make the 12 × 12 pencil singular for every
+``x3`` (their solutions are not isolated in this formulation): once per robot three goals of the
+arm's own configurations are solved, and when a configuration is not among its goal's roots the
+elimination is tried on the chain read from the tool back (``T⁻¹ = T0⁻¹ E_6(−θ6) ⋯ E_1(−θ1)``:
+joint k of that chain is the arm's joint 7 − k, its line moved by ``T0⁻¹``), which does not
+degenerate where the arm's own chain does at its base (axes 1 and 2 parallel, say). When both
+degenerate, :func:`applies_to` refuses the arm naming why; the subproblem solver ``analytic``
+takes the special arms a family fits.
 """
 
 from __future__ import annotations
@@ -113,19 +117,30 @@ _TO_NINE = np.array([[1.0 if _ORDER[t] == (i, j) else 0.0 for i in range(3) for 
 
 @dataclass(frozen=True)
 class _Model:
-    H: np.ndarray        # (6, 3) unit axes
+    H: np.ndarray        # (6, 3) unit axes of the arm
     P: np.ndarray        # (6, 3) a point on each
     T0: np.ndarray       # (4, 4) the tool at q = 0
+    reversed: bool       # the elimination runs on the chain read from the tool back (below)
+    eH: np.ndarray       # (6, 3), (6, 3), (4, 4): the chain the elimination runs on (the arm's own, or
+    eP: np.ndarray       # reversed: joint k is the arm's joint 7 - k with angle −θ, its lines moved by
+    eT0: np.ndarray      # T0⁻¹, home T0⁻¹; the goal T⁻¹)
     left: tuple          # (Ps, Pc, P1), each (14, 9): coefficients of (s3, c3, 1), columns in _nine's order
     right_inv: np.ndarray  # (9, 9) inverse of the right side's design on the grid
     right_T: np.ndarray  # (9, 4, 4) (E_1 E_2)⁻¹ on the grid
     C: np.ndarray        # (9, 9) _nine's terms times (1 + x4²)(1 + x5²) as monomials x4^i x5^j (index 3i + j)
 
 
-def _model(prep: Prepared) -> _Model:
+def _model(prep: Prepared, reversed_: bool = False) -> _Model:
     g = _poe(prep)
-    H, P, T0 = g.H, g.pts, g.T0
-    o3, c, h6 = P[2], P[5], H[5]
+    c = np.ascontiguousarray
+    H0, P0, M0 = c(g.H, dtype=float), c(g.pts, dtype=float), c(g.T0, dtype=float)
+    H, P, T0 = H0, P0, M0
+    if reversed_:  # T⁻¹ = T0⁻¹ E_6(−θ6) ⋯ E_1(−θ1) = E'_1(−θ6) ⋯ E'_6(−θ1) T0⁻¹, E'_k about T0⁻¹ (line 7 − k)
+        R0, p0 = M0[:3, :3], M0[:3, 3]
+        H = c(np.array([R0.T @ H0[5 - k] for k in range(6)]))
+        P = c(np.array([R0.T @ (P0[5 - k] - p0) for k in range(6)]))
+        T0 = c(_rigid_inv(M0))
+    o3, cp, h6 = P[2], P[5], H[5]
     rows, vals = [], []
     for f3 in _GRID:
         for f4 in _GRID:
@@ -133,9 +148,9 @@ def _model(prep: Prepared) -> _Model:
                 T = (_motion(H[2], P[2], f3 + SHIFT[0]) @ _motion(H[3], P[3], f4 + SHIFT[1])
                      @ _motion(H[4], P[4], f5 + SHIFT[2]))
                 rows.append(np.kron((math.sin(f3), math.cos(f3), 1.0), _grid_nine(f4, f5)))
-                vals.append(_fourteen((T[:3, :3] @ c + T[:3, 3] - o3)[None], (T[:3, :3] @ h6)[None])[0])
+                vals.append(_fourteen((T[:3, :3] @ cp + T[:3, 3] - o3)[None], (T[:3, :3] @ h6)[None])[0])
     coef = np.linalg.solve(np.array(rows), np.array(vals))  # (27, 14), exact: a Kronecker product of 3 × 3 grids
-    left = tuple(np.ascontiguousarray((coef[9 * k:9 * k + 9].T) @ _TO_NINE.T) for k in range(3))
+    left = tuple(c((coef[9 * k:9 * k + 9].T) @ _TO_NINE.T) for k in range(3))
     design, Ts = [], []
     for f1 in _GRID:
         for f2 in _GRID:
@@ -144,9 +159,14 @@ def _model(prep: Prepared) -> _Model:
     s_, c_, o_ = np.array([0.0, 2.0, 0.0]), np.array([1.0, 0.0, -1.0]), np.array([1.0, 0.0, 1.0])
     half = {0: s_, 1: c_, 2: o_}
     C = np.array([np.outer(half[a], half[b]).ravel() for a, b in _ORDER])
-    c = np.ascontiguousarray
-    return _Model(c(H, dtype=float), c(P, dtype=float), c(T0, dtype=float), left, c(np.linalg.inv(np.array(design))),
-                  c(np.array(Ts)), c(C))
+    return _Model(H0, P0, M0, reversed_, H, P, T0, left, c(np.linalg.inv(np.array(design))), c(np.array(Ts)), c(C))
+
+
+def _rigid_inv(T: np.ndarray) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, :3] = T[:3, :3].T
+    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return out
 
 
 def _fk(m: _Model, q: np.ndarray) -> np.ndarray:
@@ -469,8 +489,8 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps):
 def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
     """Every root of the elimination for the goal ``T`` (4, 4) [m], polished: (k, 6) [rad], k <= 24
     (not yet FK-checked; duplicates merged)."""
-    T = np.ascontiguousarray(T, dtype=float)
-    ok, comp, abcd, pen, Qp, P1m = _pencil(m.H, m.P, m.T0, *m.left, m.right_inv, m.right_T, m.C, _KRON_OF, T,
+    T = np.ascontiguousarray(_rigid_inv(T) if m.reversed else T, dtype=float)
+    ok, comp, abcd, pen, Qp, P1m = _pencil(m.eH, m.eP, m.eT0, *m.left, m.right_inv, m.right_T, m.C, _KRON_OF, T,
                                            _MOBIUS)
     if not ok:
         return np.empty((0, 6))
@@ -478,29 +498,51 @@ def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
     if info != 0:
         return np.empty((0, 6))
     ys = wr[np.abs(wi) <= s.real_tol * (1.0 + np.hypot(wr, wi))]
-    return _roots(m.H, m.P, m.T0, T, *m.left[:2], P1m, Qp, abcd, pen, np.ascontiguousarray(ys), SHIFT,
-                  s.polish_steps)
+    roots = _roots(m.eH, m.eP, m.eT0, T, *m.left[:2], P1m, Qp, abcd, pen, np.ascontiguousarray(ys), SHIFT,
+                   s.polish_steps)
+    if m.reversed:  # back to the arm's joints: θ_k = −(reversed joint 7 − k), wrapped to (−π, π]
+        roots = -roots[:, ::-1]
+        roots = np.where(roots <= -math.pi, roots + 2.0 * math.pi, roots)
+    return np.ascontiguousarray(roots)
+
+
+def _found_all(m: _Model) -> bool:
+    """The roots of the poses of three configurations of the arm contain each configuration."""
+    s = General6RSettings()
+    for q in _CHECK_Q:
+        roots = candidates(m, _fk(m, q), s)
+        if not any(np.abs((q - r + math.pi) % (2.0 * math.pi) - math.pi).max() < 1e-6 for r in roots):
+            return False
+    return True
+
+
+def _choice(prep: Prepared) -> tuple[_Model, str | None]:
+    """(the model to solve with, why the elimination does not apply or None): the arm's own chain,
+    else the chain read from the tool back (one of the two can degenerate where the other does not,
+    e.g. axes 1 and 2 parallel); once per robot."""
+
+    def choose():
+        first = _model(prep)
+        for m in (first, _model(prep, True)):
+            if _found_all(m):
+                return m, None
+        return first, ("the general 6R elimination degenerates for this geometry, from the base and from the tool "
+                       "(a configuration of the arm is not among the roots of its own pose, as with intersecting "
+                       "or parallel axes)")
+
+    return prep.memo(("general_6r", "model"), choose)
 
 
 def model(prep: Prepared) -> _Model:
-    return prep.memo(("general_6r", "model"), lambda: _model(prep))
+    return _choice(prep)[0]
 
 
 def degenerate(prep: Prepared) -> str | None:
     """Why the elimination does not solve this 6R revolute arm (one line), or None: once per robot, the
     goals of three configurations of the arm are solved and each configuration must be among the
-    roots. Arms with intersecting or parallel axes make the pencil singular for every ``x3``."""
-
-    def test() -> str | None:
-        m, s = model(prep), General6RSettings()
-        for q in _CHECK_Q:
-            roots = candidates(m, _fk(m, q), s)
-            if not any(np.abs((q - r + math.pi) % (2.0 * math.pi) - math.pi).max() < 1e-6 for r in roots):
-                return ("the general 6R elimination degenerates for this geometry (a configuration of the arm is "
-                        "not among the roots of its own pose, as with intersecting or parallel axes)")
-        return None
-
-    return prep.memo(("general_6r", "degenerate"), test)
+    roots, on the arm's chain or on the chain read from the tool back. Arms with intersecting or
+    parallel axes make the pencil singular for every ``x3``."""
+    return _choice(prep)[1]
 
 
 def applies_to(prep: Prepared) -> str | None:
