@@ -169,3 +169,17 @@ def test_chain_read_from_the_tool_back_where_the_base_end_degenerates(alpha, rev
         r = solve("analytic", m, T, np.zeros(6), {})
         assert r.success and np.abs(wrapped(r.solutions - q)).max(axis=1).min() < 1e-6
         assert all(reaches(m, x, T) for x in r.solutions)
+
+
+def test_robot_verb_says_the_elimination_solves_a_general_arm(tmp_path, capsys):
+    from pipeline.cli import main
+
+    rng = np.random.default_rng(31)
+    joints = "\n".join(f"  - {{type: revolute, a: {rng.uniform(0.05, 0.4):.4f}, alpha: {rng.uniform(0.4, 2.7):.4f}, "
+                       f"d: {rng.uniform(0.05, 0.3):.4f}, theta_offset: 0}}" for _ in range(6))
+    f = tmp_path / "arm.yaml"
+    f.write_text(f"name: arm\nsource: test\nlength_unit: m\nconvention: standard\njoints:\n{joints}\n")
+    main(["robot", str(f)])
+    out = capsys.readouterr().out
+    assert "none: no closed-form family fits" in out
+    assert "general 6R: `analytic` solves it by algebraic elimination" in out

@@ -69,9 +69,16 @@ def cmd_robot(args) -> None:
                 dh = M.dh_model_from_chain(model.chain, types, q0)
                 pz = M.pz_from_dh(model.chain, q0)
                 text = M.report_txt(model.name, dh, pz, limits=model.limits)
-            from pipeline.kinematics.geometry import report
+            from pipeline.kinematics.geometry import classify, report
 
             text += "\n" + report(model.chain, args.geometry_tol, model.length_unit)
+            if model.n == 6 and not np.any(model.chain.prismatic) and classify(model.chain, args.geometry_tol).family is None:
+                from pipeline.solvers import general6r
+                from pipeline.solvers.base import Prepared
+
+                why = general6r.degenerate(Prepared(model))
+                text += ("general 6R: `analytic` solves it by algebraic elimination (the solver `general_6r`)\n"
+                         if why is None else f"general 6R: not solved either: {why}\n")
     except _known_errors() + (ValueError,) as exc:
         raise _cli_error(exc) from None
     if args.out:
