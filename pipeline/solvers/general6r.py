@@ -77,37 +77,29 @@ class General6RSettings(Settings):
 
 
 # ---- pure kinematics on joint lines (metres) ---------------------------------------------------------
-def _rot(h: np.ndarray, t: float) -> np.ndarray:
-    K = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
-    return np.eye(3) + math.sin(t) * K + (1.0 - math.cos(t)) * (K @ K)
-
-
 def _motion(h: np.ndarray, p: np.ndarray, t: float) -> np.ndarray:
     """(4, 4) rotation by ``t`` [rad] about the line through ``p`` along the unit ``h``."""
     T = np.eye(4)
-    R = _rot(h, t)
-    T[:3, :3], T[:3, 3] = R, p - R @ p
+    R, u = np.empty((3, 3)), np.empty(3)
+    _motion_into(np.asarray(h, dtype=float), np.asarray(p, dtype=float), float(t), R, u)
+    T[:3, :3], T[:3, 3] = R, u
     return T
 
 
 def _fourteen(p: np.ndarray, l: np.ndarray) -> np.ndarray:
-    """The 14 quantities of Raghavan and Roth of points ``p`` (k, 3) and directions ``l`` (k, 3): (k, 14)."""
-    pp = np.einsum("ij,ij->i", p, p)[:, None]
-    lp = np.einsum("ij,ij->i", l, p)[:, None]
-    return np.hstack([l, p, pp, lp, np.cross(l, p), pp * l - 2.0 * lp * p])
+    """The 14 quantities of Raghavan and Roth of a point ``p`` (3,) and a direction ``l`` (3,)."""
+    out = np.empty(14)
+    _fourteen_into(np.ascontiguousarray(p, dtype=float), np.ascontiguousarray(l, dtype=float), out)
+    return out
 
 
-def _nine(a: float, b: float) -> np.ndarray:
-    """(sa sb, sa cb, ca sb, ca cb, sa, ca, sb, cb, 1): the products of two joints' (sin, cos, 1)."""
-    sa, ca, sb, cb = math.sin(a), math.cos(a), math.sin(b), math.cos(b)
-    return np.array([sa * sb, sa * cb, ca * sb, ca * cb, sa, ca, sb, cb, 1.0])
-
-
-_ORDER = [(0, 0), (0, 1), (1, 0), (1, 1), (0, 2), (1, 2), (2, 0), (2, 1), (2, 2)]  # _nine's terms in (sin, cos, 1)
+# the nine products of two joints' (sin, cos, 1), "_nine's order": (sa sb, sa cb, ca sb, ca cb, sa, ca, sb, cb, 1),
+# each as its (index in a's triple, index in b's)
+_ORDER = [(0, 0), (0, 1), (1, 0), (1, 1), (0, 2), (1, 2), (2, 0), (2, 1), (2, 2)]
 
 
 def _grid_nine(a: float, b: float) -> np.ndarray:
-    """:func:`_nine` in the Kronecker order of ``(s, c, 1)_a ⊗ (s, c, 1)_b``."""
+    """The nine products in the Kronecker order of ``(s, c, 1)_a ⊗ (s, c, 1)_b``."""
     u, v = (math.sin(a), math.cos(a), 1.0), (math.sin(b), math.cos(b), 1.0)
     return np.array([u[i] * v[j] for i in range(3) for j in range(3)])
 
@@ -148,7 +140,7 @@ def _model(prep: Prepared, reversed_: bool = False) -> _Model:
                 T = (_motion(H[2], P[2], f3 + SHIFT[0]) @ _motion(H[3], P[3], f4 + SHIFT[1])
                      @ _motion(H[4], P[4], f5 + SHIFT[2]))
                 rows.append(np.kron((math.sin(f3), math.cos(f3), 1.0), _grid_nine(f4, f5)))
-                vals.append(_fourteen((T[:3, :3] @ cp + T[:3, 3] - o3)[None], (T[:3, :3] @ h6)[None])[0])
+                vals.append(_fourteen(T[:3, :3] @ cp + T[:3, 3] - o3, T[:3, :3] @ h6))
     coef = np.linalg.solve(np.array(rows), np.array(vals))  # (27, 14), exact: a Kronecker product of 3 × 3 grids
     left = tuple(c((coef[9 * k:9 * k + 9].T) @ _TO_NINE.T) for k in range(3))
     design, Ts = [], []
@@ -398,7 +390,7 @@ def _fourteen_into(p, l, out):
 @numba.njit(cache=True, error_model="numpy")
 def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps):
     """Joint values of each real eigenvalue ``y`` of the pencil, polished by ``steps`` Newton steps and
-    wrapped to (−π, π], duplicates merged: (k, 6) [rad]."""
+    wrapped to one turn about 0, duplicates merged: (k, 6) [rad]."""
     a, b, c_, d = abcd
     out = np.empty((ys.shape[0], 6))
     k = 0
