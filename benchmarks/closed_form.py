@@ -150,21 +150,29 @@ def section_batch(n: int) -> dict:
     return out
 
 
+def timed_calls(prep, T, q0):
+    """``analytic``'s public call on each goal (after one call to compile): the method's own times and
+    the whole calls' [µs], the successes and the solution counts."""
+    st = make_settings("analytic", {})
+    solve("analytic", prep, T[0], q0[0], st)
+    kern, pub, ok, nsol = [], [], 0, []
+    for i in range(len(T)):
+        t0 = time.perf_counter_ns()
+        r = solve("analytic", prep, T[i], q0[i], st)
+        pub.append((time.perf_counter_ns() - t0) * 1e-3)
+        kern.append(r.solve_time_s * 1e6)
+        ok += r.success
+        nsol.append(len(r.solutions))
+    return kern, pub, ok, nsol
+
+
 def section_search(n: int) -> dict:
     out = {}
     for robot in OFFSET:
         model = load_robot(ROBOTS / f"{robot}.yaml")
         prep = Prepared(model)
         T, q0 = problems(model, n, 9)
-        st = make_settings("analytic", {})
-        solve("analytic", prep, T[0], q0[0], st)
-        kern, pub, ok = [], [], 0
-        for i in range(n):
-            t0 = time.perf_counter_ns()
-            r = solve("analytic", prep, T[i], q0[i], st)
-            pub.append((time.perf_counter_ns() - t0) * 1e-3)
-            kern.append(r.solve_time_s * 1e6)
-            ok += r.success
+        kern, pub, ok, _ = timed_calls(prep, T, q0)
         out[robot] = {"solve_us": stats(kern), "public_us": stats(pub), "success": ok / n}
         print(f"search {robot:18s} method {out[robot]['solve_us']['p50']:7.1f} us (p95 "
               f"{out[robot]['solve_us']['p95']:.1f}) | public {out[robot]['public_us']['p50']:7.1f} us | "
@@ -203,16 +211,7 @@ def section_general(n: int) -> dict:
         model = general_arm(100 + k, conv, unit)
         prep = Prepared(model)
         T, q0 = problems(model, n, 11)
-        st = make_settings("analytic", {})
-        solve("analytic", prep, T[0], q0[0], st)
-        kern, pub, ok, nsol = [], [], 0, []
-        for i in range(n):
-            t0 = time.perf_counter_ns()
-            r = solve("analytic", prep, T[i], q0[i], st)
-            pub.append((time.perf_counter_ns() - t0) * 1e-3)
-            kern.append(r.solve_time_s * 1e6)
-            ok += r.success
-            nsol.append(len(r.solutions))
+        kern, pub, ok, nsol = timed_calls(prep, T, q0)
         m6, rng, agree = general6r.model(prep), np.random.default_rng(k), 0
         for i in range(10):
             Tm = _metric(prep).goal(T[i])

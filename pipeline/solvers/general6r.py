@@ -54,7 +54,7 @@ from scipy.linalg.lapack import dgeev as _dgeev
 
 from pipeline.solvers.base import Prepared, Raw, Settings, setting
 from pipeline.solvers.peers import _metric
-from pipeline.solvers.peers_geo import _poe, _result, _revolute_only
+from pipeline.solvers.peers_geo import _poe, _result, six_revolute
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
 
@@ -538,11 +538,9 @@ def degenerate(prep: Prepared) -> str | None:
 
 
 def applies_to(prep: Prepared) -> str | None:
-    why = _revolute_only(prep, "general_6r")
+    why = six_revolute(prep, "general_6r")
     if why:
         return why
-    if prep.n != 6:
-        return f"general_6r solves 6R arms, the robot has {prep.n} joints"
     why = degenerate(prep)
     return None if why is None else f"{why}; `analytic` solves such arms by subproblems where a family fits"
 

@@ -108,6 +108,15 @@ def _revolute_only(prep: Prepared, who: str) -> str | None:
     return None
 
 
+def six_revolute(prep: Prepared, who: str) -> str | None:
+    """Why ``who`` (a 6R solver) does not take the robot: a prismatic joint or another joint count."""
+    why = _revolute_only(prep, who)
+    if why:
+        return why
+    n = _metric(prep).n
+    return None if n == 6 else f"{who} solves 6R arms, the robot has {n} joints"
+
+
 @dataclass(frozen=True)
 class _POE:
     """The robot at q = 0 in product-of-exponentials form (metres, world frame, base included)."""
@@ -362,12 +371,9 @@ def _ikgeo_model(prep: Prepared):
     lib = _library("ik_geo")
     if isinstance(lib, str):
         return lib
-    m = _metric(prep)
-    why = _revolute_only(prep, "IK-Geo")
+    why = six_revolute(prep, "IK-Geo")
     if why:
         return why
-    if m.n != 6:
-        return f"IK-Geo solves 6R arms, the robot has {m.n} joints"
     g = _poe(prep)
     geo = _Geometry(g)
     tried = []
