@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from pipeline.kinematics import geometry
-from pipeline.solvers import general6r, subproblems as sp
+from pipeline.solvers import subproblems as sp
 from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, forward_pose, grid, now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, SettingsError, check_pack,
                                    finish_packed, fused_inputs, setting)
@@ -90,6 +90,8 @@ def applies_to(prep: Prepared) -> str | None:
         return None
     if prep.n != 6 or prep.prismatic.any():
         return d.reason
+    from pipeline.solvers import general6r  # (imported here: the registry lists it after the peers)
+
     why = general6r.degenerate(prep)
     return None if why is None else f"{d.reason}; {why}"
 
@@ -106,6 +108,8 @@ def _bind_general(prep: Prepared, s: AnalyticSettings):
     """``run1`` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.run` (every solution,
     nearest to the start first), with this solver's trace (the document's error at the start and at
     ``q``) and ``info``."""
+    from pipeline.solvers import general6r
+
     gs = settings_as(general6r.General6RSettings, s, max_solutions=min(s.max_solutions, sp.MAX_SOL))
     args = prep.args
 
