@@ -72,7 +72,8 @@ def cmd_robot(args) -> None:
             from pipeline.kinematics.geometry import classify, report
 
             text += "\n" + report(model.chain, args.geometry_tol, model.length_unit)
-            if model.n == 6 and not np.any(model.chain.prismatic) and classify(model.chain, args.geometry_tol).family is None:
+            six_revolute = model.n == 6 and not np.any(model.chain.prismatic)
+            if six_revolute and classify(model.chain, args.geometry_tol).family is None:
                 from pipeline.solvers import general6r
                 from pipeline.solvers.base import Prepared
 
