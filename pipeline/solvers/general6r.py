@@ -481,6 +481,8 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps):
 def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
     """Every root of the elimination for the goal ``T`` (4, 4) [m], polished: (k, 6) [rad], k <= 24
     (not yet FK-checked; duplicates merged)."""
+    if not np.all(np.isfinite(T)):
+        return np.empty((0, 6))  # a goal with NaN or infinity has no solution (NO_SOLUTION, as elsewhere)
     T = np.ascontiguousarray(_rigid_inv(T) if m.reversed else T, dtype=float)
     ok, comp, abcd, pen, Qp, P1m = _pencil(m.eH, m.eP, m.eT0, *m.left, m.right_inv, m.right_T, m.C, _KRON_OF, T,
                                            _MOBIUS)
