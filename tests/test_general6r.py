@@ -188,3 +188,17 @@ def test_robot_verb_says_the_elimination_solves_a_general_arm(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "none: no closed-form family fits" in out
     assert "general 6R: `analytic` solves it by algebraic elimination" in out
+
+
+def test_require_limits_returns_a_solution_within_them():
+    rng = np.random.default_rng(14)
+    lim = [(-2.0, 2.5)] * 6
+    m = dh_model("modified", _lengths(rng, 6), _twists(rng, 6), _lengths(rng, 6), rng.uniform(-np.pi, np.pi, 6),
+                 limits=lim)
+    done = 0
+    for q in rng.uniform(-2.0, 2.5, (10, 6)):
+        r = solve("analytic", m, fk_htm(m.chain, q), np.zeros(6), {"require_limits": True})
+        assert r.success and r.within_limits
+        assert np.all(r.q >= -2.0 - 1e-9) and np.all(r.q <= 2.5 + 1e-9)
+        done += 1
+    assert done == 10

@@ -110,7 +110,9 @@ def _bind_general(prep: Prepared, s: AnalyticSettings):
     ``q``) and ``info``."""
     from pipeline.solvers import general6r
 
-    gs = settings_as(general6r.General6RSettings, s, max_solutions=min(s.max_solutions, sp.MAX_SOL))
+    # solutions kept by the same FK check as the other families' candidates (verify_position/rotation)
+    gs = settings_as(general6r.General6RSettings, s, max_solutions=min(s.max_solutions, sp.MAX_SOL),
+                     criterion="pos_orient", tol_pos=s.verify_position, tol_rot=s.verify_rotation)
     args = prep.args
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
