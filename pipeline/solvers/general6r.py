@@ -22,9 +22,11 @@ file form works:
 3. Half-angle tangents ``x_i = tan(θ_i / 2)`` (each joint shifted by a fixed offset first, so that
    no solution sits at θ = π where ``x`` is infinite) turn them into 6 equations in the 9 monomials
    ``x4^i x5^j`` (i, j ≤ 2), quadratic in ``x3``; with the same equations times ``x4`` they are 12 in
-   12 monomials, ``(M2 x3² + M1 x3 + M0) m = 0``. Its real eigenvalues ``x3`` (a 24 × 24 generalized
-   eigenproblem) give joint 3, the null vector ``m`` joints 4 and 5, the 14 equations joints 1 and 2
-   (least squares on the eliminated products) and the pose joint 6.
+   12 monomials, ``(M2 x3² + M1 x3 + M0) m = 0``. A Möbius change of variable (``_MOBIUS``) makes
+   its leading matrix well conditioned, and the real eigenvalues of the 24 × 24 companion matrix
+   (LAPACK ``dgeev``) give joint 3; the null vector ``m`` (one step of inverse iteration) joints 4
+   and 5, the 14 equations joints 1 and 2 (pseudo-inverse on the eliminated products) and the pose
+   joint 6.
 4. Each root is polished by ``polish_steps`` Newton steps on the full pose and kept when the FK check
    (the compiled dual-quaternion check every result gets, with the settings' tolerances) passes;
    duplicates (a double root) are merged. ``q`` is the kept solution nearest ``q_start``, as for
@@ -32,7 +34,9 @@ file form works:
 
 Near a singular configuration two roots merge: the eigenvalue turns slightly complex or the null
 space of ``M(x3)`` two-dimensional, the root is then inaccurate or missed, and the Newton polish and
-the FK check decide; a goal on the boundary of the workspace may lose its double root. Arms with
+the FK check decide; a goal on the boundary of the workspace may lose its double root (measured:
+the 40 most singular of 6 000 random configurations of each of 4 random arms, σ_min/σ_max down to
+5e-7, all solved, the configuration itself among the solutions). Arms with
 special geometry (a spherical wrist, parallel axes) can make the 12 × 12 pencil singular for every
 ``x3`` (their solutions are not isolated in this formulation): once per robot three goals of the
 arm's own configurations are solved, and when a configuration is not among its goal's roots the
