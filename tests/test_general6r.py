@@ -202,3 +202,21 @@ def test_require_limits_returns_a_solution_within_them():
         assert np.all(r.q >= -2.0 - 1e-9) and np.all(r.q <= 2.5 + 1e-9)
         done += 1
     assert done == 10
+
+
+def test_offset_wrist_arm_same_solutions_as_the_subproblem_search():
+    """The xArm6 (offset wrist) is solved both by ``analytic``'s one-dimensional search and, on the chain
+    read from the tool back, by the elimination: two independent methods, the same solution sets (the
+    search may miss a pair of solutions closer than its grid, never the other way round)."""
+    m = robot("ufactory_xarm6")
+    prep = Prepared(m)
+    assert general6r.model(prep).reversed
+    rng = np.random.default_rng(3)
+    equal = 0
+    for q in rng.uniform(-np.pi, np.pi, (60, 6)):
+        T = fk_htm(m.chain, q)
+        a = solve("analytic", prep, T, q, {})
+        g = solve("general_6r", prep, T, q, {"tol_pos": 1e-9, "tol_rot": 1e-9})
+        assert all(np.abs(wrapped(g.solutions - x)).max(axis=1).min() < 1e-6 for x in a.solutions)
+        equal += len(a.solutions) == len(g.solutions)
+    assert equal >= 59

@@ -211,33 +211,36 @@ def _chain(H, P, q, k, A):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _gauss(A, b):
-    """Solve ``A x = b`` (A (k, k), b (k,); both overwritten) by Gaussian elimination with partial
-    pivoting; returns (x, ok), ok False at a zero pivot (no LAPACK call for these small systems)."""
-    k = A.shape[0]
+def _gauss(A, B):
+    """Solve ``A X = B`` (A (k, k), B (k, m); both overwritten, X in B) by Gaussian elimination with
+    partial pivoting; returns (X, ok), ok False at a zero pivot (no LAPACK call, no exception)."""
+    k, m = A.shape[0], B.shape[1]
     for c in range(k):
         piv = c
         for r in range(c + 1, k):
             if abs(A[r, c]) > abs(A[piv, c]):
                 piv = r
-        if A[piv, c] == 0.0:
-            return b, False
+        if not A[piv, c] != 0.0:  # zero (or NaN)
+            return B, False
         if piv != c:
             for j in range(c, k):
                 A[c, j], A[piv, j] = A[piv, j], A[c, j]
-            b[c], b[piv] = b[piv], b[c]
+            for j in range(m):
+                B[c, j], B[piv, j] = B[piv, j], B[c, j]
         for r in range(c + 1, k):
             f = A[r, c] / A[c, c]
             if f != 0.0:
                 for j in range(c + 1, k):
                     A[r, j] -= f * A[c, j]
-                b[r] -= f * b[c]
+                for j in range(m):
+                    B[r, j] -= f * B[c, j]
     for c in range(k - 1, -1, -1):
-        acc = b[c]
-        for j in range(c + 1, k):
-            acc -= A[c, j] * b[j]
-        b[c] = acc / A[c, c]
-    return b, True
+        for j in range(m):
+            acc = B[c, j]
+            for i in range(c + 1, k):
+                acc -= A[c, i] * B[i, j]
+            B[c, j] = acc / A[c, c]
+    return B, True
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -276,13 +279,13 @@ def _newton(H, P, T0, Tg, q, steps):
         e[5] = Tg[2, 3] - T[2, 3] - (w0 * T[1, 3] - w1 * T[0, 3])
         if max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5])) < 1e-15:
             break
-        dq, ok = _gauss(J, e)
+        dq, ok = _gauss(J, e.reshape((6, 1)))
         if not ok:  # a singular Jacobian: the root is left as it is
             break
         step = 0.0
         for i in range(6):
-            q[i] += dq[i]
-            step = max(step, abs(dq[i]))
+            q[i] += dq[i, 0]
+            step = max(step, abs(dq[i, 0]))
         if step <= 1e-12:  # converged (quadratically): a further step would move q by rounding only
             break
     return q
@@ -337,7 +340,6 @@ def _pencil(H, P, T0, Ps, Pc, P1, Rinv, RT, C, kron_of, T, mobius):
             else:
                 P1m[r, 8] -= coef[kron_of[t], r]
     U, sv, Vt = np.linalg.svd(Q)
-    N2 = np.zeros((12, 12))
     pen = np.zeros((3, 12, 12))
     comp = np.zeros((24, 24))
     Qp = np.zeros((8, 14))
@@ -365,12 +367,12 @@ def _pencil(H, P, T0, Ps, Pc, P1, Rinv, RT, C, kron_of, T, mobius):
         pen[2] = a * a * M[2] + a * c_ * M[1] + c_ * c_ * M[0]
         pen[1] = 2.0 * a * b * M[2] + (a * d + b * c_) * M[1] + 2.0 * c_ * d * M[0]
         pen[0] = b * b * M[2] + b * d * M[1] + d * d * M[0]
-        X = np.linalg.solve(pen[2] + 0.0, np.hstack((pen[0], pen[1])))  # (12, 24)
+        X, ok = _gauss(pen[2].copy(), np.hstack((pen[0], pen[1])))  # N2⁻¹ (N0 | N1): (12, 24)
         big = 0.0
         for r in range(12):
             for c2 in range(24):
                 big = max(big, abs(X[r, c2]))
-        if big <= 1e10:  # N2 well conditioned enough: the companion's entries stay moderate (NaN fails too)
+        if ok and big <= 1e10:  # N2 well conditioned enough: the companion's entries stay moderate (NaN fails too)
             for r in range(12):
                 comp[r, 12 + r] = 1.0
                 for c2 in range(24):
@@ -418,12 +420,15 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps):
                 big = max(big, abs(Ny[r, c2]))
         for r in range(12):
             Ny[r, r] += 1e-13 * big
-        z, ok = _gauss(Ny, rhs12.copy())
-        if not ok:
-            continue
+        z, ok = _gauss(Ny.copy(), rhs12.copy().reshape((12, 1)))
         mono = np.empty((4, 3))
-        for r in range(12):
-            mono[r // 3, r % 3] = z[r]
+        if ok:
+            for r in range(12):
+                mono[r // 3, r % 3] = z[r, 0]
+        else:  # a zero pivot (a monomial no equation holds, on special arms): the SVD's null vector
+            vt = np.linalg.svd(Ny)[2]
+            for r in range(12):
+                mono[r // 3, r % 3] = vt[11, r]
         j, i = 0, 0
         for r in range(3):
             if abs(mono[0, r]) > abs(mono[0, j]):
