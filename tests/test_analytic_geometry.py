@@ -542,12 +542,12 @@ def test_ur_solution_count_matches_eaik(name):
 
 # ---- refusals and the document solvers ----------------------------------------------------------------
 
-def _parallel_ends_6r(seed: int) -> RobotModel:
-    """A 6R arm whose only special features are axes 1-2 and 5-6 parallel: no subproblem family fits, and
-    the general elimination degenerates from the base and from the tool."""
+def _collinear_6r(seed: int) -> RobotModel:
+    """A 6R arm with axes 2 and 3 on one line (its joints are not independent): no subproblem family
+    fits, and the general elimination degenerates however it is set up."""
     rng = np.random.default_rng(seed)
-    return dh_model("standard", rng.uniform(0.1, 0.5, 6), [0.0, 0.9, 0.5, 1.1, 0.0, 0.4], rng.uniform(0.1, 0.5, 6),
-                    np.zeros(6))
+    return dh_model("standard", np.r_[rng.uniform(0.1, 0.5), 0.0, rng.uniform(0.1, 0.5, 4)],
+                    [0.6, 0.0, 0.5, 1.1, 0.7, 0.4], rng.uniform(0.1, 0.5, 6), np.zeros(6))
 
 
 def _refusal_cases():
@@ -559,8 +559,8 @@ def _refusal_cases():
         {"type": "revolute", "a": 0.0, "alpha": -np.pi / 2, "d": 0.0, "theta_offset": 0.0},
         {"type": "revolute", "a": 0.0, "alpha": np.pi / 2, "d": 0.0, "theta_offset": 0.0},
         {"type": "revolute", "a": 0.0, "alpha": 0.0, "d": 0.1, "theta_offset": 0.0}]})
-    return {"four_joints": four, "prismatic": pris, "parallel_ends_6r": _parallel_ends_6r(0),
-            "parallel_ends_6r_urdf": as_general(_parallel_ends_6r(1)), "stanford": robot("stanford"),
+    return {"four_joints": four, "prismatic": pris, "collinear_6r": _collinear_6r(0),
+            "collinear_6r_urdf": as_general(_collinear_6r(1)), "stanford": robot("stanford"),
             "mariano_4dof": robot("mariano_4dof")}
 
 

@@ -38,13 +38,16 @@ the FK check decide; a goal on the boundary of the workspace may lose its double
 the 40 most singular of 6 000 random configurations of each of 4 random arms, σ_min/σ_max down to
 5e-7, all solved, the configuration itself among the solutions). Arms with
 special geometry (a spherical wrist, parallel axes) can make the 12 × 12 pencil singular for every
-``x3`` (their solutions are not isolated in this formulation): once per robot three goals of the
+``x3`` (their solutions are not isolated in this formulation). Once per robot three goals of the
 arm's own configurations are solved, and when a configuration is not among its goal's roots the
-elimination is tried on the chain read from the tool back (``T⁻¹ = T0⁻¹ E_6(−θ6) ⋯ E_1(−θ1)``:
-joint k of that chain is the arm's joint 7 − k, its line moved by ``T0⁻¹``), which does not
-degenerate where the arm's own chain does at its base (axes 1 and 2 parallel, say). When both
-degenerate, :func:`applies_to` refuses the arm naming why; the subproblem solver ``analytic``
-takes the special arms a family fits.
+next way of setting up the elimination is tried: the chain read from the tool back
+(``T⁻¹ = T0⁻¹ E_6(−θ6) ⋯ E_1(−θ1)``: joint k of that chain is the arm's joint 7 − k, its line moved by
+``T0⁻¹``), then the loop split the other way (:data:`SPLITS`: joints 2-4 on the left, the point on
+axis 5, joints 1 and 6 on the right with the goal between them), on each chain. With these, every
+6R arm tried here is solved, the catalogue's spherical wrists, UR arms and offset wrists included
+(where ``analytic`` uses its subproblems: on 20 catalogue arms × 200 goals the two gave the same
+solution sets on all but 2 goals, where the elimination missed 1 and 2 solutions of 8); an arm with
+two joint axes on one line is refused (its joints are not independent).
 """
 
 from __future__ import annotations
@@ -111,22 +114,32 @@ def _grid_nine(a: float, b: float) -> np.ndarray:
 _TO_NINE = np.array([[1.0 if _ORDER[t] == (i, j) else 0.0 for i in range(3) for j in range(3)] for t in range(9)])
 
 
+# How the closure is split: (the three joints of the left side, the joint whose axis carries the point
+# and direction, the two joints of the right side). Split 0: E3 E4 E5 (c, h6) = E2⁻¹ E1⁻¹ G (c, h6);
+# split 1: E2 E3 E4 (c, h5) = E1⁻¹ G E6⁻¹ (c, h5), G = T M⁻¹ (0-based joint indices below).
+SPLITS = (((2, 3, 4), 5, (0, 1)), ((1, 2, 3), 4, (0, 5)))
+
+
 @dataclass(frozen=True)
 class _Model:
     H: np.ndarray        # (6, 3) unit axes of the arm
     P: np.ndarray        # (6, 3) a point on each
     T0: np.ndarray       # (4, 4) the tool at q = 0
     reversed: bool       # the elimination runs on the chain read from the tool back (below)
+    split: int           # which of SPLITS
     eH: np.ndarray       # (6, 3), (6, 3), (4, 4): the chain the elimination runs on (the arm's own, or
     eP: np.ndarray       # reversed: joint k is the arm's joint 7 - k with angle −θ, its lines moved by
     eT0: np.ndarray      # T0⁻¹, home T0⁻¹; the goal T⁻¹)
-    left: tuple          # (Ps, Pc, P1), each (14, 9): coefficients of (s3, c3, 1), columns in _nine's order
+    left: tuple          # (Ps, Pc, P1), each (14, 9): coefficients of (s, c, 1) of the left's first joint
     right_inv: np.ndarray  # (9, 9) inverse of the right side's design on the grid
-    right_T: np.ndarray  # (9, 4, 4) (E_1 E_2)⁻¹ on the grid
+    right_L: np.ndarray  # (9, 4, 4) the right side's motion before G on the grid
+    right_c: np.ndarray  # (9, 3), (9, 3): the point and direction G acts on, on the grid
+    right_h: np.ndarray
+    roles: np.ndarray    # (6,) int: the right pair, the left triple, the joint whose axis carries the point
     C: np.ndarray        # (9, 9) _nine's terms times (1 + x4²)(1 + x5²) as monomials x4^i x5^j (index 3i + j)
 
 
-def _model(prep: Prepared, reversed_: bool = False) -> _Model:
+def _model(prep: Prepared, reversed_: bool = False, split: int = 0) -> _Model:
     g = _poe(prep)
     c = np.ascontiguousarray
     H0, P0, M0 = c(g.H, dtype=float), c(g.pts, dtype=float), c(g.T0, dtype=float)
@@ -136,26 +149,37 @@ def _model(prep: Prepared, reversed_: bool = False) -> _Model:
         H = c(np.array([R0.T @ H0[5 - k] for k in range(6)]))
         P = c(np.array([R0.T @ (P0[5 - k] - p0) for k in range(6)]))
         T0 = c(_rigid_inv(M0))
-    o3, cp, h6 = P[2], P[5], H[5]
+    tri, pt, (ja, jb) = SPLITS[split]
+    o, cp, hp = P[tri[0]], P[pt], H[pt]
     rows, vals = [], []
     for f3 in _GRID:
         for f4 in _GRID:
             for f5 in _GRID:
-                T = (_motion(H[2], P[2], f3 + SHIFT[0]) @ _motion(H[3], P[3], f4 + SHIFT[1])
-                     @ _motion(H[4], P[4], f5 + SHIFT[2]))
+                T = (_motion(H[tri[0]], P[tri[0]], f3 + SHIFT[0]) @ _motion(H[tri[1]], P[tri[1]], f4 + SHIFT[1])
+                     @ _motion(H[tri[2]], P[tri[2]], f5 + SHIFT[2]))
                 rows.append(np.kron((math.sin(f3), math.cos(f3), 1.0), _grid_nine(f4, f5)))
-                vals.append(_fourteen(T[:3, :3] @ cp + T[:3, 3] - o3, T[:3, :3] @ h6))
+                vals.append(_fourteen(T[:3, :3] @ cp + T[:3, 3] - o, T[:3, :3] @ hp))
     coef = np.linalg.solve(np.array(rows), np.array(vals))  # (27, 14), exact: a Kronecker product of 3 × 3 grids
     left = tuple(c((coef[9 * k:9 * k + 9].T) @ _TO_NINE.T) for k in range(3))
-    design, Ts = [], []
+    design, Ls, cs, hs = [], [], [], []
     for f1 in _GRID:
         for f2 in _GRID:
             design.append(_grid_nine(f1, f2))
-            Ts.append(np.linalg.inv(_motion(H[0], P[0], f1) @ _motion(H[1], P[1], f2)))
+            if split == 0:  # (E1 E2)⁻¹ G (c, h)
+                Ls.append(np.linalg.inv(_motion(H[ja], P[ja], f1) @ _motion(H[jb], P[jb], f2)))
+                cs.append(cp)
+                hs.append(hp)
+            else:  # E1⁻¹ G E6⁻¹ (c, h)
+                Ls.append(np.linalg.inv(_motion(H[ja], P[ja], f1)))
+                B = np.linalg.inv(_motion(H[jb], P[jb], f2))
+                cs.append(B[:3, :3] @ cp + B[:3, 3])
+                hs.append(B[:3, :3] @ hp)
     s_, c_, o_ = np.array([0.0, 2.0, 0.0]), np.array([1.0, 0.0, -1.0]), np.array([1.0, 0.0, 1.0])
     half = {0: s_, 1: c_, 2: o_}
     C = np.array([np.outer(half[a], half[b]).ravel() for a, b in _ORDER])
-    return _Model(H0, P0, M0, reversed_, H, P, T0, left, c(np.linalg.inv(np.array(design))), c(np.array(Ts)), c(C))
+    roles = np.array([ja, jb, *tri, pt], np.int64)
+    return _Model(H0, P0, M0, reversed_, split, H, P, T0, left, c(np.linalg.inv(np.array(design))), c(np.array(Ls)),
+                  c(np.array(cs)), c(np.array(hs)), roles, c(C))
 
 
 def _rigid_inv(T: np.ndarray) -> np.ndarray:
@@ -308,27 +332,27 @@ _MOBIUS = (0.0, 0.25 * math.pi, 0.5 * math.pi, 0.75 * math.pi)  # x3 = tan(atan(
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _pencil(H, P, T0, Ps, Pc, P1, Rinv, RT, C, kron_of, T, mobius):
+def _pencil(o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, T, mobius):
     """The goal's eliminated system: (ok, companion (24, 24), (a, b, c, d) of the change of variable
     ``x3 = (a y + b) / (c y + d)``, N (3, 12, 12) the pencil in ``y`` (N0, N1, N2), Qp (8, 14) the
-    pseudo-inverse of the products of joints 1-2, P1 (14, 9) with the goal's constant folded in)."""
-    # E_1 ⋯ E_6 = T M⁻¹: the point c on axis 6 and its direction h6 carried by it
+    pseudo-inverse of the products of the right pair, P1 (14, 9) with the goal's constant folded in).
+    ``o`` (3,): the point the quantities are measured from (on the left's first axis); the right side
+    on the grid is ``RL[k] · G · (RC[k], RH[k])``, G = T M⁻¹."""
     R0, p0 = T0[:3, :3], T0[:3, 3]
-    TM = np.empty((3, 4))
+    G = np.empty((3, 4))
     for r in range(3):
         for c_ in range(3):
-            TM[r, c_] = T[r, 0] * R0[c_, 0] + T[r, 1] * R0[c_, 1] + T[r, 2] * R0[c_, 2]
-        TM[r, 3] = T[r, 3] - (TM[r, 0] * p0[0] + TM[r, 1] * p0[1] + TM[r, 2] * p0[2])
-    w, g = np.empty(3), np.empty(3)
-    for r in range(3):
-        w[r] = TM[r, 0] * P[5, 0] + TM[r, 1] * P[5, 1] + TM[r, 2] * P[5, 2] + TM[r, 3]
-        g[r] = TM[r, 0] * H[5, 0] + TM[r, 1] * H[5, 1] + TM[r, 2] * H[5, 2]
+            G[r, c_] = T[r, 0] * R0[c_, 0] + T[r, 1] * R0[c_, 1] + T[r, 2] * R0[c_, 2]
+        G[r, 3] = T[r, 3] - (G[r, 0] * p0[0] + G[r, 1] * p0[1] + G[r, 2] * p0[2])
     Y = np.empty((9, 14))
+    w, g, pr, lr = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     for k in range(9):
-        pr, lr = np.empty(3), np.empty(3)
         for r in range(3):
-            pr[r] = RT[k, r, 0] * w[0] + RT[k, r, 1] * w[1] + RT[k, r, 2] * w[2] + RT[k, r, 3] - P[2, r]
-            lr[r] = RT[k, r, 0] * g[0] + RT[k, r, 1] * g[1] + RT[k, r, 2] * g[2]
+            w[r] = G[r, 0] * RC[k, 0] + G[r, 1] * RC[k, 1] + G[r, 2] * RC[k, 2] + G[r, 3]
+            g[r] = G[r, 0] * RH[k, 0] + G[r, 1] * RH[k, 1] + G[r, 2] * RH[k, 2]
+        for r in range(3):
+            pr[r] = RL[k, r, 0] * w[0] + RL[k, r, 1] * w[1] + RL[k, r, 2] * w[2] + RL[k, r, 3] - o[r]
+            lr[r] = RL[k, r, 0] * g[0] + RL[k, r, 1] * g[1] + RL[k, r, 2] * g[2]
         _fourteen_into(pr, lr, Y[k])
     coef = _mm(Rinv, Y)  # (9, 14), Kronecker order of (s1, c1, 1) ⊗ (s2, c2, 1)
     Q = np.empty((14, 8))
@@ -394,22 +418,20 @@ def _fourteen_into(p, l, out):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps):
+def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
     """Joint values of each real eigenvalue ``y`` of the pencil, polished by ``steps`` Newton steps and
-    wrapped to one turn about 0, duplicates merged: (k, 6) [rad]."""
+    wrapped to one turn about 0, duplicates merged: (k, 6) [rad]. ``roles``: the right pair, the left
+    triple and the joint whose axis carries the point (:data:`SPLITS`)."""
     a, b, c_, d = abcd
     out = np.empty((ys.shape[0], 6))
     k = 0
-    R5, R6 = np.empty((4, 4)), np.empty((3, 3))
+    A, B, Bs, R6, RG, Rs, us = (np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((3, 3)),
+                                np.empty((3, 3)), np.empty((3, 3)), np.empty(3))
     q = np.empty(6)
     v9 = np.empty(9)
     rhs12 = np.empty(12)
     for r in range(12):  # a fixed start vector with no special structure
         rhs12[r] = 1.0 + 0.1 * r * (-1.0) ** r
-    h6 = H[5]
-    ux, uy, uz = (1.0, 0.0, 0.0) if abs(h6[0]) < 0.9 else (0.0, 1.0, 0.0)
-    u = np.array([h6[1] * uz - h6[2] * uy, h6[2] * ux - h6[0] * uz, h6[0] * uy - h6[1] * ux])
-    u /= math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
     for y in ys:
         Ny = pen[2] * (y * y) + pen[1] * y + pen[0]
         # the null vector (x4^i x5^j, i <= 3, j <= 2) by one step of inverse iteration, the matrix nudged
@@ -452,20 +474,37 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps):
                 rhs += (Ps[r, t] * s3 + Pc[r, t] * c3 + P1m[r, t]) * v9[t]
             for t in range(8):
                 v[t] += Qp[t, r] * rhs
-        q[0], q[1] = math.atan2(v[4], v[5]), math.atan2(v[6], v[7])
-        q[2], q[3], q[4] = f3 + shift[0], f4 + shift[1], f5 + shift[2]
-        _chain(H, P, q, 5, R5)
-        for r in range(3):  # R6 = R5ᵀ R(T M⁻¹)
+        q[roles[0]], q[roles[1]] = math.atan2(v[4], v[5]), math.atan2(v[6], v[7])
+        q[roles[2]], q[roles[3]], q[roles[4]] = f3 + shift[0], f4 + shift[1], f5 + shift[2]
+        jp = roles[5]
+        q[jp] = 0.0
+        _chain(H, P, q, jp, A)  # the joints before jp
+        for r in range(4):
+            for cc in range(4):
+                B[r, cc] = 1.0 if r == cc else 0.0
+        for i2 in range(jp + 1, 6):  # the joints after it
+            _times_motion(B, H[i2], P[i2], q[i2], Rs, us, Bs)
+        # R_jp = R_Aᵀ R_G R_Bᵀ, R_G = R_T R_0ᵀ
+        for r in range(3):
+            for cc in range(3):
+                g = T[r, 0] * T0[cc, 0] + T[r, 1] * T0[cc, 1] + T[r, 2] * T0[cc, 2]
+                RG[r, cc] = g
+        for r in range(3):
             for cc in range(3):
                 acc = 0.0
                 for k2 in range(3):
-                    g = T[k2, 0] * T0[cc, 0] + T[k2, 1] * T0[cc, 1] + T[k2, 2] * T0[cc, 2]
-                    acc += R5[k2, r] * g
+                    for k3 in range(3):
+                        acc += A[k2, r] * RG[k2, k3] * B[cc, k3]
                 R6[r, cc] = acc
-        Ru = (R6[0, 0] * u[0] + R6[0, 1] * u[1] + R6[0, 2] * u[2], R6[1, 0] * u[0] + R6[1, 1] * u[1] + R6[1, 2] * u[2],
-              R6[2, 0] * u[0] + R6[2, 1] * u[1] + R6[2, 2] * u[2])
-        cr = (u[1] * Ru[2] - u[2] * Ru[1], u[2] * Ru[0] - u[0] * Ru[2], u[0] * Ru[1] - u[1] * Ru[0])
-        q[5] = math.atan2(h6[0] * cr[0] + h6[1] * cr[1] + h6[2] * cr[2], u[0] * Ru[0] + u[1] * Ru[1] + u[2] * Ru[2])
+        hp = H[jp]
+        ux, uy, uz = (1.0, 0.0, 0.0) if abs(hp[0]) < 0.9 else (0.0, 1.0, 0.0)
+        u0, u1, u2 = hp[1] * uz - hp[2] * uy, hp[2] * ux - hp[0] * uz, hp[0] * uy - hp[1] * ux
+        un = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        u0, u1, u2 = u0 / un, u1 / un, u2 / un
+        Ru = (R6[0, 0] * u0 + R6[0, 1] * u1 + R6[0, 2] * u2, R6[1, 0] * u0 + R6[1, 1] * u1 + R6[1, 2] * u2,
+              R6[2, 0] * u0 + R6[2, 1] * u1 + R6[2, 2] * u2)
+        cr = (u1 * Ru[2] - u2 * Ru[1], u2 * Ru[0] - u0 * Ru[2], u0 * Ru[1] - u1 * Ru[0])
+        q[jp] = math.atan2(hp[0] * cr[0] + hp[1] * cr[1] + hp[2] * cr[2], u0 * Ru[0] + u1 * Ru[1] + u2 * Ru[2])
         qp = _newton(H, P, T0, T, q, steps)
         new = True
         for r in range(6):
@@ -493,8 +532,8 @@ def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
     if not np.all(np.isfinite(T)):
         return np.empty((0, 6))  # a goal with NaN or infinity has no solution (NO_SOLUTION, as elsewhere)
     T = np.ascontiguousarray(_rigid_inv(T) if m.reversed else T, dtype=float)
-    ok, comp, abcd, pen, Qp, P1m = _pencil(m.eH, m.eP, m.eT0, *m.left, m.right_inv, m.right_T, m.C, _KRON_OF, T,
-                                           _MOBIUS)
+    ok, comp, abcd, pen, Qp, P1m = _pencil(m.eP[m.roles[2]], m.eT0, *m.left, m.right_inv, m.right_L, m.right_c,
+                                           m.right_h, m.C, _KRON_OF, T, _MOBIUS)
     if not ok:
         return np.empty((0, 6))
     wr, wi, _, _, info = _dgeev(comp, compute_vl=0, compute_vr=0, overwrite_a=1)  # LAPACK: eigenvalues only
@@ -502,7 +541,7 @@ def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
         return np.empty((0, 6))
     ys = wr[np.abs(wi) <= s.real_tol * (1.0 + np.hypot(wr, wi))]
     roots = _roots(m.eH, m.eP, m.eT0, T, *m.left[:2], P1m, Qp, abcd, pen, np.ascontiguousarray(ys), SHIFT,
-                   s.polish_steps)
+                   s.polish_steps, m.roles)
     if m.reversed:  # back to the arm's joints: θ_k = −(reversed joint 7 − k), wrapped to (−π, π]
         roots = -roots[:, ::-1]
         roots = np.where(roots <= -math.pi, roots + 2.0 * math.pi, roots)
@@ -520,18 +559,19 @@ def _found_all(m: _Model) -> bool:
 
 
 def _choice(prep: Prepared) -> tuple[_Model, str | None]:
-    """(the model to solve with, why the elimination does not apply or None): the arm's own chain,
-    else the chain read from the tool back (one of the two can degenerate where the other does not,
-    e.g. axes 1 and 2 parallel); once per robot."""
+    """(the model to solve with, why the elimination does not apply or None), once per robot: the first
+    of split 0 on the arm's chain, on the chain read from the tool back, then split 1 on each (:data:`SPLITS`)
+    that finds every test configuration. One can degenerate where another does not (axes 1 and 2
+    parallel: split 0 from the tool; a spherical wrist or three parallel axes: split 1)."""
 
     def choose():
         first = _model(prep)
-        for m in (first, _model(prep, True)):
+        for m in (first, _model(prep, True), _model(prep, False, 1), _model(prep, True, 1)):
             if _found_all(m):
                 return m, None
-        return first, ("the general 6R elimination degenerates for this geometry, from the base and from the tool "
-                       "(a configuration of the arm is not among the roots of its own pose, as with intersecting "
-                       "or parallel axes)")
+        return first, ("the general 6R elimination degenerates for this geometry, whichever way the loop is split "
+                       "(a configuration of the arm is not among the roots of its own pose, as with two axes on "
+                       "one line)")
 
     return prep.memo(("general_6r", "model"), choose)
 
