@@ -212,22 +212,32 @@ def test_require_limits_returns_a_solution_within_them():
     assert done == 10
 
 
+def both_methods(name: str, n: int, seed: int):
+    """(the elimination's model, [(analytic's solutions, general_6r's at 1e-9)] on ``n`` goals)."""
+    m = robot(name)
+    prep = Prepared(m)
+    rng = np.random.default_rng(seed)
+    lim = np.where(np.isfinite(m.limits), m.limits, np.array([-np.pi, np.pi]))
+    out = []
+    for q in rng.uniform(lim[:, 0], lim[:, 1], (n, 6)):
+        T = fk_htm(m.chain, q)
+        out.append((solve("analytic", prep, T, q, {}).solutions,
+                    solve("general_6r", prep, T, q, {"tol_pos": 1e-9, "tol_rot": 1e-9}).solutions))
+    return general6r.model(prep), out
+
+
+def contains(big, small) -> bool:
+    return all(np.abs(wrapped(big - x)).max(axis=1).min() < 1e-6 for x in small)
+
+
 def test_offset_wrist_arm_same_solutions_as_the_subproblem_search():
     """The xArm6 (offset wrist) is solved both by ``analytic``'s one-dimensional search and, on the chain
     read from the tool back, by the elimination: two independent methods, the same solution sets (the
     search may miss a pair of solutions closer than its grid, never the other way round)."""
-    m = robot("ufactory_xarm6")
-    prep = Prepared(m)
-    assert general6r.model(prep).reversed
-    rng = np.random.default_rng(3)
-    equal = 0
-    for q in rng.uniform(-np.pi, np.pi, (60, 6)):
-        T = fk_htm(m.chain, q)
-        a = solve("analytic", prep, T, q, {})
-        g = solve("general_6r", prep, T, q, {"tol_pos": 1e-9, "tol_rot": 1e-9})
-        assert all(np.abs(wrapped(g.solutions - x)).max(axis=1).min() < 1e-6 for x in a.solutions)
-        equal += len(a.solutions) == len(g.solutions)
-    assert equal >= 59
+    m6, pairs = both_methods("ufactory_xarm6", 60, 3)
+    assert m6.reversed and m6.split == 0
+    assert all(contains(g, a) for a, g in pairs)
+    assert sum(len(a) == len(g) for a, g in pairs) >= 59
 
 
 @pytest.mark.parametrize("name", ["puma560", "ur5", "kinova_gen3_lite"])
@@ -235,16 +245,7 @@ def test_special_arms_by_the_split_loop_agree_with_the_subproblems(name):
     """A spherical wrist, three parallel axes and an offset wrist: the elimination (split 1) and the
     subproblem solution give the same solution sets (the elimination may miss a root where the
     pencil is close to singular: at most 1 goal in 40 here)."""
-    m = robot(name)
-    prep = Prepared(m)
-    assert general6r.model(prep).split == 1
-    rng = np.random.default_rng(4)
-    lim = np.where(np.isfinite(m.limits), m.limits, np.array([-np.pi, np.pi]))
-    equal = 0
-    for q in rng.uniform(lim[:, 0], lim[:, 1], (40, 6)):
-        T = fk_htm(m.chain, q)
-        a = solve("analytic", prep, T, q, {})
-        g = solve("general_6r", prep, T, q, {"tol_pos": 1e-9, "tol_rot": 1e-9})
-        assert all(np.abs(wrapped(a.solutions - x)).max(axis=1).min() < 1e-6 for x in g.solutions)
-        equal += len(a.solutions) == len(g.solutions)
-    assert equal >= 39
+    m6, pairs = both_methods(name, 40, 4)
+    assert m6.split == 1
+    assert all(contains(a, g) for a, g in pairs)
+    assert sum(len(a) == len(g) for a, g in pairs) >= 39
