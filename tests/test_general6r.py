@@ -249,3 +249,15 @@ def test_special_arms_by_the_split_loop_agree_with_the_subproblems(name):
     assert m6.split == 1
     assert all(contains(a, g) for a, g in pairs)
     assert sum(len(a) == len(g) for a, g in pairs) >= 39
+
+
+def test_the_returned_solution_is_listed_first_whatever_the_cap():
+    rng = np.random.default_rng(14)
+    m = dh_model("modified", _lengths(rng, 6), _twists(rng, 6), _lengths(rng, 6), rng.uniform(-np.pi, np.pi, 6),
+                 limits=[(-2.0, 2.5)] * 6)
+    for q in rng.uniform(-2.0, 2.5, (6, 6)):
+        T = fk_htm(m.chain, q)
+        for cap in (1, 2, 16):
+            r = solve("general_6r", m, T, np.zeros(6), {"require_limits": True, "max_solutions": cap})
+            assert r.success and len(r.solutions) <= cap
+            assert np.abs(wrapped(r.solutions[0] - r.q)).max() < 1e-12

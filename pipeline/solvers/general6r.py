@@ -605,7 +605,11 @@ def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: General6RSet
     d = (S - np.asarray(q_start, dtype=float) + math.pi) % (2.0 * math.pi) - math.pi
     S = S[np.argsort((d * d).sum(axis=1), kind="stable")]  # nearest to the start first
     raw = _result(prep, T_goal, q_start, s, S, np.zeros(len(S), bool), ns, {"roots": int(len(S))})
-    if raw.solutions is not None and len(raw.solutions) > s.max_solutions:
+    best = raw.info["chosen"]
+    if best > 0:  # the returned solution first (under require_limits the nearest within the limits)
+        order = [best] + [i for i in range(len(raw.solutions)) if i != best]
+        raw.solutions = raw.solutions[order]
+    if len(raw.solutions) > s.max_solutions:
         raw.solutions = raw.solutions[:s.max_solutions]
     return raw
 
