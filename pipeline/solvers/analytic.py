@@ -688,10 +688,10 @@ def bind(prep: Prepared, s: AnalyticSettings):
 
 
 def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
-    """N poses in one compiled call on every core (each pose writes only its own rows); an arm that fits
-    no family: the general elimination pose by pose."""
+    """N poses in one compiled call on every core (each pose writes only its own rows); None for an arm
+    that fits no family (the general elimination has no batch kernel: the driver solves pose by pose)."""
     if _general(prep, s):
-        return _batch_general(prep, s, goals, starts, seeds, keep_traces)
+        return None
     k = packed(prep, s)
     n, fam = int(k.ints[0]), _family(prep, s)
     goals = np.ascontiguousarray(goals, dtype=float)
@@ -711,23 +711,6 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     code = np.where(nsol > 0, SUCCESS, NO_SOLUTION).astype(np.int64)
     return BatchRaw(q=Q, code=code, iterations=np.ones(N, np.int64), solve_ns=ns, ik_ns=np.zeros(N, np.int64),
                     trace_rows=rows, trace_offsets=offsets, solutions=S, n_solutions=nsol, info=info)
-
-
-def _batch_general(prep: Prepared, s: AnalyticSettings, goals, starts, seeds, keep_traces: bool) -> BatchRaw:
-    run1, N, n = _bind_general(prep, s), goals.shape[0], prep.n
-    raws = [run1(goals[i], starts[i], int(seeds[i])) for i in range(N)]
-    S = np.full((N, min(s.max_solutions, sp.MAX_SOL), n), np.nan)
-    nsol = np.zeros(N, np.int64)
-    for i, r in enumerate(raws):
-        nsol[i] = len(r.solutions)
-        S[i, :nsol[i]] = r.solutions
-    rows = np.concatenate([r.trace for r in raws]) if keep_traces and N else None
-    offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces and N else None
-    return BatchRaw(q=np.array([r.q for r in raws], dtype=float).reshape(N, n),
-                    code=np.array([r.code for r in raws], np.int64), iterations=np.ones(N, np.int64),
-                    solve_ns=np.array([r.solve_ns for r in raws], np.int64), ik_ns=np.zeros(N, np.int64),
-                    trace_rows=rows, trace_offsets=offsets, solutions=S, n_solutions=nsol,
-                    info=[r.info for r in raws])
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -168,8 +168,8 @@ class Bound:
     def solve_many(self, goals: np.ndarray, starts: np.ndarray, seeds=None, threads: int | None = None,
                    traces: bool = True, t0: int | None = None) -> BatchResult:
         """N problems (see :func:`pipeline.solvers.solve_batch`): the batch kernel and :func:`finish_batch`
-        when the method has one and neither ``require_limits`` nor ``restarts`` is set, else
-        :meth:`solve` per problem, stacked."""
+        when the method has one for this robot and neither ``require_limits`` nor ``restarts`` is set,
+        else :meth:`solve` per problem, stacked."""
         t0 = clock_ns() if t0 is None else t0
         prep, sc = self.prep, self.sc
         G = np.ascontiguousarray(goals, dtype=float)  # read only below: the caller's own arrays where they fit
@@ -179,18 +179,21 @@ class Bound:
         if S.shape != (G.shape[0], prep.n):
             raise SettingsError(f"starts: expected shape ({G.shape[0]}, {prep.n}), got {S.shape}")
         seeds = np.arange(len(G), dtype=np.int64) if seeds is None else np.asarray(seeds, dtype=np.int64)
-        if self.spec.batch is None or sc.require_limits or sc.restarts:
+        raw = None
+        if self.spec.batch is not None and not (sc.require_limits or sc.restarts):
+            Gk, Sk = G, S  # in the working unit
+            if prep.goal_scale != 1.0:
+                Gk = G.copy()
+                Gk[:, :3, 3] *= prep.goal_scale
+            if self.scaled:
+                Sk = S.copy()
+                Sk[:, prep.prismatic] *= prep.goal_scale
+            with numba_threads(threads):
+                raw = self.spec.batch(prep, sc, Gk, Sk, seeds, traces)  # None: no batch kernel for this robot
+        if raw is None:
             res = stack([self.solve(G[i], S[i], int(seeds[i])) for i in range(len(G))], prep.unit, traces)
         else:
-            if prep.goal_scale != 1.0:
-                G = G.copy()
-                G[:, :3, 3] *= prep.goal_scale
-            if self.scaled:
-                S = S.copy()
-                S[:, prep.prismatic] *= prep.goal_scale
-            with numba_threads(threads):
-                raw = self.spec.batch(prep, sc, G, S, seeds, traces)
-            res = finish_batch(prep, G, raw, sc)
+            res = finish_batch(prep, Gk, raw, sc)
             if self.scaled:
                 res.q[:, prep.prismatic] /= prep.goal_scale
         res.call_time_s = (clock_ns() - t0) * 1e-9

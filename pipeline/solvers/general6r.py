@@ -59,8 +59,9 @@ import numba
 import numpy as np
 from scipy.linalg.lapack import dgeev as _dgeev
 
-from pipeline.solvers.base import Prepared, Raw, Settings, setting
-from pipeline.solvers.peers import _metric
+from pipeline.solvers._kin import rodrigues
+from pipeline.solvers.base import Prepared, Raw, Settings, _inv_rigid, setting
+from pipeline.solvers.peers import _metric, _wrap
 from pipeline.solvers.peers_geo import _poe, _result, six_revolute
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.timing import clock_ns
@@ -111,7 +112,7 @@ def _grid_nine(a: float, b: float) -> np.ndarray:
     return np.array([u[i] * v[j] for i in range(3) for j in range(3)])
 
 
-_TO_NINE = np.array([[1.0 if _ORDER[t] == (i, j) else 0.0 for i in range(3) for j in range(3)] for t in range(9)])
+_KRON_OF = np.array([3 * i + j for i, j in _ORDER], np.int64)  # _nine's term t sits at Kronecker index _KRON_OF[t]
 
 
 # How the closure is split: (the three joints of the left side, the joint whose axis carries the point
@@ -148,7 +149,7 @@ def _model(prep: Prepared, reversed_: bool = False, split: int = 0) -> _Model:
         R0, p0 = M0[:3, :3], M0[:3, 3]
         H = c(np.array([R0.T @ H0[5 - k] for k in range(6)]))
         P = c(np.array([R0.T @ (P0[5 - k] - p0) for k in range(6)]))
-        T0 = c(_rigid_inv(M0))
+        T0 = c(_inv_rigid(M0))
     tri, pt, (ja, jb) = SPLITS[split]
     o, cp, hp = P[tri[0]], P[pt], H[pt]
     rows, vals = [], []
@@ -160,7 +161,7 @@ def _model(prep: Prepared, reversed_: bool = False, split: int = 0) -> _Model:
                 rows.append(np.kron((math.sin(f3), math.cos(f3), 1.0), _grid_nine(f4, f5)))
                 vals.append(_fourteen(T[:3, :3] @ cp + T[:3, 3] - o, T[:3, :3] @ hp))
     coef = np.linalg.solve(np.array(rows), np.array(vals))  # (27, 14), exact: a Kronecker product of 3 × 3 grids
-    left = tuple(c((coef[9 * k:9 * k + 9].T) @ _TO_NINE.T) for k in range(3))
+    left = tuple(c(coef[9 * k:9 * k + 9][_KRON_OF].T) for k in range(3))
     design, Ls, cs, hs = [], [], [], []
     for f1 in _GRID:
         for f2 in _GRID:
@@ -182,13 +183,6 @@ def _model(prep: Prepared, reversed_: bool = False, split: int = 0) -> _Model:
                   c(np.array(cs)), c(np.array(hs)), roles, c(C))
 
 
-def _rigid_inv(T: np.ndarray) -> np.ndarray:
-    out = np.eye(4)
-    out[:3, :3] = T[:3, :3].T
-    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return out
-
-
 def _fk(m: _Model, q: np.ndarray) -> np.ndarray:
     T = np.eye(4)
     for i in range(6):
@@ -199,13 +193,10 @@ def _fk(m: _Model, q: np.ndarray) -> np.ndarray:
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _motion_into(h, p, t, R, u):
     """Rotation ``R`` (3, 3) and translation ``u`` (3,) of the motion by ``t`` [rad] about the line
-    through ``p`` along the unit ``h`` (Rodrigues), written into R and u."""
-    c, s_ = math.cos(t), math.sin(t)
-    C = 1.0 - c
-    x, y, z = h[0], h[1], h[2]
-    R[0, 0], R[0, 1], R[0, 2] = c + x * x * C, x * y * C - z * s_, x * z * C + y * s_
-    R[1, 0], R[1, 1], R[1, 2] = y * x * C + z * s_, c + y * y * C, y * z * C - x * s_
-    R[2, 0], R[2, 1], R[2, 2] = z * x * C - y * s_, z * y * C + x * s_, c + z * z * C
+    through ``p`` along the unit ``h`` (:func:`pipeline.solvers._kin.rodrigues`), written into R and u."""
+    r9 = rodrigues(h[0], h[1], h[2], t)
+    for r in range(3):
+        R[r, 0], R[r, 1], R[r, 2] = r9[3 * r], r9[3 * r + 1], r9[3 * r + 2]
     for r in range(3):
         u[r] = p[r] - (R[r, 0] * p[0] + R[r, 1] * p[1] + R[r, 2] * p[2])
 
@@ -327,7 +318,6 @@ def _mm(A, B):
     return out
 
 
-_KRON_OF = np.array([3 * i + j for i, j in _ORDER], np.int64)  # _nine's term t sits at Kronecker index _KRON_OF[t]
 _MOBIUS = (0.0, 0.25 * math.pi, 0.5 * math.pi, 0.75 * math.pi)  # x3 = tan(atan(y) + φ), tried in this order
 
 
@@ -477,8 +467,7 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
         q[roles[0]], q[roles[1]] = math.atan2(v[4], v[5]), math.atan2(v[6], v[7])
         q[roles[2]], q[roles[3]], q[roles[4]] = f3 + shift[0], f4 + shift[1], f5 + shift[2]
         jp = roles[5]
-        q[jp] = 0.0
-        _chain(H, P, q, jp, A)  # the joints before jp
+        _chain(H, P, q, jp, A)  # the joints before jp (q[jp] not read)
         for r in range(4):
             for cc in range(4):
                 B[r, cc] = 1.0 if r == cc else 0.0
@@ -531,7 +520,7 @@ def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
     (not yet FK-checked; duplicates merged)."""
     if not np.all(np.isfinite(T)):
         return np.empty((0, 6))  # a goal with NaN or infinity has no solution (NO_SOLUTION, as elsewhere)
-    T = np.ascontiguousarray(_rigid_inv(T) if m.reversed else T, dtype=float)
+    T = np.ascontiguousarray(_inv_rigid(T) if m.reversed else T, dtype=float)
     ok, comp, abcd, pen, Qp, P1m = _pencil(m.eP[m.roles[2]], m.eT0, *m.left, m.right_inv, m.right_L, m.right_c,
                                            m.right_h, m.C, _KRON_OF, T, _MOBIUS)
     if not ok:
@@ -543,8 +532,7 @@ def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
     roots = _roots(m.eH, m.eP, m.eT0, T, *m.left[:2], P1m, Qp, abcd, pen, np.ascontiguousarray(ys), SHIFT,
                    s.polish_steps, m.roles)
     if m.reversed:  # back to the arm's joints: θ_k = −(reversed joint 7 − k), wrapped to (−π, π]
-        roots = -roots[:, ::-1]
-        roots = np.where(roots <= -math.pi, roots + 2.0 * math.pi, roots)
+        roots = _wrap(-roots[:, ::-1])
     return np.ascontiguousarray(roots)
 
 
@@ -553,7 +541,7 @@ def _found_all(m: _Model) -> bool:
     s = General6RSettings()
     for q in _CHECK_Q:
         roots = candidates(m, _fk(m, q), s)
-        if not any(np.abs((q - r + math.pi) % (2.0 * math.pi) - math.pi).max() < 1e-6 for r in roots):
+        if not any(np.abs(_wrap(q - r)).max() < 1e-6 for r in roots):
             return False
     return True
 
@@ -602,7 +590,7 @@ def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: General6RSet
     t0 = clock_ns()
     S = candidates(m, Tm, s)
     ns = clock_ns() - t0
-    d = (S - np.asarray(q_start, dtype=float) + math.pi) % (2.0 * math.pi) - math.pi
+    d = _wrap(S - np.asarray(q_start, dtype=float))
     S = S[np.argsort((d * d).sum(axis=1), kind="stable")]  # nearest to the start first
     raw = _result(prep, T_goal, q_start, s, S, np.zeros(len(S), bool), ns, {"roots": int(len(S))})
     best = raw.info["chosen"]

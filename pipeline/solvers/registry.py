@@ -46,7 +46,8 @@ class Solver:
                                     done once; the public call uses it when given
     batch : callable, optional      ``batch(prep, settings, goals, starts, seeds, threads, traces) ->
                                     BatchRaw``: N problems in one compiled call (see
-                                    :func:`solve_batch`); without it a batch runs ``run`` per problem
+                                    :func:`solve_batch`), or None where the method has no batch kernel
+                                    for this robot; without one a batch runs ``run`` per problem
     own_threads : bool              the method runs threads of its own (TRAC-IK's two racing solvers): its
                                     CPU time is the process's, not the calling thread's
     library : str                   "ours" (this package's own implementation) or the peer library's
