@@ -64,6 +64,7 @@ from pipeline.solvers.base import Prepared, Raw, Settings, _inv_rigid, setting
 from pipeline.solvers.peers import _metric, _wrap
 from pipeline.solvers.peers_geo import _poe, _result, six_revolute
 from pipeline.solvers.registry import Solver, register
+from pipeline.solvers.subproblems import wrap
 from pipeline.solvers.timing import clock_ns
 
 SOURCE = ("Raghavan & Roth (1993), Inverse kinematics of the general 6R manipulator and related linkages, ASME J. "
@@ -410,7 +411,7 @@ def _fourteen_into(p, l, out):
 @numba.njit(cache=True, error_model="numpy")
 def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
     """Joint values of each real eigenvalue ``y`` of the pencil, polished by ``steps`` Newton steps and
-    wrapped to one turn about 0, duplicates merged: (k, 6) [rad]. ``roles``: the right pair, the left
+    wrapped to (−π, π], duplicates merged: (k, 6) [rad]. ``roles``: the right pair, the left
     triple and the joint whose axis carries the point (:data:`SPLITS`)."""
     a, b, c_, d = abcd
     out = np.empty((ys.shape[0], 6))
@@ -500,13 +501,11 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
             x = qp[r]
             if not math.isfinite(x):
                 new = False
-            qp[r] = x - 2.0 * math.pi * math.floor((x + math.pi) / (2.0 * math.pi))
+            qp[r] = wrap(x)
         for r in range(k):
             far = 0.0
             for t in range(6):
-                e = qp[t] - out[r, t]
-                e = abs(e - 2.0 * math.pi * math.floor((e + math.pi) / (2.0 * math.pi)))
-                far = max(far, e)
+                far = max(far, abs(wrap(qp[t] - out[r, t])))
             if far <= 1e-7:
                 new = False
         if new:
