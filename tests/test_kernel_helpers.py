@@ -136,12 +136,15 @@ def test_check_rows_agrees_with_the_one_row_check():
         th[k // 2] = th[0] + rng.normal(scale=1e-13, size=6)  # a second row on the goal, within tolerance
         Z = np.cos(th) + 1j * np.sin(th)
         tolp2, fmax = 1e-18, 8.0 * np.sin(0.5e-9) ** 2
-        Cz, Sz = np.cos(th).T.ravel().copy(), np.sin(th).T.ravel().copy()  # joint-major: joint i of row r at i k + r
-        ok = np.full(k, -1.0)
-        A.check_rows(H, Pt, A._twelve(RM, pM), A._twelve(goal, goal[:, 3]), Cz, Sz, k, tolp2, fmax, ok)
+        kv = (k + 7) // 8 * 8  # rows padded to whole vectors with the zero angle, as _joint_major pads them
+        thp = np.vstack([th, np.zeros((kv - k, 6))])
+        Cz, Sz = np.cos(thp).T.ravel().copy(), np.sin(thp).T.ravel().copy()  # joint-major: joint i of row r at i kv + r
+        mask = A.check_rows(H, Pt, A._twelve(RM, pM), A._twelve(goal, goal[:, 3]), Cz, Sz, kv, tolp2, fmax)
+        ok = [float((mask >> r) & 1) for r in range(k)]
+        assert mask >> kv == 0  # no bit beyond the rows
         want = []
         for r in range(k):
             A.fk_linesz(H, Pt, RM, pM, Z[r], R, p)
             want.append(1.0 if A.pose_within(R, p, goal, tolp2, fmax) else 0.0)
-        assert ok.tolist() == want
+        assert ok == want
         assert ok[0] == 1.0 and (k < 2 or ok[k // 2] == 1.0)
