@@ -40,6 +40,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import platform
 import time
 from pathlib import Path
 
@@ -262,6 +264,21 @@ def section_seven(n: int) -> dict:
     return out
 
 
+def machine() -> dict:
+    """What the verdicts depend on besides the code: the CPU (model, the compiler's target, cores),
+    the library versions and the load average (1 min) when the run starts. The same code compiles
+    to other vector code on other CPUs (a loop the compiler vectorizes for one may stay scalar for
+    another), so a speed verdict is a verdict on this machine."""
+    import llvmlite.binding as llvm
+    import numba
+
+    info = Path("/proc/cpuinfo")
+    lines = info.read_text().splitlines() if info.exists() else []
+    model = next((ln.split(":", 1)[1].strip() for ln in lines if ln.startswith("model name")), platform.processor())
+    return {"cpu": model, "llvm_cpu": llvm.get_host_cpu_name(), "cores": os.cpu_count(),
+            "numpy": np.__version__, "numba": numba.__version__, "load_1min_start": os.getloadavg()[0]}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--poses", type=int, default=2000)
@@ -270,7 +287,8 @@ def main(argv=None) -> int:
     ap.add_argument("--json")
     a = ap.parse_args(argv)
     only = set(a.only.split(","))
-    res = {}
+    res = {"machine": machine()}
+    print("machine: " + ", ".join(f"{k} {v}" for k, v in res["machine"].items()))
     if "eaik" in only:
         res["eaik"] = section_eaik(a.poses)
     if "batch" in only:
@@ -281,6 +299,8 @@ def main(argv=None) -> int:
         res["general"] = section_general(max(25, a.poses // 4))
     if "seven" in only:
         res["seven"] = section_seven(max(25, a.poses // 4))
+    res["machine"]["load_1min_end"] = os.getloadavg()[0]
+    print(f"load average (1 min) at the end: {res['machine']['load_1min_end']:.2f}")
     if a.json:
         Path(a.json).write_text(json.dumps(res, indent=1))
     return 0

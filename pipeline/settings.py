@@ -215,6 +215,11 @@ class Study:
         rep = self.problem_sets[pset].get("repetitions")
         return int(rep[scale]) if rep else 1
 
+    def timing_runs(self, pset: str, scale: str) -> int:
+        """Runs of every solve whose fastest gives its times (``pipeline.runner``; 1 = one run)."""
+        runs = self.problem_sets[pset].get("timing_runs")
+        return int(runs[scale]) if runs else 1
+
     def set_robots(self, pset: str) -> list[str]:
         return list(self.problem_sets[pset].get("robots") or self.doc["robots"])
 
@@ -238,6 +243,8 @@ class Study:
         """Hash of everything that determines one solve job's archive (timings aside)."""
         blob = {**self.problem_hash(pset, scale), "repetitions": self.repetitions(pset, scale),
                 "solver": self.solvers[solver].as_dict()}
+        if self.timing_runs(pset, scale) > 1:
+            blob["timing_runs"] = self.timing_runs(pset, scale)
         if self.solver_cap(pset, solver, scale) is not None:
             blob["solver_count"] = self.solver_cap(pset, solver, scale)
         return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:16]
@@ -311,9 +318,11 @@ def load_study(path: str | Path) -> Study:
             raise ConfigError(f"{where}: {exc}") from None
         for scale in ("full", "quick"):
             reps = (spec.get("repetitions") or {}).get(scale, 1)
-            if spec["count"][scale] * reps > MAX_SOLVES:
+            runs = (spec.get("timing_runs") or {}).get(scale, 1)
+            if spec["count"][scale] * reps * runs > MAX_SOLVES:
+                runs_text = f" x {runs} timing runs" if runs > 1 else ""
                 raise ConfigError(f"{where}: field 'count/{scale}': {spec['count'][scale]} problems x {reps} "
-                                  f"repetitions is beyond the sane maximum of {MAX_SOLVES} solves per job")
+                                  f"repetitions{runs_text} is beyond the sane maximum of {MAX_SOLVES} solves per job")
         for label in spec.get("solvers") or []:
             if label not in solvers:
                 raise ConfigError(f"{where}: field 'solvers': {label!r} is not a solver label ({', '.join(solvers)})")

@@ -140,3 +140,56 @@ def test_the_workflow_imports_no_study_code_and_globs_no_data():
         assert "pipeline.studies" not in text, f
         assert "DATA, \"robots\").glob" not in text and "glob(" not in text.replace(
             'Path(workflow.basedir, "workflow/rules/studies").glob("*.smk")', ""), f
+
+
+@pytest.mark.parametrize("chained", [False, True])
+def test_timing_runs_keep_the_first_result_with_the_fastest_runs_times(lwr, chained, monkeypatch):
+    """``timing_runs``: the same results as one run (batch kernel and one call at a time), and each
+    problem's times are those of its fastest run (here the runs' CPU times are made up: run 2 of every
+    problem is the fastest in a batch, the middle run one at a time)."""
+    import pipeline.runner as runner
+
+    ps = _path(lwr) if chained else warm_start(lwr, 6, np.random.default_rng(5))
+    s = make_settings("dls")
+    one = [b for b in runner.solve_set_batches("dls", s, lwr, ps)]
+    real_batch, calls = runner.solve_batch, []
+
+    def batch(*a, **k):  # the k-th call's CPU times all k + 1 ms, but 0.5 ms on the third call
+        res = real_batch(*a, **k)
+        calls.append(1)
+        res.cpu_times_s = np.full(len(res.q), 5e-4 if len(calls) == 3 else 1e-3 * len(calls))
+        res.solve_time_s = res.cpu_times_s * 2
+        return res
+
+    monkeypatch.setattr(runner, "solve_batch", batch)
+    three = [b for b in runner.solve_set_batches("dls", s, lwr, ps, timing_runs=3)]
+    assert len(one) == len(three)
+    for (r1, _, q1, a), (r3, _, q3, b) in zip(one, three):
+        np.testing.assert_array_equal(r1, r3)
+        np.testing.assert_array_equal(q1, q3)
+        np.testing.assert_array_equal(a.q, b.q)
+        np.testing.assert_array_equal(a.iterations, b.iterations)
+        np.testing.assert_array_equal(a.success, b.success)
+        if not chained:  # the batch path: the third run's times
+            assert len(calls) == 3
+            np.testing.assert_array_equal(b.cpu_times_s, np.full(len(b.q), 5e-4))
+            np.testing.assert_array_equal(b.solve_time_s, np.full(len(b.q), 1e-3))
+        else:  # one call at a time: each problem's smallest CPU time of its three runs, positive
+            assert not calls and np.all(b.cpu_times_s > 0)
+
+
+def test_timing_runs_refuse_a_method_whose_runs_differ(lwr, monkeypatch):
+    import pipeline.runner as runner
+
+    ps = warm_start(lwr, 4, np.random.default_rng(6))
+    real_batch, calls = runner.solve_batch, []
+
+    def batch(*a, **k):
+        res = real_batch(*a, **k)
+        calls.append(1)
+        res.q = res.q + 1e-12 * len(calls)  # another result on every run
+        return res
+
+    monkeypatch.setattr(runner, "solve_batch", batch)
+    with pytest.raises(RuntimeError, match="timing_runs: dls gave another result"):
+        list(runner.solve_set_batches("dls", make_settings("dls"), lwr, ps, timing_runs=2))
