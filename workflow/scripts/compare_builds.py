@@ -24,8 +24,9 @@ Checks, exit 1 on any difference:
 
 Left out, because they depend on timings or are not deterministic by design (each is listed when
 the script runs): the report's answer section (its picks break ties between equally successful
-methods by call time), tables computed from times under other names (:data:`TIMING_TABLES`) and
-table rows whose first column names a time, time fields inside a record's ``info``, and
+methods by call time), tables computed from times under other names (:data:`TIMING_TABLES`) or whose
+rows are chosen by time (:data:`TIMING_CHOSEN`: the benchmark's key labels per robot), table rows
+whose first column names a time, time fields inside a record's ``info``, and
 the records of TRAC-IK, of the Robotics Toolbox solvers (a failed search returns a C ``rand()``
 configuration) and of any label with a ``time_budget`` (``pipeline/solvers/peers.py``), with their
 rows and columns in the tables.
@@ -33,16 +34,25 @@ rows and columns in the tables.
 
 from __future__ import annotations
 
+import fnmatch
 import re
 import sys
 from pathlib import Path
 
 _TIMING = re.compile(r"time|\[(?:s|ms|µs|us|ns)(?:/[^\]]*)?\]|speed|per call|wall|fastest|faster|ratio|cycles/s|Hz|"
-                     r"\bt mean\b|×", re.I)
+                     r"\bt mean\b|×|CPU share", re.I)
 # tables whose every value comes from measured times although no header says so
 TIMING_TABLES = {"cerbaro2019/tables/table14_correlation.csv",  # Pearson r of problem time vs initial error
                  "nepomuceno2024/tables/orderings.csv",  # the document's speed orderings, checked on our times
                  "arm_benchmark/tables/answer.csv"}  # ties between equally successful methods go to the faster
+# tables whose rows are chosen partly by measured times: the benchmark's key labels per robot (the best
+# of each group by success, ties to the faster call)
+TIMING_CHOSEN = ("arm_benchmark/tables/key_*.csv",)
+
+
+def _from_times(rel: str) -> bool:
+    """The table at ``rel`` (relative to the results tree) is computed or chosen from measured times."""
+    return rel in TIMING_TABLES or any(fnmatch.fnmatch(rel, pat) for pat in TIMING_CHOSEN)
 # pipeline/solvers/peers.py: TRAC-IK has a wall-time budget and two racing threads; a failed Robotics
 # Toolbox search returns a configuration drawn with C rand(), whose state depends on what else the
 # process ran (TRAC-IK's restarts draw from it too)
@@ -126,7 +136,7 @@ def compare(a: Path, b: Path, archives: bool = True) -> list[str]:
         problems.append(f"tables: {sorted(set(map(str, tables_a)) ^ set(map(str, tables_b)))[:5]} in one build only")
     timing_only = 0
     for rel in sorted(set(tables_a) & set(tables_b)):
-        if rel.as_posix() in TIMING_TABLES or rel.name == "machine_load.csv":  # the load record itself
+        if _from_times(rel.as_posix()) or rel.name == "machine_load.csv":  # the load record itself
             continue
         ta, tb = pd.read_csv(a / rel), pd.read_csv(b / rel)
         if list(ta.columns) != list(tb.columns) or len(ta) != len(tb):
@@ -145,10 +155,11 @@ def compare(a: Path, b: Path, archives: bool = True) -> list[str]:
             problems.append(f"{rel}: differs in {bad[:6]}")
         elif not ta.astype(str).equals(tb.astype(str)):
             timing_only += 1
-    print(f"compared {len(arch_a) - len(skipped)} archives, {len(tables_a) - len(TIMING_TABLES & {t.as_posix() for t in tables_a})} "
+    timed = sorted(t.as_posix() for t in tables_a if _from_times(t.as_posix()))
+    print(f"compared {len(arch_a) - len(skipped)} archives, {len(tables_a) - len(timed)} "
           f"tables ({timing_only} differ in timing columns only) and the reports ({len(ids_a)} anchors, answer "
           f"section aside); not compared: {len(skipped)} archives of non-deterministic labels (TRAC-IK, "
-          f"Robotics Toolbox, time budgets) and {len(TIMING_TABLES)} tables computed from times ({', '.join(sorted(TIMING_TABLES))})")
+          f"Robotics Toolbox, time budgets) and {len(timed)} tables computed or chosen from times ({', '.join(timed)})")
     return problems
 
 
@@ -158,7 +169,7 @@ def _time_columns(t, rel: str) -> list[str]:
     from pandas.api.types import is_numeric_dtype
 
     return [c for c in t.columns if "published" not in c and is_numeric_dtype(t[c])
-            and (rel in TIMING_TABLES or _TIMING.search(c))]
+            and (_from_times(rel) or _TIMING.search(c))]
 
 
 def compare_verdicts(a: Path, b: Path) -> list[str]:
