@@ -122,19 +122,8 @@ def solve_set_batches(method: str, settings: Settings, model: RobotModel, ps: Pr
         first = None
         for r in range(repetitions):
             seed = problem_seed(set_seed, ps.problem_id[i], r)
-            res = None
-            for _ in range(timing_runs):
-                c0 = cpu_clock()
-                run = b.solve(T_goals[i], q0, seed)
-                t_cpu = (cpu_clock() - c0) * 1e-9
-                if res is None:
-                    res, best = run, t_cpu
-                else:
-                    _same_result(res.q, run.q, res.iterations, run.iterations, method)
-                    if t_cpu < best:
-                        best = t_cpu
-                        res.solve_time_s, res.ik_time_s, res.call_time_s = run.solve_time_s, run.ik_time_s, run.call_time_s
-            cpu.append(best)
+            res, t_cpu = _timed_solve(b, T_goals[i], q0, seed, cpu_clock, timing_runs, method)
+            cpu.append(t_cpu)
             first = first or res
             rows.append(int(i)), reps.append(r), starts.append(q0), results.append(res)
         if ch >= 0:
@@ -150,6 +139,24 @@ def _same_result(q_a, q_b, it_a, it_b, method: str) -> None:
     if not (np.array_equal(q_a, q_b, equal_nan=True) and np.array_equal(it_a, it_b)):
         raise RuntimeError(f"timing_runs: {method} gave another result on a second run of the same problems "
                            "(the fastest of several runs needs a deterministic method)")
+
+
+def _timed_solve(b, T_goal, q0, seed, clock, runs: int, method: str) -> tuple[IKResult, float]:
+    """One solve run ``runs`` times: (the first run's result with the times of its fastest run, that
+    run's CPU time [s] on ``clock``)."""
+    res = best = None
+    for _ in range(runs):
+        c0 = clock()
+        run = b.solve(T_goal, q0, seed)
+        t_cpu = (clock() - c0) * 1e-9
+        if res is None:
+            res, best = run, t_cpu
+            continue
+        _same_result(res.q, run.q, res.iterations, run.iterations, method)
+        if t_cpu < best:
+            best = t_cpu
+            res.solve_time_s, res.ik_time_s, res.call_time_s = run.solve_time_s, run.ik_time_s, run.call_time_s
+    return res, best
 
 
 def _fastest(a: BatchResult, b: BatchResult, method: str) -> BatchResult:

@@ -145,8 +145,8 @@ def test_the_workflow_imports_no_study_code_and_globs_no_data():
 @pytest.mark.parametrize("chained", [False, True])
 def test_timing_runs_keep_the_first_result_with_the_fastest_runs_times(lwr, chained, monkeypatch):
     """``timing_runs``: the same results as one run (batch kernel and one call at a time), and each
-    problem's times are those of its fastest run (here the runs' CPU times are made up: run 2 of every
-    problem is the fastest in a batch, the middle run one at a time)."""
+    problem's times are those of its fastest run (here the runs' CPU times are made up: the third batch
+    call is the fastest; one call at a time, each solve's second run)."""
     import pipeline.runner as runner
 
     ps = _path(lwr) if chained else warm_start(lwr, 6, np.random.default_rng(5))
@@ -161,7 +161,17 @@ def test_timing_runs_keep_the_first_result_with_the_fastest_runs_times(lwr, chai
         res.solve_time_s = res.cpu_times_s * 2
         return res
 
+    state = {"t": 0, "n": 0}
+
+    def clock():  # one call at a time: each solve's three runs take 3, 1 and 2 ms of "CPU time"
+        n = state["n"]
+        state["n"] += 1
+        if n % 2:  # the reading after a run
+            state["t"] += (3_000_000, 1_000_000, 2_000_000)[(n // 2) % 3]
+        return state["t"]
+
     monkeypatch.setattr(runner, "solve_batch", batch)
+    monkeypatch.setattr(runner.time, "thread_time_ns", clock)
     three = [b for b in runner.solve_set_batches("dls", s, lwr, ps, timing_runs=3)]
     assert len(one) == len(three)
     for (r1, _, q1, a), (r3, _, q3, b) in zip(one, three):
@@ -174,8 +184,9 @@ def test_timing_runs_keep_the_first_result_with_the_fastest_runs_times(lwr, chai
             assert len(calls) == 3
             np.testing.assert_array_equal(b.cpu_times_s, np.full(len(b.q), 5e-4))
             np.testing.assert_array_equal(b.solve_time_s, np.full(len(b.q), 1e-3))
-        else:  # one call at a time: each problem's smallest CPU time of its three runs, positive
-            assert not calls and np.all(b.cpu_times_s > 0)
+        else:  # one call at a time: each problem's smallest CPU time of its three runs
+            assert not calls
+            np.testing.assert_array_equal(b.cpu_times_s, np.full(len(b.q), 1e-3))
 
 
 def test_timing_runs_refuse_a_method_whose_runs_differ(lwr, monkeypatch):

@@ -49,16 +49,17 @@ TIMING_TABLES = {"cerbaro2019/tables/table14_correlation.csv",  # Pearson r of p
 # of each group by success, ties to the faster call)
 TIMING_CHOSEN = ("arm_benchmark/tables/key_*.csv",)
 
-
-def _from_times(rel: str) -> bool:
-    """The table at ``rel`` (relative to the results tree) is computed or chosen from measured times."""
-    return rel in TIMING_TABLES or any(fnmatch.fnmatch(rel, pat) for pat in TIMING_CHOSEN)
 # pipeline/solvers/peers.py: TRAC-IK has a wall-time budget and two racing threads; a failed Robotics
 # Toolbox search returns a configuration drawn with C rand(), whose state depends on what else the
 # process ran (TRAC-IK's restarts draw from it too)
 NONDETERMINISTIC = ("trac_ik", "rtb_ik_")
 _ANCHOR = re.compile(r'id="((?:tab|fig)-[^"]+|[a-z0-9_]+)"')
 _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?", re.I)
+
+
+def _from_times(rel: str) -> bool:
+    """The table at ``rel`` (relative to the results tree) is computed or chosen from measured times."""
+    return rel in TIMING_TABLES or any(fnmatch.fnmatch(rel, pat) for pat in TIMING_CHOSEN)
 
 
 def _report_skeleton(results: Path) -> tuple[list[str], str]:
