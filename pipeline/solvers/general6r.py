@@ -18,15 +18,19 @@ file form works:
    quantities on a 3 × 3 (× 3) grid of angles and solving the (Kronecker) system: no symbolic
    expansion. The left set depends on the arm only (once per robot), the right one on the goal.
 2. The 8 products of joints 1-2 are eliminated: the 6 rows of the left null space of their 14 × 8
-   coefficient matrix give 6 equations in joints 3-5 only.
+   coefficient matrix give 6 equations in joints 3-5 only (a Householder QR with column pivoting,
+   each row first scaled by a power of two to unit size: the 14 quantities have different units,
+   and an unscaled null space leaves rounding of the large rows in the small ones).
 3. Half-angle tangents ``x_i = tan(θ_i / 2)`` (each joint shifted by a fixed offset first, so that
    no solution sits at θ = π where ``x`` is infinite) turn them into 6 equations in the 9 monomials
    ``x4^i x5^j`` (i, j ≤ 2), quadratic in ``x3``; with the same equations times ``x4`` they are 12 in
    12 monomials, ``(M2 x3² + M1 x3 + M0) m = 0``. A Möbius change of variable (``_MOBIUS``) makes
-   its leading matrix well conditioned, and the real eigenvalues of the 24 × 24 companion matrix
-   (LAPACK ``dgeev``) give joint 3; the null vector ``m`` (one step of inverse iteration) joints 4
-   and 5, the 14 equations joints 1 and 2 (pseudo-inverse on the eliminated products) and the pose
-   joint 6.
+   its leading matrix well conditioned. Its 24 × 24 companion matrix has 8 eigenvalues at ±i whatever
+   the goal (the factor ``(1 + x3²)⁴`` of Raghavan and Roth's degree-24 polynomial); they are
+   deflated (:func:`_deflate`) and the real eigenvalues of the remaining 16 × 16 (LAPACK ``dgeev``)
+   give joint 3; the null vector ``m`` (one step of inverse iteration) joints 4 and 5, the 14
+   equations joints 1 and 2 (least squares on the eliminated products) and the pose joint 6. The
+   whole goal is one compiled call (:func:`_all_roots`).
 4. Each root is polished by ``polish_steps`` Newton steps on the full pose and kept when the FK check
    (the compiled dual-quaternion check every result gets, with the settings' tolerances) passes;
    duplicates (a double root) are merged. ``q`` is the kept solution nearest ``q_start``, as for
@@ -38,16 +42,19 @@ the FK check decide; a goal on the boundary of the workspace may lose its double
 the 40 most singular of 6 000 random configurations of each of 4 random arms, σ_min/σ_max down to
 5e-7, all solved, the configuration itself among the solutions). Arms with
 special geometry (a spherical wrist, parallel axes) can make the 12 × 12 pencil singular for every
-``x3`` (their solutions are not isolated in this formulation). Once per robot three goals of the
+``x3`` (their solutions are not isolated in this formulation: a spherical wrist's four solutions of
+each elbow share one ``x3``). Once per robot three goals of the
 arm's own configurations are solved, and when a configuration is not among its goal's roots the
 next way of setting up the elimination is tried: the chain read from the tool back
 (``T⁻¹ = T0⁻¹ E_6(−θ6) ⋯ E_1(−θ1)``: joint k of that chain is the arm's joint 7 − k, its line moved by
 ``T0⁻¹``), then the loop split the other way (:data:`SPLITS`: joints 2-4 on the left, the point on
 axis 5, joints 1 and 6 on the right with the goal between them), on each chain. With these, every
-6R arm tried here is solved, the catalogue's spherical wrists, UR arms and offset wrists included
-(where ``analytic`` uses its subproblems: on 20 catalogue arms × 200 goals the two gave the same
-solution sets on all but 2 goals, where the elimination missed 1 and 2 solutions of 8); an arm with
-two joint axes on one line is refused (its joints are not independent).
+general 6R arm tried here is solved, and 16 of the catalogue's 22 6R arms (UR arms, offset wrists,
+some spherical wrists; ``analytic`` uses its subproblems for them: on 200 goals of each the two gave
+the same solution sets on every goal). Where every way degenerates the arm is refused in one line
+(measured: the PUMA 560, ABB IRB 120, Stäubli TX2-60 and the UR5e's URDF, each of which the
+subproblems solve; an earlier SVD null space "solved" them through rounding noise of an exactly
+singular pencil), as is an arm with two joint axes on one line (its joints are not independent).
 """
 
 from __future__ import annotations
@@ -57,7 +64,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from scipy.linalg.lapack import dgeev as _dgeev
+from numba.np.linalg import _LAPACK, ensure_lapack
 
 from pipeline.solvers._kin import rodrigues
 from pipeline.solvers.base import Prepared, Raw, Settings, _inv_rigid, setting
@@ -66,6 +73,8 @@ from pipeline.solvers.peers_geo import _poe, _result, six_revolute
 from pipeline.solvers.registry import Solver, register
 from pipeline.solvers.subproblems import wrap
 from pipeline.solvers.timing import clock_ns
+
+ensure_lapack()
 
 SOURCE = ("Raghavan & Roth (1993), Inverse kinematics of the general 6R manipulator and related linkages, ASME J. "
           "Mech. Des. 115; Manocha & Canny (1994), Efficient inverse kinematics for general 6R manipulators, IEEE "
@@ -319,6 +328,214 @@ def _mm(A, B):
     return out
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _qr_split(Q, Qp, Nl):
+    """Householder QR with column pivoting of the products' coefficients ``Q`` (14, 8): ``Q Π = U R``.
+    Writes the least-squares solve ``Qp`` (8, 14) = Π R⁻¹ U₁ᵀ and the left null space ``Nl`` (6, 14)
+    (the last 6 columns of U, as rows); returns False when Q is rank deficient (|R₇₇| <= 1e-12 |R₀₀|).
+    About 1 µs, against 20 µs for LAPACK's SVD of so small a matrix."""
+    A = Q.copy()
+    sc = np.empty(14)  # each row scaled by a power of two to unit size (exact): the rows' units differ
+    for r in range(14):
+        big = 0.0
+        for c in range(8):
+            big = max(big, abs(A[r, c]))
+        sc[r] = 2.0 ** -math.floor(math.log2(big)) if big > 0.0 and math.isfinite(big) else 1.0
+        for c in range(8):
+            A[r, c] *= sc[r]
+    V = np.zeros((14, 8))
+    tau = np.zeros(8)
+    perm = np.arange(8)
+    w = np.empty(14)
+    for j in range(8):
+        best, p = -1.0, j
+        for c in range(j, 8):
+            nn = 0.0
+            for r in range(j, 14):
+                nn += A[r, c] * A[r, c]
+            if nn > best:
+                best, p = nn, c
+        if p != j:
+            for r in range(14):
+                A[r, j], A[r, p] = A[r, p], A[r, j]
+            perm[j], perm[p] = perm[p], perm[j]
+        nrm = math.sqrt(best)
+        if not nrm > 0.0:
+            return False
+        alpha = -nrm if A[j, j] >= 0.0 else nrm
+        vv = 0.0
+        for r in range(j, 14):
+            V[r, j] = A[r, j]
+        V[j, j] -= alpha
+        for r in range(j, 14):
+            vv += V[r, j] * V[r, j]
+        tau[j] = 2.0 / vv
+        A[j, j] = alpha
+        for r in range(j + 1, 14):
+            A[r, j] = 0.0
+        for c in range(j + 1, 8):
+            d = 0.0
+            for r in range(j, 14):
+                d += V[r, j] * A[r, c]
+            d *= tau[j]
+            for r in range(j, 14):
+                A[r, c] -= d * V[r, j]
+    if not abs(A[7, 7]) > 1e-12 * abs(A[0, 0]):
+        return False
+    U = np.zeros((14, 14))  # U = H₀ ⋯ H₇, each H = I − τ v vᵀ
+    for r in range(14):
+        U[r, r] = 1.0
+    for j in range(7, -1, -1):
+        for c in range(14):
+            w[c] = 0.0
+        for r in range(j, 14):
+            vr = V[r, j]
+            for c in range(14):
+                w[c] += vr * U[r, c]
+        for r in range(j, 14):
+            f = tau[j] * V[r, j]
+            for c in range(14):
+                U[r, c] -= f * w[c]
+    for k in range(6):
+        for c in range(14):
+            Nl[k, c] = U[c, 8 + k] * sc[c]
+    Y = np.empty((8, 14))  # R Y = U₁ᵀ by back substitution
+    for i in range(7, -1, -1):
+        for c in range(14):
+            acc = U[c, i]
+            for k in range(i + 1, 8):
+                acc -= A[i, k] * Y[k, c]
+            Y[i, c] = acc / A[i, i]
+    for i in range(8):
+        for c in range(14):
+            Qp[perm[i], c] = Y[i, c] * sc[c]
+    return True
+
+
+_RGEEV = _LAPACK().numba_ez_rgeev(numba.types.float64)  # numba's own LAPACK entry (scipy's dgeev): cacheable
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _eigvals(A, wr, wi):
+    """Eigenvalues of the square ``A`` (n, n) into ``wr``, ``wi`` (n,) by LAPACK ``dgeev`` (no vectors);
+    A is overwritten (LAPACK reads the C-ordered array as its transpose: the same eigenvalues).
+    Returns LAPACK's info (0: done)."""
+    n = A.shape[0]
+    vl, vr = np.empty(1), np.empty(1)
+    return _RGEEV(100, 78, 78, n, A.ctypes, n, wr.ctypes, wi.ctypes, vl.ctypes, 1, vr.ctypes, 1)  # 'd', 'N', 'N'
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _deflate(pen, comp, B):
+    """The companion ``comp`` (24, 24) with its 8 eigenvalues at ±i removed, into ``B`` (16, 16).
+
+    Whatever the arm, ``(1 + x3²)⁴`` divides the degree-24 determinant (Raghavan & Roth), and the
+    change of variable fixes ±i: the pencil ``N(i) = N0 − N2 + i N1`` has a 4-dimensional null space
+    (complete-pivoting LU, 8 steps, the rest below 1e-9 of the first pivot), whose vectors ``v`` give
+    the companion's invariant subspace ``[Re v; −Im v], [Im v; Re v]`` (24, 8) for ±i, checked to
+    1e-9. With P X = [L1; L2] U (row pivoting, |L| <= 1), the similarity ``[[X1, 0], [X2, I]]``
+    makes P comp Pᵀ block triangular, its other eigenvalues those of ``A22 − L2 L1⁻¹ A12``. 16 × 16
+    takes LAPACK about two thirds of the time of 24 × 24 here. Returns False where a check fails (the
+    caller then solves the whole companion)."""
+    Nc = np.empty((12, 12), np.complex128)
+    for r in range(12):
+        for c in range(12):
+            Nc[r, c] = complex(pen[0, r, c] - pen[2, r, c], pen[1, r, c])
+    perm = np.arange(12)
+    p0 = 0.0
+    for s_ in range(8):
+        pr, pc, pm = s_, s_, -1.0
+        for r in range(s_, 12):
+            for c in range(s_, 12):
+                a = abs(Nc[r, c].real) + abs(Nc[r, c].imag)
+                if a > pm:
+                    pm, pr, pc = a, r, c
+        if s_ == 0:
+            p0 = pm
+        if not pm > 0.0:
+            return False
+        if pr != s_:
+            for c in range(12):
+                Nc[s_, c], Nc[pr, c] = Nc[pr, c], Nc[s_, c]
+        if pc != s_:
+            for r in range(12):
+                Nc[r, s_], Nc[r, pc] = Nc[r, pc], Nc[r, s_]
+            perm[s_], perm[pc] = perm[pc], perm[s_]
+        inv = 1.0 / Nc[s_, s_]
+        for r in range(s_ + 1, 12):
+            f = Nc[r, s_] * inv
+            for c in range(s_ + 1, 12):
+                Nc[r, c] -= f * Nc[s_, c]
+    for r in range(8, 12):
+        for c in range(8, 12):
+            if not abs(Nc[r, c].real) + abs(Nc[r, c].imag) <= 1e-9 * p0:
+                return False
+    X = np.empty((24, 8))
+    z = np.empty(12, np.complex128)
+    for k in range(4):
+        for j in range(8, 12):
+            z[j] = 1.0 if j == 8 + k else 0.0
+        for i in range(7, -1, -1):
+            acc = -Nc[i, 8 + k]
+            for j in range(i + 1, 8):
+                acc -= Nc[i, j] * z[j]
+            z[i] = acc / Nc[i, i]
+        for j in range(12):
+            c = perm[j]
+            X[c, 2 * k], X[12 + c, 2 * k] = z[j].real, -z[j].imag
+            X[c, 2 * k + 1], X[12 + c, 2 * k + 1] = z[j].imag, z[j].real
+    # check: comp x₂ₖ = −x₂ₖ₊₁ and comp x₂ₖ₊₁ = x₂ₖ (the top half holds by the companion's form)
+    amax, xmax, res = 0.0, 0.0, 0.0
+    for r in range(12, 24):
+        for c in range(24):
+            amax = max(amax, abs(comp[r, c]))
+    for r in range(24):
+        for c in range(8):
+            xmax = max(xmax, abs(X[r, c]))
+    for k in range(4):
+        for r in range(12, 24):
+            ea, eb = 0.0, 0.0
+            for c in range(24):
+                ea += comp[r, c] * X[c, 2 * k]
+                eb += comp[r, c] * X[c, 2 * k + 1]
+            res = max(res, abs(ea + X[r, 2 * k + 1]), abs(eb - X[r, 2 * k]))
+    if not res <= 1e-9 * (amax + 1.0) * xmax:
+        return False
+    # P X = [L1; L2] U by Gaussian elimination with row pivoting; rows[:8] the pivot rows
+    rows = np.arange(24)
+    for j in range(8):
+        p, pm = j, -1.0
+        for r in range(j, 24):
+            if abs(X[r, j]) > pm:
+                pm, p = abs(X[r, j]), r
+        if not pm > 0.0:
+            return False
+        if p != j:
+            for c in range(8):
+                X[j, c], X[p, c] = X[p, c], X[j, c]
+            rows[j], rows[p] = rows[p], rows[j]
+        for r in range(j + 1, 24):
+            f = X[r, j] / X[j, j]
+            X[r, j] = f  # the multiplier: L's entry
+            for c in range(j + 1, 8):
+                X[r, c] -= f * X[j, c]
+    # W = L1⁻¹ A12 (8, 16), then B = A22 − L2 W, in the pivoted order
+    W = np.empty((8, 16))
+    for i in range(8):
+        for c in range(16):
+            acc = comp[rows[i], rows[8 + c]]
+            for k in range(i):
+                acc -= X[i, k] * W[k, c]
+            W[i, c] = acc
+    for r in range(16):
+        for c in range(16):
+            acc = comp[rows[8 + r], rows[8 + c]]
+            for k in range(8):
+                acc -= X[8 + r, k] * W[k, c]
+            B[r, c] = acc
+    return True
+
+
 _MOBIUS = (0.0, 0.25 * math.pi, 0.5 * math.pi, 0.75 * math.pi)  # x3 = tan(atan(y) + φ), tried in this order
 
 
@@ -354,19 +571,12 @@ def _pencil(o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, T, mobius):
                 Q[r, t] = coef[kron_of[t], r]
             else:
                 P1m[r, 8] -= coef[kron_of[t], r]
-    U, sv, Vt = np.linalg.svd(Q)
     pen = np.zeros((3, 12, 12))
     comp = np.zeros((24, 24))
     Qp = np.zeros((8, 14))
-    if not sv[7] > 1e-12 * sv[0]:
+    Nl = np.empty((6, 14))  # the left null space of Q
+    if not _qr_split(Q, Qp, Nl):
         return False, comp, (1.0, 0.0, 0.0, 1.0), pen, Qp, P1m
-    for r in range(8):
-        for c_ in range(14):
-            acc = 0.0
-            for k in range(8):
-                acc += Vt[k, r] / sv[k] * U[c_, k]
-            Qp[r, c_] = acc
-    Nl = np.ascontiguousarray(U[:, 8:14].T)  # (6, 14): the left null space of Q
     Ss, Sc, S1 = _mm(Nl, Ps), _mm(Nl, Pc), _mm(Nl, P1m)
     A0, A1, A2 = _mm(S1 + Sc, C), _mm(2.0 * Ss, C), _mm(S1 - Sc, C)  # x3^0, x3^1, x3^2: (6, 9) each
     M = np.zeros((3, 12, 12))
@@ -514,25 +724,56 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
     return out[:k].copy()
 
 
-def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
-    """Every root of the elimination for the goal ``T`` (4, 4) [m], polished: (k, 6) [rad], k <= 24
-    (not yet FK-checked; duplicates merged)."""
-    if not np.all(np.isfinite(T)):
-        return np.empty((0, 6))  # a goal with NaN or infinity has no solution (NO_SOLUTION, as elsewhere)
-    T = np.ascontiguousarray(_inv_rigid(T) if m.reversed else T, dtype=float)
-    ok, comp, abcd, pen, Qp, P1m = _pencil(m.eP[m.roles[2]], m.eT0, *m.left, m.right_inv, m.right_L, m.right_c,
-                                           m.right_h, m.C, _KRON_OF, T, _MOBIUS)
+@numba.njit(cache=True, error_model="numpy")
+def _all_roots(T, rev, o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, mobius, H, P, shift, steps, roles, real_tol):
+    """:func:`candidates` in one compiled call: the pencil, the eigenvalues (the companion deflated of
+    its ±i block where the checks pass, else whole), the real ones' roots polished; (k, 6) [rad]."""
+    for r in range(4):
+        for c in range(4):
+            if not math.isfinite(T[r, c]):
+                return np.empty((0, 6))  # a goal with NaN or infinity has no solution (NO_SOLUTION, as elsewhere)
+    Tg = np.zeros((4, 4))
+    Tg[3, 3] = 1.0
+    for r in range(3):
+        for c in range(3):
+            Tg[r, c] = T[c, r] if rev else T[r, c]
+    for r in range(3):
+        Tg[r, 3] = -(T[0, r] * T[0, 3] + T[1, r] * T[1, 3] + T[2, r] * T[2, 3]) if rev else T[r, 3]
+    ok, comp, abcd, pen, Qp, P1m = _pencil(o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, Tg, mobius)
     if not ok:
         return np.empty((0, 6))
-    wr, wi, _, _, info = _dgeev(comp, compute_vl=0, compute_vr=0, overwrite_a=1)  # LAPACK: eigenvalues only
+    wr, wi = np.empty(24), np.empty(24)
+    B = np.empty((16, 16))
+    if _deflate(pen, comp, B):
+        n = 16
+        info = _eigvals(B, wr[:16], wi[:16])
+    else:
+        n = 24
+        info = _eigvals(comp, wr, wi)
     if info != 0:
         return np.empty((0, 6))
-    ys = wr[np.abs(wi) <= s.real_tol * (1.0 + np.hypot(wr, wi))]
-    roots = _roots(m.eH, m.eP, m.eT0, T, *m.left[:2], P1m, Qp, abcd, pen, np.ascontiguousarray(ys), SHIFT,
-                   s.polish_steps, m.roles)
-    if m.reversed:  # back to the arm's joints: θ_k = −(reversed joint 7 − k), wrapped to (−π, π]
-        roots = _wrap(-roots[:, ::-1])
-    return np.ascontiguousarray(roots)
+    ys = np.empty(n)
+    k = 0
+    for i in range(n):
+        if abs(wi[i]) <= real_tol * (1.0 + math.hypot(wr[i], wi[i])):
+            ys[k] = wr[i]
+            k += 1
+    roots = _roots(H, P, T0, Tg, Ps, Pc, P1m, Qp, abcd, pen, ys[:k], shift, steps, roles)
+    if rev:  # back to the arm's joints: θ_k = −(reversed joint 7 − k), wrapped to (−π, π]
+        out = np.empty_like(roots)
+        for r in range(roots.shape[0]):
+            for c in range(6):
+                out[r, c] = wrap(-roots[r, 5 - c])
+        return out
+    return roots
+
+
+def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
+    """Every root of the elimination for the goal ``T`` (4, 4) [m], polished: (k, 6) [rad], k <= 16
+    (not yet FK-checked; duplicates merged)."""
+    return _all_roots(np.ascontiguousarray(T, dtype=float), m.reversed, m.eP[m.roles[2]], m.eT0, *m.left,
+                      m.right_inv, m.right_L, m.right_c, m.right_h, m.C, _KRON_OF, _MOBIUS, m.eH, m.eP, SHIFT,
+                      s.polish_steps, m.roles, s.real_tol)
 
 
 def _found_all(m: _Model) -> bool:
