@@ -84,6 +84,87 @@ def test_solution_set_equals_a_dense_newton_search(seed):
         assert len(ours) <= 16
 
 
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), spread=st.integers(0, 12))
+def test_qr_split_gives_the_left_null_space_and_the_least_squares_solve(seed, spread):
+    """Rows of sizes spread over up to 12 orders of magnitude (the 14 quantities' units differ): the
+    null space (undone of its power-of-two row scaling) is orthonormal and annihilates the scaled
+    matrix, and ``Qp`` solves least squares (Qp Q = I)."""
+    rng = np.random.default_rng(seed)
+    Q = rng.standard_normal((14, 8)) * 10.0 ** rng.uniform(-spread / 2, spread / 2, (14, 1))
+    Qp, Nl = np.empty((8, 14)), np.empty((6, 14))
+    assert general6r._qr_split(Q, Qp, Nl)
+    d = 2.0 ** -np.floor(np.log2(np.abs(Q).max(axis=1)))  # the row scaling _qr_split applies
+    U = Nl / d
+    assert np.abs(U @ U.T - np.eye(6)).max() < 1e-12
+    assert np.abs(U @ (d[:, None] * Q)).max() < 1e-12
+    assert np.abs(Qp @ Q - np.eye(8)).max() < 1e-8 * np.linalg.cond(d[:, None] * Q)
+
+
+def test_qr_split_refuses_a_rank_deficient_matrix():
+    Q = np.random.default_rng(1).standard_normal((14, 8))
+    Q[:, 7] = Q[:, 0] - 2.0 * Q[:, 3]
+    assert not general6r._qr_split(Q, np.empty((8, 14)), np.empty((6, 14)))
+
+
+def _pencil_of(m6, T):
+    return general6r._pencil(m6.eP[m6.roles[2]], m6.eT0, *m6.left, m6.right_inv, m6.right_L, m6.right_c,
+                             m6.right_h, m6.C, general6r._KRON_OF, np.ascontiguousarray(T), general6r._MOBIUS)
+
+
+@pytest.mark.parametrize("seed", [3, 8, 21])
+def test_deflation_removes_exactly_the_eight_eigenvalues_at_plus_minus_i(seed):
+    """The companion's 24 eigenvalues are the deflated 16 and ±i four times each."""
+    m = general_arm(seed, "modified" if seed % 2 else "standard")
+    prep = Prepared(m)
+    m6 = general6r.model(prep)
+    rng = np.random.default_rng(seed)
+    for _ in range(5):
+        T = _metric(prep).goal(fk_htm(m.chain, rng.uniform(-np.pi, np.pi, 6)))
+        if m6.reversed:
+            T = np.linalg.inv(T)
+        ok, comp, abcd, pen, Qp, P1m = _pencil_of(m6, T)
+        assert ok
+        full = np.linalg.eigvals(comp)
+        B = np.empty((16, 16))
+        assert general6r._deflate(pen, comp.copy(), B)
+        rest = np.linalg.eigvals(B)
+        assert np.sum(np.abs(np.abs(full.imag) - 1.0) + np.abs(full.real) < 1e-6) >= 8
+        assert np.sum(np.abs(np.abs(rest.imag) - 1.0) + np.abs(rest.real) < 1e-6) == 0
+        for lam in rest:  # each remaining eigenvalue is one of the companion's
+            assert np.abs(full - lam).min() < 1e-6 * (1.0 + abs(lam))
+        real = lambda w: np.sort(w.real[np.abs(w.imag) <= 1e-6 * (1.0 + np.abs(w))])  # noqa: E731
+        assert np.allclose(real(full), real(rest), rtol=1e-7, atol=1e-9)
+
+
+def test_deflation_declines_a_pencil_without_the_block_at_i():
+    """A pencil with no null space at i (a random one) is not deflated: the whole companion is solved."""
+    rng = np.random.default_rng(4)
+    pen = rng.standard_normal((3, 12, 12))
+    comp = np.zeros((24, 24))
+    comp[:12, 12:] = np.eye(12)
+    comp[12:] = -np.linalg.solve(pen[2], np.hstack((pen[0], pen[1])))
+    assert not general6r._deflate(pen, comp, np.empty((16, 16)))
+
+
+def test_public_call_of_a_general_arm_equals_the_general_6r_solver():
+    """``analytic``'s fused call (one compiled call: roots, FK checks, choice, the independent check)
+    gives what ``general_6r`` gives through its Python result path: the same solutions, the same q."""
+    for seed, conv, unit, form in [(5, "standard", "m", "dh"), (6, "modified", "mm", "general")]:
+        m = general_arm(seed, conv, unit, form)
+        prep = Prepared(m)
+        rng = np.random.default_rng(seed)
+        for _ in range(10):
+            T, q0 = fk_htm(m.chain, rng.uniform(-np.pi, np.pi, 6)), rng.uniform(-np.pi, np.pi, 6)
+            a = solve("analytic", prep, T, q0, {})
+            b = solve("general_6r", prep, T, q0, {"tol_pos": 1e-9 * (1000.0 if unit == "mm" else 1.0),
+                                                  "tol_rot": 1e-9})
+            assert a.success and b.success and a.info["family"] == "general 6R (algebraic elimination)"
+            assert len(a.solutions) == len(b.solutions) == a.info["n_solutions"]
+            assert np.abs(a.solutions - b.solutions).max() < 1e-9 and np.abs(a.q - b.q).max() < 1e-9
+            assert a.position_error <= 1e-9 * (1000.0 if unit == "mm" else 1.0)
+
+
 def test_batch_equals_one_by_one_on_a_general_arm():
     m = general_arm(21, "modified", "mm")
     rng = np.random.default_rng(5)

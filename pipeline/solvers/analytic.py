@@ -44,8 +44,9 @@ from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, 
                                    finish_packed, fused_inputs, setting)
 from pipeline.solvers.timing import clock_ns
 from pipeline.solvers.driver import run_of
-from pipeline.solvers.optimizers import half_cross
 from pipeline.solvers.registry import Solver, register
+from pipeline.solvers._lines import (_EYE_ACC, _doc_row, _line, _step, _times_home, _twelve, _within, fk_lines,
+                                     fk_linesz, pose_within)
 
 SOURCE = ("Paden (1985) and Kahan's subproblems 1-4, as extended by IK-Geo (Elias & Wen 2022) and EAIK "
           "(Ostermeier, Külz & Althoff 2025); the decomposition found from the joint axes")
@@ -104,18 +105,42 @@ def _general(prep: Prepared, s: AnalyticSettings) -> bool:
 GENERAL = "general 6R (algebraic elimination)"
 
 
-def _bind_general(prep: Prepared, s: AnalyticSettings):
-    """``run1`` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.run` (every solution,
-    nearest to the start first), with this solver's trace (the document's error at the start and at
-    ``q``) and ``info``."""
+def _general_parts(prep: Prepared, s: AnalyticSettings):
+    """(general_6r's settings, the arm's arguments of :func:`pipeline.solvers.general6r.general_pose`
+    after the goal: ``E``, metres per working unit, the joint lines in the working unit, |Δp|² and
+    ‖ΔR‖² bounds) for a 6R arm that fits no family; the candidates are kept by the same FK check as
+    the other families' (verify_position / verify_rotation)."""
     from pipeline.solvers import general6r
+    from pipeline.solvers.peers import _metric
 
-    # solutions kept by the same FK check as the other families' candidates (verify_position/rotation)
     gs = settings_as(general6r.General6RSettings, s, max_solutions=min(s.max_solutions, sp.MAX_SOL),
                      criterion="pos_orient", tol_pos=s.verify_position, tol_rot=s.verify_rotation)
+    L = geometry.joint_lines(prep.model.chain)
+    c = np.ascontiguousarray
+    lines = (c(L.h, dtype=float), c(L.p, dtype=float), c(L.M[:3, :3], dtype=float), c(L.M[:3, 3], dtype=float))
+    E = general6r.elimination_args(general6r.model(prep), gs)
+    return gs, E, _metric(prep).to_m, lines, s.verify_position ** 2, 8.0 * math.sin(0.5 * s.verify_rotation) ** 2
+
+
+def _bind_general(prep: Prepared, s: AnalyticSettings):
+    """``run1`` of a 6R arm that fits no family: every solution by the general elimination, nearest to
+    the start first, in one compiled call (:func:`pipeline.solvers.general6r.general_pose`); under
+    ``require_limits`` :func:`pipeline.solvers.general6r.run` (the nearest solution within the
+    limits), with this solver's trace (the document's error at the start and at ``q``) and ``info``."""
+    from pipeline.solvers import general6r
+
+    gs, E, to_m, lines, tolp2, f_max = _general_parts(prep, s)
     args = prep.args
+    ms = gs.max_solutions
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        Tg, q0 = np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q_start, dtype=float)
+        S, q, trace = np.empty((ms, 6)), np.empty(6), np.empty((2, TRACE_COLS))
+        m, k, ns = general6r.general_pose(E, Tg, to_m, lines, tolp2, f_max, q0, S, q, trace, True)
+        return Raw(q=q, code=SUCCESS if m else NO_SOLUTION, iterations=1, solve_ns=ns, trace=trace,
+                   solutions=S[:m], info=_info(m, k, float(trace[1, 0]), GENERAL))
+
+    def run1_limits(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
         raw = general6r.run(prep, T_goal, q_start, gs, seed)
         trace = np.empty((2, TRACE_COLS))
         T = np.empty((4, 4))
@@ -127,7 +152,32 @@ def _bind_general(prep: Prepared, s: AnalyticSettings):
         return Raw(q=raw.q, code=raw.code, iterations=1, solve_ns=raw.solve_ns, trace=trace,
                    solutions=raw.solutions, info=_info(m, raw.info["roots"], float(trace[1, 0]), GENERAL))
 
-    return run1
+    return run1_limits if s.require_limits else run1
+
+
+def _bind_call_general(prep: Prepared, s: AnalyticSettings):
+    """:func:`bind_call` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.general_call`."""
+    from pipeline.solvers import general6r
+
+    gs, E, _, lines, tolp2, f_max = _general_parts(prep, s)
+    GC, scale, ms = check_pack(prep, s), float(prep.goal_scale), gs.max_solutions
+    inputs, unit, pos_only, nan, empty = fused_inputs(prep, scaled=False), prep.unit, s.criterion == "position", \
+        math.nan, np.empty
+    kernel, messages = general6r.general_call, _MESSAGES
+
+    def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
+        Tg, q0 = inputs(T_goal, q_start)
+        S, q, trace = empty((ms, 6)), empty(6), empty((2, TRACE_COLS))
+        m, k, ns, code, claimed, success, dp, ang, inside, doc = kernel(E, lines, GC, scale, tolp2, f_max, Tg, q0,
+                                                                        S, q, trace)
+        res = IKResult(q, success, code, 1, trace, ns * 1e-9, 0.0, dp, nan if pos_only else ang, claimed, inside,
+                       nan, unit, S[:m],
+                       {"n_solutions": m, "candidates": k, "nfev": k, "njev": 0, "doc_error": doc,
+                        "family": GENERAL, "message": messages[m]})
+        res.call_time_s = (clock_ns() - t0) * 1e-9
+        return res
+
+    return call
 
 
 FAMILY_CODE = {"spherical_wrist": sp.FAM_SPH, "three_parallel": sp.FAM_3P, "two_intersecting_search": sp.FAM_SEARCH}
@@ -161,80 +211,6 @@ def packed(prep: Prepared, s: AnalyticSettings) -> Packed:
 
 
 # ---- compiled: one pose ---------------------------------------------------------------------------
-_EYE_ACC = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _step(acc, line, c, s_):
-    """``acc`` (the rotation's 9 entries row by row, then the translation: 12 floats) times one POE
-    factor: the rotation by θ (``c``, ``s_`` = cos θ, sin θ) about the joint line ``line`` = (x, y, z,
-    px, py, pz), through (px, py, pz) along the unit (x, y, z)."""
-    x, y, z, px, py, pz = line
-    C = 1.0 - c
-    r00, r01, r02 = c + x * x * C, x * y * C - z * s_, x * z * C + y * s_
-    r10, r11, r12 = y * x * C + z * s_, c + y * y * C, y * z * C - x * s_
-    r20, r21, r22 = z * x * C - y * s_, z * y * C + x * s_, c + z * z * C
-    ux = px - (r00 * px + r01 * py + r02 * pz)
-    uy = py - (r10 * px + r11 * py + r12 * pz)
-    uz = pz - (r20 * px + r21 * py + r22 * pz)
-    return _times_home(acc, (r00, r01, r02, r10, r11, r12, r20, r21, r22, ux, uy, uz))  # acc · (R | u)
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def chain_acc(H, P, Z, i0, i1, acc):
-    """``acc`` (12 floats, as :func:`_step`) times the POE factors ``E_{i0+1} ... E_{i1}`` (0-based
-    joints i0 .. i1 − 1) from each joint's e^{iθ} ``Z[i]``."""
-    for i in range(i0, i1):
-        acc = _step(acc, _line(H, P, i), Z[i].real, Z[i].imag)
-    return acc
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _line(H, P, i):
-    """Joint i's line (its unit axis, then a point on it): 6 floats."""
-    return H[i, 0], H[i, 1], H[i, 2], P[i, 0], P[i, 1], P[i, 2]
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _twelve(R, p):
-    """R (3, 3) row by row, then p (3,): 12 floats (a home pose, a goal's or a reached one)."""
-    return R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2], p[0], p[1], p[2]
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _times_home(acc, m):
-    """The pose ``acc · m`` (12 floats each, as :func:`_step`; ``m`` the home pose M, or one POE factor)."""
-    a00, a01, a02, a10, a11, a12, a20, a21, a22, tx, ty, tz = acc
-    m00, m01, m02, m10, m11, m12, m20, m21, m22, q0, q1, q2 = m
-    return (a00 * m00 + a01 * m10 + a02 * m20, a00 * m01 + a01 * m11 + a02 * m21, a00 * m02 + a01 * m12 + a02 * m22,
-            a10 * m00 + a11 * m10 + a12 * m20, a10 * m01 + a11 * m11 + a12 * m21, a10 * m02 + a11 * m12 + a12 * m22,
-            a20 * m00 + a21 * m10 + a22 * m20, a20 * m01 + a21 * m11 + a22 * m21, a20 * m02 + a21 * m12 + a22 * m22,
-            a00 * q0 + a01 * q1 + a02 * q2 + tx, a10 * q0 + a11 * q1 + a12 * q2 + ty,
-            a20 * q0 + a21 * q1 + a22 * q2 + tz)
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def acc_pose(acc, RM, pM, R, p):
-    """The pose ``acc · M`` into R (3, 3), p (3,)."""
-    v = _times_home(acc, _twelve(RM, pM))
-    for r in range(3):
-        for k in range(3):
-            R[r, k] = v[3 * r + k]
-        p[r] = v[9 + r]
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _within(v, g, tolp2, f_max):
-    """The pose ``v`` within the FK check's tolerances of the goal ``g`` (12 floats each, as
-    :func:`_twelve`), without a square root or an arcsine: |Δp|² against ``tolp2`` (the position
-    tolerance squared), and the Frobenius distance ‖R − Rg‖² = 8 sin²(θ/2) (θ the rotation angle
-    between them) against ``f_max``, its value at the rotation tolerance (which is below π)."""
-    v00, v01, v02, v10, v11, v12, v20, v21, v22, vx, vy, vz = v
-    g00, g01, g02, g10, g11, g12, g20, g21, g22, gx, gy, gz = g
-    dp2 = (vx - gx) ** 2 + (vy - gy) ** 2 + (vz - gz) ** 2
-    f = ((((((((v00 - g00) ** 2 + (v01 - g01) ** 2) + (v02 - g02) ** 2) + (v10 - g10) ** 2) + (v11 - g11) ** 2)
-            + (v12 - g12) ** 2) + (v20 - g20) ** 2) + (v21 - g21) ** 2) + (v22 - g22) ** 2
-    return (dp2 <= tolp2) & (f <= f_max)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -266,33 +242,6 @@ def check_rows(H, P, m, g, Cz, Sz, k, tolp2, f_max):
             a = _step(a, l5, c5[r], s5[r])
             ok |= np.int64(_within(_times_home(a, m), g, tolp2, f_max)) << r
     return ok
-
-
-@numba.njit(cache=True, error_model="numpy")
-def fk_linesz(H, P, RM, pM, Z, R, p):
-    """Pose of the POE chain ``E_1(θ_1) ... E_n(θ_n) M`` into R (3, 3), p (3,) from each joint's
-    e^{iθ} (the closed form's own cosines and sines: no trig), no allocation."""
-    acc_pose(chain_acc(H, P, Z, 0, H.shape[0], _EYE_ACC), RM, pM, R, p)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def fk_lines(H, P, RM, pM, th, R, p, cs, Z):
-    """Pose of the POE chain ``E_1(θ_1) ... E_n(θ_n) M`` into R (3, 3), p (3,).
-
-    ``cs`` (n, 3) keeps each joint's last angle with its cosine and sine: a joint whose angle is
-    bitwise the last one reuses them. ``Z`` (n,) complex: scratch for each joint's e^{iθ}."""
-    n = H.shape[0]
-    for i in range(n):
-        if th[i] != cs[i, 0]:
-            cs[i, 0], cs[i, 1], cs[i, 2] = th[i], math.cos(th[i]), math.sin(th[i])
-        Z[i] = complex(cs[i, 1], cs[i, 2])
-    fk_linesz(H, P, RM, pM, Z, R, p)
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def pose_within(R, p, Tg, tolp2, f_max):
-    """(R, p) within the FK check's tolerances of the goal ``Tg`` (:func:`_within`)."""
-    return _within(_twelve(R, p), _twelve(Tg, Tg[:, 3]), tolp2, f_max)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -361,18 +310,6 @@ def _fix(H, P, RM, pM, k, v, H6, P6, RM6, pM6):
         RM6[0, j], RM6[1, j], RM6[2, j] = col[0], col[1], col[2]
     pm = sp.add(pk, sp.rot(hk, c, s_, sp.sub((pM[0], pM[1], pM[2]), pk)))
     pM6[0], pM6[1], pM6[2] = pm[0], pm[1], pm[2]
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _doc_row(Tg, R, p, out):
-    for r in range(3):
-        out[1 + r] = Tg[r, 3] - p[r]
-    out[4], out[5], out[6] = half_cross(R, Tg)
-    out[7] = math.sqrt(out[1] ** 2 + out[2] ** 2 + out[3] ** 2)
-    s = 0.0
-    for r in range(6):
-        s += out[1 + r] ** 2
-    out[0] = math.sqrt(s)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -772,8 +709,10 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
     record in one compiled call, the result built positionally; None under ``require_limits`` (the
     generic path then chooses among the solutions within the limits). Same values as ``bind`` +
     :func:`~pipeline.solvers.base.finish`, timings aside."""
-    if s.require_limits or _general(prep, s):
+    if s.require_limits:
         return None
+    if _general(prep, s):
+        return _bind_call_general(prep, s)
     k = packed(prep, s)
     ints, GC = k.ints, np.concatenate([k.G, check_pack(prep, s), [prep.goal_scale]])
     n, ms, fam = int(k.ints[0]), min(s.max_solutions, most_solutions(k.ints)), _family(prep, s)

@@ -66,8 +66,9 @@ import numba
 import numpy as np
 from numba.np.linalg import _LAPACK, ensure_lapack
 
-from pipeline.solvers._kin import rodrigues
-from pipeline.solvers.base import Prepared, Raw, Settings, _inv_rigid, setting
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, now_ns, rodrigues
+from pipeline.solvers._lines import _doc_row, fk_lines, pose_within
+from pipeline.solvers.base import Prepared, Raw, Settings, _inv_rigid, finish_packed, setting
 from pipeline.solvers.peers import _metric, _wrap
 from pipeline.solvers.peers_geo import _poe, _result, six_revolute
 from pipeline.solvers.registry import Solver, register
@@ -768,12 +769,92 @@ def _all_roots(T, rev, o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, mobius, 
     return roots
 
 
+@numba.njit(cache=True, error_model="numpy")
+def general_pose(E, Tg, to_m, L, tolp2, f_max, q_start, S, q, trace, start_row):
+    """A goal solved whole in one compiled call, as :func:`pipeline.solvers.analytic.solve_pose` does for
+    the subproblem families: every root (:func:`_all_roots`, ``E`` its arm arguments after the goal),
+    each FK-checked on the joint lines ``L`` = (H (6, 3), P (6, 3), RM (3, 3), pM (3,)) in the working
+    unit against |Δp|² <= ``tolp2`` and the rotation's ‖R − Rg‖² <= ``f_max``, the valid ones wrapped
+    to (−π, π] into ``S`` nearest ``q_start`` first (at most S's rows, NaN after), ``q`` the first moved
+    by whole turns to within π of the start; ``trace`` the document's error at the start (when
+    ``start_row`` or no solution) and at ``q``. ``Tg`` (4, 4) in the working unit, ``to_m`` its length
+    factor to metres. Returns (solutions, roots, solve time [ns])."""
+    clk = np.empty(2, np.int64)
+    t0 = now_ns(clk)
+    H, P, RM, pM = L
+    Tm = Tg.copy()
+    for r in range(3):
+        Tm[r, 3] *= to_m
+    roots = _all_roots(Tm, *E)
+    k = roots.shape[0]
+    R, p, cs, Zf = np.empty((3, 3)), np.empty(3), np.full((6, 3), math.nan), np.empty(6, np.complex128)
+    dist = np.full(k, math.inf)
+    for i in range(k):
+        fk_lines(H, P, RM, pM, roots[i], R, p, cs, Zf)
+        if pose_within(R, p, Tg, tolp2, f_max):
+            d = 0.0
+            for j in range(6):
+                roots[i, j] = wrap(roots[i, j])
+                e = wrap(roots[i, j] - q_start[j])
+                d += e * e
+            dist[i] = d
+    m = 0
+    for i in range(k):  # each valid root's place by distance, ties in root order
+        di = dist[i]
+        rk = 0
+        for j in range(k):
+            rk += (dist[j] < di) | ((dist[j] == di) & (j < i))
+        if di < math.inf and rk < S.shape[0]:
+            for j in range(6):
+                S[rk, j] = roots[i, j]
+        if di < math.inf:
+            m += 1
+    m = min(m, S.shape[0])
+    for a in range(m, S.shape[0]):
+        for j in range(6):
+            S[a, j] = math.nan
+    for j in range(6):
+        q[j] = q_start[j] + wrap(S[0, j] - q_start[j]) if m > 0 else q_start[j]
+    ns = now_ns(clk) - t0
+    if start_row or m == 0:
+        fk_lines(H, P, RM, pM, q_start, R, p, cs, Zf)
+        _doc_row(Tg, R, p, trace[0])
+    if m == 0:
+        for c in range(trace.shape[1]):
+            trace[1, c] = trace[0, c]
+    else:
+        fk_lines(H, P, RM, pM, q, R, p, cs, Zf)
+        _doc_row(Tg, R, p, trace[1])
+    return m, k, ns
+
+
+@numba.njit(cache=True, error_model="numpy")
+def general_call(E, L, GC, scale, tolp2, f_max, Tg, q_start, S, q, trace):
+    """The whole public single call of a general arm in one compiled call (as
+    :func:`pipeline.solvers.analytic.call_pose`): the goal scaled to the working unit by ``scale``,
+    :func:`general_pose`, then the independent FK check of ``q`` (:func:`~pipeline.solvers.base.finish_packed`
+    on ``GC``, :func:`~pipeline.solvers.base.check_pack`). Solutions ``-1`` when ``Tg`` is not (4, 4)
+    or ``q_start`` not (6,)."""
+    if Tg.shape[0] != 4 or Tg.shape[1] != 4 or q_start.shape[0] != 6:
+        return -1, 0, 0, NO_SOLUTION, False, False, math.nan, math.nan, False, math.nan
+    Tw = Tg.copy()
+    for r in range(3):
+        Tw[r, 3] *= scale
+    m, k, ns = general_pose(E, Tw, 1.0, L, tolp2, f_max, q_start, S, q, trace, True)
+    code, claimed, success, dp, ang, inside = finish_packed(GC, q, Tw, SUCCESS if m > 0 else NO_SOLUTION)
+    return m, k, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
+
+
+def elimination_args(m: _Model, s: General6RSettings) -> tuple:
+    """The arm's arguments of :func:`_all_roots` after the goal (``E`` of :func:`general_pose`)."""
+    return (m.reversed, m.eP[m.roles[2]], m.eT0, *m.left, m.right_inv, m.right_L, m.right_c, m.right_h, m.C,
+            _KRON_OF, _MOBIUS, m.eH, m.eP, SHIFT, s.polish_steps, m.roles, s.real_tol)
+
+
 def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
     """Every root of the elimination for the goal ``T`` (4, 4) [m], polished: (k, 6) [rad], k <= 16
     (not yet FK-checked; duplicates merged)."""
-    return _all_roots(np.ascontiguousarray(T, dtype=float), m.reversed, m.eP[m.roles[2]], m.eT0, *m.left,
-                      m.right_inv, m.right_L, m.right_c, m.right_h, m.C, _KRON_OF, _MOBIUS, m.eH, m.eP, SHIFT,
-                      s.polish_steps, m.roles, s.real_tol)
+    return _all_roots(np.ascontiguousarray(T, dtype=float), *elimination_args(m, s))
 
 
 def _found_all(m: _Model) -> bool:
