@@ -39,7 +39,7 @@ import numpy as np
 
 from pipeline.kinematics import geometry
 from pipeline.solvers import subproblems as sp
-from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, forward_pose, grid, now_ns
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, grid, now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, SettingsError, check_pack,
                                    finish_packed, fused_inputs, setting)
 from pipeline.solvers.timing import clock_ns
@@ -107,59 +107,43 @@ GENERAL = "general 6R (algebraic elimination)"
 
 def _general_parts(prep: Prepared, s: AnalyticSettings):
     """(general_6r's settings, the arm's arguments of :func:`pipeline.solvers.general6r.general_pose`
-    after the goal: ``E``, metres per working unit, the joint lines in the working unit, |Δp|² and
-    ‖ΔR‖² bounds) for a 6R arm that fits no family; the candidates are kept by the same FK check as
-    the other families' (verify_position / verify_rotation)."""
+    before the goal, the joint lines, the check that keeps a root) for a 6R arm that fits no family:
+    the roots are kept by the FK check with this solver's verify_position / verify_rotation, as the
+    other families' candidates."""
     from pipeline.solvers import general6r
-    from pipeline.solvers.peers import _metric
 
     gs = settings_as(general6r.General6RSettings, s, max_solutions=min(s.max_solutions, sp.MAX_SOL),
                      criterion="pos_orient", tol_pos=s.verify_position, tol_rot=s.verify_rotation)
-    L = geometry.joint_lines(prep.model.chain)
-    c = np.ascontiguousarray
-    lines = (c(L.h, dtype=float), c(L.p, dtype=float), c(L.M[:3, :3], dtype=float), c(L.M[:3, 3], dtype=float))
     E = general6r.elimination_args(general6r.model(prep), gs)
-    return gs, E, _metric(prep).to_m, lines, s.verify_position ** 2, 8.0 * math.sin(0.5 * s.verify_rotation) ** 2
+    return gs, E, general6r.lines_of(prep), check_pack(prep, gs)
 
 
 def _bind_general(prep: Prepared, s: AnalyticSettings):
     """``run1`` of a 6R arm that fits no family: every solution by the general elimination, nearest to
-    the start first, in one compiled call (:func:`pipeline.solvers.general6r.general_pose`); under
-    ``require_limits`` :func:`pipeline.solvers.general6r.run` (the nearest solution within the
-    limits), with this solver's trace (the document's error at the start and at ``q``) and ``info``."""
+    the start first (under ``require_limits`` the nearest within the limits first), in one compiled
+    call (:func:`pipeline.solvers.general6r.general_pose`), with this solver's trace (the document's
+    error at the start and at ``q``) and ``info``."""
     from pipeline.solvers import general6r
+    from pipeline.solvers.peers import _metric
 
-    gs, E, to_m, lines, tolp2, f_max = _general_parts(prep, s)
-    args = prep.args
-    ms = gs.max_solutions
+    gs, E, lines, CK = _general_parts(prep, s)
+    to_m, ms, limits_on, kernel = _metric(prep).to_m, gs.max_solutions, bool(s.require_limits), general6r.general_pose
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
         Tg, q0 = np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q_start, dtype=float)
         S, q, trace = np.empty((ms, 6)), np.empty(6), np.empty((2, TRACE_COLS))
-        m, k, ns = general6r.general_pose(E, Tg, to_m, lines, tolp2, f_max, q0, S, q, trace, True)
-        return Raw(q=q, code=SUCCESS if m else NO_SOLUTION, iterations=1, solve_ns=ns, trace=trace,
-                   solutions=S[:m], info=_info(m, k, float(trace[1, 0]), GENERAL))
+        m, k, _, code, _, ns = kernel(E, Tg, to_m, lines, CK, limits_on, q0, S, q, trace, True)
+        return Raw(q=q, code=int(code), iterations=1, solve_ns=ns, trace=trace, solutions=S[:m],
+                   info=_info(m, k, float(trace[1, 0]), GENERAL))
 
-    def run1_limits(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
-        raw = general6r.run(prep, T_goal, q_start, gs, seed)
-        trace = np.empty((2, TRACE_COLS))
-        T = np.empty((4, 4))
-        Tg = np.ascontiguousarray(T_goal, dtype=float)
-        for k, qq in enumerate((np.ascontiguousarray(q_start, dtype=float), raw.q)):
-            forward_pose(*args, qq, T)
-            _doc_row(Tg, T[:3, :3], T[:3, 3], trace[k])
-        m = 0 if raw.solutions is None else len(raw.solutions)
-        return Raw(q=raw.q, code=raw.code, iterations=1, solve_ns=raw.solve_ns, trace=trace,
-                   solutions=raw.solutions, info=_info(m, raw.info["roots"], float(trace[1, 0]), GENERAL))
-
-    return run1_limits if s.require_limits else run1
+    return run1
 
 
 def _bind_call_general(prep: Prepared, s: AnalyticSettings):
     """:func:`bind_call` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.general_call`."""
     from pipeline.solvers import general6r
 
-    gs, E, _, lines, tolp2, f_max = _general_parts(prep, s)
+    gs, E, lines, CK = _general_parts(prep, s)
     GC, scale, ms = check_pack(prep, s), float(prep.goal_scale), gs.max_solutions
     inputs, unit, pos_only, nan, empty = fused_inputs(prep, scaled=False), prep.unit, s.criterion == "position", \
         math.nan, np.empty
@@ -168,8 +152,7 @@ def _bind_call_general(prep: Prepared, s: AnalyticSettings):
     def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
         Tg, q0 = inputs(T_goal, q_start)
         S, q, trace = empty((ms, 6)), empty(6), empty((2, TRACE_COLS))
-        m, k, ns, code, claimed, success, dp, ang, inside, doc = kernel(E, lines, GC, scale, tolp2, f_max, Tg, q0,
-                                                                        S, q, trace)
+        m, k, ns, code, claimed, success, dp, ang, inside, doc = kernel(E, lines, CK, GC, scale, Tg, q0, S, q, trace)
         res = IKResult(q, success, code, 1, trace, ns * 1e-9, 0.0, dp, nan if pos_only else ang, claimed, inside,
                        nan, unit, S[:m],
                        {"n_solutions": m, "candidates": k, "nfev": k, "njev": 0, "doc_error": doc,
