@@ -275,9 +275,11 @@ def _newton(H, P, T0, Tg, q, steps):
     """``steps`` Newton steps of the joint values ``q`` (6,) towards the goal ``Tg`` (4, 4) (spatial
     twist error, geometric Jacobian, least squares); returns the polished ``q``."""
     q = q.copy()
-    J, e = np.empty((6, 6)), np.empty(6)
-    A, T = np.empty((4, 4)), np.empty((4, 4))
-    R, u, B, h, pt = np.empty((3, 3)), np.empty(3), np.empty((4, 4)), np.empty(3), np.empty(3)
+    W = np.empty(36 + 6 + 16 + 16 + 9 + 3 + 16 + 3 + 3 + 9)  # one allocation, then views
+    J, e = W[0:36].reshape((6, 6)), W[36:42]
+    A, T = W[42:58].reshape((4, 4)), W[58:74].reshape((4, 4))
+    R, u, B, h, pt = W[74:83].reshape((3, 3)), W[83:86], W[86:102].reshape((4, 4)), W[102:105], W[105:108]
+    d = W[108:117].reshape((3, 3))
     for _ in range(steps):
         for r in range(4):
             for c in range(4):
@@ -294,7 +296,7 @@ def _newton(H, P, T0, Tg, q, steps):
         for r in range(3):
             for c in range(4):
                 T[r, c] = A[r, 0] * T0[0, c] + A[r, 1] * T0[1, c] + A[r, 2] * T0[2, c] + (A[r, 3] if c == 3 else 0.0)
-        d = np.empty((3, 3))  # Rg Rᵀ
+        # d = Rg Rᵀ
         for r in range(3):
             for c in range(3):
                 d[r, c] = Tg[r, 0] * T[c, 0] + Tg[r, 1] * T[c, 1] + Tg[r, 2] * T[c, 2]
@@ -827,18 +829,23 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
     rhs12 = np.empty(12)
     for r in range(12):  # a fixed start vector with no special structure
         rhs12[r] = 1.0 + 0.1 * r * (-1.0) ** r
+    Ny, Nw, z0, mono, v = np.empty((12, 12)), np.empty((12, 12)), np.empty((12, 1)), np.empty((4, 3)), np.empty(8)
     for y in ys:
-        Ny = pen[2] * (y * y) + pen[1] * y + pen[0]
-        # the null vector (x4^i x5^j, i <= 3, j <= 2) by one step of inverse iteration, the matrix nudged
-        # off exact singularity by a relative 1e-13 on its diagonal
         big = 0.0
         for r in range(12):
             for c2 in range(12):
-                big = max(big, abs(Ny[r, c2]))
+                x_ = pen[2, r, c2] * (y * y) + pen[1, r, c2] * y + pen[0, r, c2]
+                Ny[r, c2] = x_
+                big = max(big, abs(x_))
+        # the null vector (x4^i x5^j, i <= 3, j <= 2) by one step of inverse iteration, the matrix nudged
+        # off exact singularity by a relative 1e-13 on its diagonal
         for r in range(12):
             Ny[r, r] += 1e-13 * big
-        z, ok = _gauss(Ny.copy(), rhs12.copy().reshape((12, 1)))
-        mono = np.empty((4, 3))
+        for r in range(12):
+            z0[r, 0] = rhs12[r]
+            for c2 in range(12):
+                Nw[r, c2] = Ny[r, c2]
+        z, ok = _gauss(Nw, z0)
         if ok:
             for r in range(12):
                 mono[r // 3, r % 3] = z[r, 0]
@@ -862,7 +869,7 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
         v9[0], v9[1], v9[2], v9[3], v9[4], v9[5], v9[6], v9[7], v9[8] = (s4 * s5, s4 * c5, c4 * s5, c4 * c5, s4, c4,
                                                                            s5, c5, 1.0)
         s3, c3 = math.sin(f3), math.cos(f3)
-        v = np.zeros(8)
+        v[:] = 0.0
         for r in range(14):
             rhs = 0.0
             for t in range(9):
