@@ -208,6 +208,19 @@ def test_unreachable_or_non_finite_goal_is_no_solution(bad):
         assert np.isfinite(r.position_error) or bad != "far"
 
 
+@pytest.mark.parametrize("require_limits", [False, True])
+def test_a_start_with_nan_is_no_solution_with_the_start_returned(require_limits):
+    """As the subproblem families: no distance to a NaN start, so no solution is chosen; ``q`` is the
+    start, which the finish reports as non-finite."""
+    m = general_arm(6)
+    T = fk_htm(m.chain, np.full(6, 0.4))
+    q0 = np.array([np.nan, 0.1, 0.2, 0.3, 0.4, 0.5])
+    for method in ("general_6r", "analytic"):
+        r = solve(method, m, T, q0, {"require_limits": require_limits})
+        assert not r.success and r.stop_reason == StopReason.NON_FINITE and len(r.solutions) == 0
+        assert np.array_equal(r.q, q0, equal_nan=True)
+
+
 def collinear_arm():
     """Axes 2 and 3 on one line (parallel and meeting): the arm's joints are not independent."""
     rng = np.random.default_rng(17)

@@ -981,7 +981,8 @@ def general_pose(E, Tg, to_m, L, CK, limits_on, q_start, S, q, trace, start_row)
     each kept root's representative within the limits nearest the start (by whole turns, joint by
     joint) goes to ``S``, the nearest of them first and ``q``; a kept root with none is dropped (when
     every kept root is, ``q`` is the nearest kept root's representative near the start, reported as a
-    success for the finish to mark out of the limits). At most S's rows, NaN after. ``trace``: the
+    success for the finish to mark out of the limits). At most S's rows, NaN after. A start with a
+    non-finite value has no distance to any root: no solution (as the subproblem families). ``trace``: the
     document's error at the start (when ``start_row`` or no solution) and at ``q``, by the joint
     lines ``L`` = (H (6, 3), P (6, 3), RM (3, 3), pM (3,)). ``Tg`` (4, 4) in the working unit,
     ``to_m`` its length factor to metres.
@@ -995,6 +996,9 @@ def general_pose(E, Tg, to_m, L, CK, limits_on, q_start, S, q, trace, start_row)
     for r in range(3):
         Tm[r, 3] *= to_m
     roots = _all_roots(Tm, *E)
+    for j in range(6):
+        if not math.isfinite(q_start[j]):  # no distance to a NaN start: no solution, as the other families
+            roots = roots[:0]
     k = roots.shape[0]
     nf = 14 * 6 + 16
     F, prism = CK[C_F:C_F + nf], CK[C_F + nf:C_F + nf + 6]
