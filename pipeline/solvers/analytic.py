@@ -25,8 +25,9 @@ rows, the document's error ``[‖e‖, e, |Δp|]`` at ``q_start`` and at ``q``.
 
 A robot whose geometry fits no family (and, for a 6R arm, whose elimination degenerates) is refused
 in one line naming the geometry (e.g. "axes 4, 5 and 6 do not meet (closest common point 12.3 mm
-off) ..."). The general path runs pose by pose in Python around compiled parts (no fused call, its
-batch a loop).
+off) ..."). The general path is one compiled call per pose (:func:`pipeline.solvers.general6r.general_pose`;
+the public call fused with the independent check, :func:`pipeline.solvers.general6r.general_call`);
+it has no batch kernel, so a batch solves it pose by pose.
 """
 
 from __future__ import annotations
@@ -106,10 +107,10 @@ GENERAL = "general 6R (algebraic elimination)"
 
 
 def _general_parts(prep: Prepared, s: AnalyticSettings):
-    """(general_6r's settings, the arm's arguments of :func:`pipeline.solvers.general6r.general_pose`
-    before the goal, the joint lines, the check that keeps a root) for a 6R arm that fits no family:
-    the roots are kept by the FK check with this solver's verify_position / verify_rotation, as the
-    other families' candidates."""
+    """(general_6r's settings, the elimination's arguments ``E``, the joint lines and the check pack that
+    keeps a root: the arguments of :func:`pipeline.solvers.general6r.general_pose`) for a 6R arm that
+    fits no family. The roots are kept by the FK check with this solver's verify_position /
+    verify_rotation, as the other families' candidates."""
     from pipeline.solvers import general6r
 
     gs = settings_as(general6r.General6RSettings, s, max_solutions=min(s.max_solutions, sp.MAX_SOL),

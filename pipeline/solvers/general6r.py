@@ -27,8 +27,8 @@ file form works:
    12 monomials, ``(M2 x3² + M1 x3 + M0) m = 0``. A Möbius change of variable (``_MOBIUS``) makes
    its leading matrix well conditioned. Its 24 × 24 companion matrix has 8 eigenvalues at ±i whatever
    the goal (the factor ``(1 + x3²)⁴`` of Raghavan and Roth's degree-24 polynomial); they are
-   deflated (:func:`_deflate`) and the real eigenvalues of the remaining 16 × 16 (LAPACK ``dgeev``)
-   give joint 3; the null vector ``m`` (one step of inverse iteration) joints 4 and 5, the 14
+   deflated (:func:`_deflate`) and the real eigenvalues of the remaining 16 × 16 (:func:`_eig_hess`,
+   LAPACK ``dgeev`` its fallback) give joint 3; the null vector ``m`` (one step of inverse iteration) joints 4 and 5, the 14
    equations joints 1 and 2 (least squares on the eliminated products) and the pose joint 6. The
    whole goal is one compiled call (:func:`_all_roots`).
 4. Each root is polished by ``polish_steps`` Newton steps on the full pose and kept when the FK check
@@ -66,9 +66,9 @@ import numba
 import numpy as np
 from numba.np.linalg import _LAPACK, ensure_lapack
 
+from pipeline.kinematics.fkcheck import check_one
 from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, now_ns, rodrigues
 from pipeline.solvers._lines import _doc_row, fk_lines
-from pipeline.kinematics.fkcheck import check_one
 from pipeline.solvers.base import (C_CRIT, C_F, C_TOLDQ, C_TOLP, C_TOLR, Prepared, Raw, Settings, _inv_rigid, _unpack,
                                    check_pack, finish_packed, setting)
 from pipeline.solvers.peers import _metric, _wrap
@@ -435,10 +435,14 @@ def _eig_hess(a, wr, wi):
     powers of two, reduced to Hessenberg form by stabilized elementary similarity transformations,
     then the Francis double-shift QR iteration on the active block only (eigenvalues, no vectors;
     the EISPACK algorithms balanc, elmhes and hqr as Press et al., Numerical Recipes, §11.5-11.6,
-    give them). Returns False when an eigenvalue does not converge in 30 iterations (the caller then
-    asks LAPACK). On the deflated 16 × 16 here it takes 13-20 µs against LAPACK ``dgeev``'s 27-37
+    give them). Returns False for a non-finite entry or when an eigenvalue does not converge in 30
+    iterations (the caller then asks LAPACK). On the deflated 16 × 16 here it takes 13-20 µs against LAPACK ``dgeev``'s 27-37
     (the same real eigenvalues to 6e-10 on 2 000 goals; Newton polishes them after)."""
     n = a.shape[0]
+    for i in range(n):
+        for j in range(n):
+            if not math.isfinite(a[i, j]):
+                return False  # (the balancing would not end on an infinity)
     # balance (powers of two, exact)
     done = False
     while not done:
