@@ -106,17 +106,13 @@ def _general(prep: Prepared, s: AnalyticSettings) -> bool:
 GENERAL = "general 6R (algebraic elimination)"
 
 
-def _general_parts(prep: Prepared, s: AnalyticSettings):
-    """(general_6r's settings, the elimination's arguments ``E``, the joint lines and the check pack that
-    keeps a root: the arguments of :func:`pipeline.solvers.general6r.general_pose`) for a 6R arm that
-    fits no family. The roots are kept by the FK check with this solver's verify_position /
-    verify_rotation, as the other families' candidates."""
+def _general_settings(s: AnalyticSettings):
+    """general_6r's settings for a 6R arm that fits no family: the roots are kept by the FK check with
+    this solver's verify_position / verify_rotation, as the other families' candidates."""
     from pipeline.solvers import general6r
 
-    gs = settings_as(general6r.General6RSettings, s, max_solutions=min(s.max_solutions, sp.MAX_SOL),
-                     criterion="pos_orient", tol_pos=s.verify_position, tol_rot=s.verify_rotation)
-    E = general6r.elimination_args(general6r.model(prep), gs)
-    return gs, E, general6r.lines_of(prep), check_pack(prep, gs)
+    return settings_as(general6r.General6RSettings, s, max_solutions=min(s.max_solutions, sp.MAX_SOL),
+                       criterion="pos_orient", tol_pos=s.verify_position, tol_rot=s.verify_rotation)
 
 
 def _bind_general(prep: Prepared, s: AnalyticSettings):
@@ -125,15 +121,11 @@ def _bind_general(prep: Prepared, s: AnalyticSettings):
     call (:func:`pipeline.solvers.general6r.general_pose`), with this solver's trace (the document's
     error at the start and at ``q``) and ``info``."""
     from pipeline.solvers import general6r
-    from pipeline.solvers.peers import _metric
 
-    gs, E, lines, CK = _general_parts(prep, s)
-    to_m, ms, limits_on, kernel = _metric(prep).to_m, gs.max_solutions, bool(s.require_limits), general6r.general_pose
+    solve1 = general6r.bind_pose(prep, _general_settings(s), bool(s.require_limits), True)
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
-        Tg, q0 = np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q_start, dtype=float)
-        S, q, trace = np.empty((ms, 6)), np.empty(6), np.empty((2, TRACE_COLS))
-        m, k, _, code, _, ns = kernel(E, Tg, to_m, lines, CK, limits_on, q0, S, q, trace, True)
+        (m, k, _, code, _, ns), S, q, trace = solve1(T_goal, q_start)
         return Raw(q=q, code=int(code), iterations=1, solve_ns=ns, trace=trace, solutions=S[:m],
                    info=_info(m, k, float(trace[1, 0]), GENERAL))
 
@@ -144,7 +136,8 @@ def _bind_call_general(prep: Prepared, s: AnalyticSettings):
     """:func:`bind_call` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.general_call`."""
     from pipeline.solvers import general6r
 
-    gs, E, lines, CK = _general_parts(prep, s)
+    gs = _general_settings(s)
+    E, _, lines, CK = general6r.pose_args(prep, gs)
     GC, scale, ms = check_pack(prep, s), float(prep.goal_scale), gs.max_solutions
     inputs, unit, pos_only, nan, empty = fused_inputs(prep, scaled=False), prep.unit, s.criterion == "position", \
         math.nan, np.empty

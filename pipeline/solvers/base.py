@@ -845,11 +845,17 @@ def check_pack(prep: Prepared, settings: Settings) -> np.ndarray:
 
 
 @numba.njit(cache=True, inline="always")
+def check_fields(C, n):
+    """The parts of one :func:`check_pack` array of an n-joint arm: (F (:func:`_finish_args`), prismatic
+    flags (n,), criterion code, tol_pos, tol_rot, tol_dq)."""
+    nf = 14 * n + 16  # len(F): K 8 (n + 1), axis 3 n, offset n, limits 2 n, scratch 8
+    return C[C_F:C_F + nf], C[C_F + nf:C_F + nf + n], int(C[C_CRIT]), C[C_TOLP], C[C_TOLR], C[C_TOLDQ]
+
+
+@numba.njit(cache=True, inline="always")
 def finish_packed(C, q, Tg, code):
     """:func:`_result` (without ``require_limits``) from one :func:`check_pack` array, for a fused
     compiled call: (code, claimed, success, |dp|, angle, within)."""
     n = q.shape[0]
-    nf = 14 * n + 16  # len(F): K 8 (n + 1), axis 3 n, offset n, limits 2 n, scratch 8
-    F = C[C_F:C_F + nf]
-    return _result(F, C[C_F + nf:C_F + nf + n], q, Tg, int(C[C_CRIT]), C[C_TOLP], C[C_TOLR], C[C_TOLDQ], code, False,
-                   _unpack(F, n)[4])
+    F, prism, crit, tol_pos, tol_rot, tol_dq = check_fields(C, n)
+    return _result(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, code, False, _unpack(F, n)[4])

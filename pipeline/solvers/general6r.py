@@ -67,10 +67,11 @@ import numpy as np
 from numba.np.linalg import _LAPACK, ensure_lapack
 
 from pipeline.kinematics.fkcheck import check_one
-from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, now_ns, rodrigues
+from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, now_ns, rodrigues
 from pipeline.solvers._lines import _doc_row, fk_lines
-from pipeline.solvers.base import (C_CRIT, C_F, C_TOLDQ, C_TOLP, C_TOLR, Prepared, Raw, Settings, _inv_rigid, _unpack,
-                                   check_pack, finish_packed, setting)
+from pipeline.solvers.base import (Prepared, Raw, Settings, _inv_rigid, _unpack, check_fields, check_pack,
+                                   finish_packed, setting)
+from pipeline.solvers.driver import run_of
 from pipeline.solvers.peers import _metric, _wrap
 from pipeline.solvers.peers_geo import _poe, six_revolute
 from pipeline.solvers.registry import Solver, register
@@ -1004,10 +1005,8 @@ def general_pose(E, Tg, to_m, L, CK, limits_on, q_start, S, q, trace, start_row)
         if not math.isfinite(q_start[j]):  # no distance to a NaN start: no solution, as the other families
             roots = roots[:0]
     k = roots.shape[0]
-    nf = 14 * 6 + 16
-    F, prism = CK[C_F:C_F + nf], CK[C_F + nf:C_F + nf + 6]
+    F, prism, crit, tolp, tolr, toldq = check_fields(CK, 6)
     K, axis, offset, lim, buf = _unpack(F, 6)
-    crit, tolp, tolr, toldq = int(CK[C_CRIT]), CK[C_TOLP], CK[C_TOLR], CK[C_TOLDQ]
     dist = np.empty(k)
     for i in range(k):
         d = 0.0
@@ -1120,6 +1119,28 @@ def elimination_args(m: _Model, s: General6RSettings) -> tuple:
             _KRON_OF, _MOBIUS, m.eH, m.eP, SHIFT, s.polish_steps, m.roles, s.real_tol)
 
 
+def pose_args(prep: Prepared, s: General6RSettings) -> tuple:
+    """(``E``, metres per working unit, the joint lines, the check pack that keeps a root under ``s``'s
+    criterion and tolerances): :func:`general_pose`'s arm arguments, built once per job."""
+    return elimination_args(model(prep), s), _metric(prep).to_m, lines_of(prep), check_pack(prep, s)
+
+
+def bind_pose(prep: Prepared, s: General6RSettings, limits_on: bool, start_row: bool):
+    """``solve1(T_goal, q_start) -> ((solutions, roots, kept roots, code, chosen, ns), S, q, trace)``:
+    :func:`general_pose` with its arm arguments (:func:`pose_args`) built once; ``S`` holds
+    ``s.max_solutions`` rows."""
+    E, to_m, lines, CK = pose_args(prep, s)
+    ms, c, empty = s.max_solutions, np.ascontiguousarray, np.empty
+
+    def solve1(T_goal: np.ndarray, q_start: np.ndarray):
+        S, q, trace = empty((ms, 6)), empty(6), empty((2, TRACE_COLS))
+        out = general_pose(E, c(T_goal, dtype=float), to_m, lines, CK, limits_on, c(q_start, dtype=float), S, q,
+                           trace, start_row)
+        return out, S, q, trace
+
+    return solve1
+
+
 def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
     """Every root of the elimination for the goal ``T`` (4, 4) [m], polished: (k, 6) [rad], k <= 16
     (not yet FK-checked; duplicates merged)."""
@@ -1174,20 +1195,25 @@ def applies_to(prep: Prepared) -> str | None:
     return None if why is None else f"{why}; `analytic` solves such arms by subproblems where a family fits"
 
 
-def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: General6RSettings, seed: int) -> Raw:
-    """Every FK-valid solution, nearest to the start first (under ``require_limits`` those with a
-    representative within the limits, the nearest of them first), in one compiled call
+def bind(prep: Prepared, s: General6RSettings):
+    """``run1``: every FK-valid solution, nearest to the start first (under ``require_limits`` those with
+    a representative within the limits, the nearest of them first), in one compiled call
     (:func:`general_pose`)."""
-    E = elimination_args(model(prep), s)
-    S, q, trace = np.empty((s.max_solutions, 6)), np.empty(6), np.empty((2, 8))
-    m, k, nk, code, best, ns = general_pose(E, np.ascontiguousarray(T_goal, dtype=float), _metric(prep).to_m,
-                                            lines_of(prep), check_pack(prep, s), bool(s.require_limits),
-                                            np.ascontiguousarray(q_start, dtype=float), S, q, trace, False)
-    return Raw(q=q, code=int(code), iterations=0, solve_ns=int(ns), solutions=S[:m],
-               info={"roots": k, "n_solutions": m, "n_returned": k, "n_least_squares": 0, "n_fk_valid": nk,
-                     "chosen": best})
+    solve1 = bind_pose(prep, s, bool(s.require_limits), False)
+
+    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        (m, k, nk, code, best, ns), S, q, _ = solve1(T_goal, q_start)
+        return Raw(q=q, code=int(code), iterations=0, solve_ns=int(ns), solutions=S[:m],
+                   info={"roots": k, "n_solutions": m, "n_returned": k, "n_least_squares": 0, "n_fk_valid": nk,
+                         "chosen": best})
+
+    return run1
+
+
+run = run_of(bind)
 
 
 register(Solver("general_6r", "every real solution of any 6R arm by algebraic elimination (Raghavan-Roth, "
                 "Manocha-Canny: a 24 x 24 companion deflated to 16 x 16, roots polished by Newton and FK-checked), "
-                "nearest to the start", "analytic", General6RSettings, run, applies_to=applies_to, source=SOURCE))
+                "nearest to the start", "analytic", General6RSettings, run, applies_to=applies_to, source=SOURCE,
+                bind=bind))
