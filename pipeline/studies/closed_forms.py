@@ -29,9 +29,10 @@ OURS = "analytic"
 
 def _nsol(info) -> float:
     """FK-verified solutions of one solve, wherever they lie: a peer under ``require_limits`` lists only
-    those within the limits and counts all in ``n_fk_valid``; ours lists all (6R)."""
+    those within the limits and counts all in ``n_fk_valid``, the exact ones (not flagged
+    least-squares by the library) in ``n_fk_valid_exact``; ours lists all (6R), every one exact."""
     if isinstance(info, dict):
-        v = info.get("n_fk_valid", info.get("n_solutions", info.get("solutions_valid")))
+        v = info.get("n_fk_valid_exact", info.get("n_fk_valid", info.get("n_solutions", info.get("solutions_valid"))))
         return float(v) if v is not None else float("nan")
     return float("nan")
 
