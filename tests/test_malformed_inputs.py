@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import os
-import resource
 import signal
 import subprocess
 import sys
@@ -100,34 +99,56 @@ def _startup_s() -> float:
     return _STARTUP[0]
 
 
+# Runs in a fresh, small interpreter between the test process and the child: sets the limit, runs the
+# child, and writes "exit-code max-RSS-KiB" of that child alone to argv[1].
+_LAUNCHER = """
+import os, resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
+pid = os.fork()
+if pid == 0:
+    os.execv(sys.executable, [sys.executable, "-m", "pipeline", *sys.argv[2:]])
+_, status, usage = os.wait4(pid, 0)
+with open(sys.argv[1], "w") as f:
+    f.write(f"{os.waitstatus_to_exitcode(status)} {usage.ru_maxrss}")
+"""
+
+
 def _run_limited(argv: list[str], tmp_path: Path) -> tuple[subprocess.CompletedProcess, float]:
     """``python -m pipeline ARGV`` with a 1 GiB address-space limit and a timeout of 10 s beyond the start-up
     time of a valid run; returns (process, max RSS of this child in MiB).
 
-    The RSS is this child's own (``os.wait4``), not ``RUSAGE_CHILDREN``: that one is the maximum over every
-    child the test process ever waited for, so one heavy earlier subprocess (a Snakemake build in another
-    test) would be charged to every later case.
+    The RSS is this child's own, measured by a small launcher interpreter (``_LAUNCHER``) that forks it.
+    Measured from the test process itself it would not be: Linux carries the peak RSS of a process across
+    ``exec``, so a child forked from a test process grown to 1 GiB (numba compiling every kernel on a
+    fresh clone, with no cache) reports that 1 GiB whatever it does itself. ``RUSAGE_CHILDREN`` is no
+    better: it is the maximum over every child the test process ever waited for.
     """
-
-    def limit():
-        resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
-
     timeout = run_corpus.TIME_LIMIT_S + 2 * _startup_s()
-    out, err = tmp_path / "stdout.txt", tmp_path / "stderr.txt"
+    out, err, res = tmp_path / "stdout.txt", tmp_path / "stderr.txt", tmp_path / "launcher.txt"
+    res.unlink(missing_ok=True)
     with open(out, "w") as fo, open(err, "w") as fe:
-        child = subprocess.Popen([sys.executable, "-m", "pipeline", *argv], cwd=ROOT, stdout=fo, stderr=fe,
-                                 preexec_fn=limit)
-    timer = threading.Timer(timeout, child.kill)
+        child = subprocess.Popen([sys.executable, "-c", _LAUNCHER, str(res), *argv], cwd=ROOT, stdout=fo,
+                                 stderr=fe, start_new_session=True)
+
+    def kill():
+        try:
+            os.killpg(child.pid, signal.SIGKILL)
+        except ProcessLookupError:  # ended meanwhile
+            pass
+
+    timer = threading.Timer(timeout, kill)
     timer.start()
     try:
-        _, status, usage = os.wait4(child.pid, 0)
+        child.wait()
     finally:
         timer.cancel()
-    child.returncode = os.waitstatus_to_exitcode(status)  # reaped here; keep Popen from waiting again
-    if child.returncode == -signal.SIGKILL:
+    if child.returncode == -signal.SIGKILL or not res.exists():
         raise subprocess.TimeoutExpired(argv, timeout)
-    proc = subprocess.CompletedProcess(argv, child.returncode, out.read_text(), err.read_text())
-    return proc, usage.ru_maxrss / 1024
+    code, rss_kib = (int(v) for v in res.read_text().split())
+    if code == -signal.SIGKILL:
+        raise subprocess.TimeoutExpired(argv, timeout)
+    proc = subprocess.CompletedProcess(argv, code, out.read_text(), err.read_text())
+    return proc, rss_kib / 1024
 
 
 HOSTILE_SAMPLE = [
@@ -160,6 +181,20 @@ def test_hostile_sample_as_processes(argv, tmp_path):
     assert "Traceback" not in proc.stderr
     assert _one_line(proc.stderr).startswith(f"error: {named}: ")
     assert rss_mib < 1024
+
+
+def test_child_rss_is_the_childs_own(tmp_path):
+    """A test process grown past 1 GiB (numba compiling with no cache, on a fresh clone) must not be charged
+    to the child ``_run_limited`` measures: Linux keeps a process's peak RSS across ``exec``."""
+    script = (f"import sys; sys.path.insert(0, {str(ROOT)!r}); import numpy as np; from pathlib import Path\n"
+              "from tests.test_malformed_inputs import _run_limited\n"
+              "big = np.ones(160_000_000)  # 1.2 GiB, touched\n"
+              f"proc, rss = _run_limited(['robot', 'no/such/robot.yaml'], Path({str(tmp_path)!r}))\n"
+              "print(proc.returncode, rss)\n")
+    out = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    code, rss = out.stdout.split()
+    assert int(code) != 0 and float(rss) < 512, out.stdout
 
 
 def test_oversized_files_refused_fast(tmp_path):
