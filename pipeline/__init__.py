@@ -13,3 +13,7 @@ Layers (imports only go downward):
 """
 
 __version__ = "0.1.0"
+
+from pipeline._numba_cache import use_source_keyed_cache as _use_source_keyed_cache
+
+_use_source_keyed_cache()

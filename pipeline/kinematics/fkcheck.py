@@ -14,8 +14,12 @@ modified DH puts ``Rx(alpha) Tx(a)`` first; the general (URDF) form is ``origin 
 
 :func:`pose_check` (compiled, one pose, no allocation) returns what the success test needs:
 ``|dp|`` [length], the rotation angle between goal and reached orientation [rad], and ``|t|``,
-the translation of ``T_goal T^-1`` (for the dual-quaternion norm criteria). ``tests/test_fkcheck.py``
-compares it with the numpy HTM forward kinematics on random chains of every form.
+the translation of ``T_goal T^-1`` (for the dual-quaternion norm criteria). :func:`pose_check8` gives
+the same floats for 8 poses at once, as the lanes of vector instructions (a batch's finish): both
+take their sines, cosines and arctangent from :mod:`pipeline.kinematics.vmath`, whose polynomials
+vectorize, and share every formula (:func:`_joint_step`, :func:`_errors_of`). ``tests/test_fast_path.py``
+compares the check with the numpy HTM forward kinematics on random chains of every form,
+``tests/test_vmath.py`` the two checks with each other.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ import numpy as np
 from pipeline.kinematics.chain import Chain
 from pipeline.kinematics.dualquat import dq_from_transform, dq_mul
 from pipeline.kinematics.htm import dh_transform
+from pipeline.kinematics.vmath import atan2, atan2_core, sincos, sincos_core
 
 
 def check_model(chain: Chain) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -82,57 +87,73 @@ def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
             a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
 
 
-@numba.njit(cache=True, error_model="numpy")
-def fk_dq(K, axis, offset, prism, q, out):
-    """Tool pose of joint values ``q`` (n,) as a unit DQ into ``out`` (8,)."""
-    r0, r1, r2, r3 = K[0, 0], K[0, 1], K[0, 2], K[0, 3]
-    d0, d1, d2, d3 = K[0, 4], K[0, 5], K[0, 6], K[0, 7]
-    n = q.shape[0]
-    for i in range(n):
-        x = q[i] + offset[i]
-        k0, k1, k2 = axis[i, 0], axis[i, 1], axis[i, 2]
-        if prism[i]:  # M = (1, 0 | 0, x k / 2): real part unchanged, dual += r (0, x k / 2)
-            h = 0.5 * x
-            e0, e1, e2, e3 = _qmul(r0, r1, r2, r3, 0.0, h * k0, h * k1, h * k2)
-            d0, d1, d2, d3 = d0 + e0, d1 + e1, d2 + e2, d3 + e3
-        else:  # M = (cos x/2, sin x/2 k | 0)
-            c, s = math.cos(0.5 * x), math.sin(0.5 * x)
-            m1, m2, m3 = s * k0, s * k1, s * k2
-            r0, r1, r2, r3 = _qmul(r0, r1, r2, r3, c, m1, m2, m3)
-            d0, d1, d2, d3 = _qmul(d0, d1, d2, d3, c, m1, m2, m3)
-        # times the constant K[i + 1]: (r kr, r kd + d kr)
-        j = i + 1
-        kr0, kr1, kr2, kr3 = K[j, 0], K[j, 1], K[j, 2], K[j, 3]
-        kd0, kd1, kd2, kd3 = K[j, 4], K[j, 5], K[j, 6], K[j, 7]
-        e0, e1, e2, e3 = _qmul(r0, r1, r2, r3, kd0, kd1, kd2, kd3)
-        f0, f1, f2, f3 = _qmul(d0, d1, d2, d3, kr0, kr1, kr2, kr3)
-        d0, d1, d2, d3 = e0 + f0, e1 + f1, e2 + f2, e3 + f3
-        r0, r1, r2, r3 = _qmul(r0, r1, r2, r3, kr0, kr1, kr2, kr3)
-    out[0], out[1], out[2], out[3] = r0, r1, r2, r3
-    out[4], out[5], out[6], out[7] = d0, d1, d2, d3
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _joint_step(r0, r1, r2, r3, d0, d1, d2, d3, h, s, c, k0, k1, k2, pr, kr0, kr1, kr2, kr3, kd0, kd1, kd2, kd3):
+    """The pose (r | d) times joint i's motion and then the constant (kr | kd) = K[i + 1]; ``h`` is half
+    the joint value plus offset, ``s`` and ``c`` its sine and cosine (used by a revolute joint).
+
+    One formula for both joint kinds, without a branch (a loop over poses then vectorizes): the motion
+    is (cos h, sin h k | 0, 0) for a revolute joint and (1, 0 | 0, h k) for a prismatic one (``pr``
+    true), and (r | d)(m | e) = (r m | r e + d m). Both kinds are exact this way: a product by (1, 0) or
+    by a zero dual part adds only zeros."""
+    c = 1.0 if pr else c
+    s = 0.0 if pr else s
+    e = h if pr else 0.0
+    m1, m2, m3 = s * k0, s * k1, s * k2
+    a0, a1, a2, a3 = _qmul(r0, r1, r2, r3, 0.0, e * k0, e * k1, e * k2)
+    b0, b1, b2, b3 = _qmul(d0, d1, d2, d3, c, m1, m2, m3)
+    d0, d1, d2, d3 = a0 + b0, a1 + b1, a2 + b2, a3 + b3
+    r0, r1, r2, r3 = _qmul(r0, r1, r2, r3, c, m1, m2, m3)
+    # times the constant: (r kr | r kd + d kr)
+    e0, e1, e2, e3 = _qmul(r0, r1, r2, r3, kd0, kd1, kd2, kd3)
+    f0, f1, f2, f3 = _qmul(d0, d1, d2, d3, kr0, kr1, kr2, kr3)
+    r0, r1, r2, r3 = _qmul(r0, r1, r2, r3, kr0, kr1, kr2, kr3)
+    return r0, r1, r2, r3, e0 + f0, e1 + f1, e2 + f2, e3 + f3
 
 
-@numba.njit(cache=True, error_model="numpy")
-def _quat_of(T):
-    """Unit quaternion (w-first) of the rotation part of ``T`` (Shepperd's method)."""
-    m00, m11, m22 = T[0, 0], T[1, 1], T[2, 2]
-    tr = m00 + m11 + m22
-    if tr > 0.0:
-        s = 2.0 * math.sqrt(1.0 + tr)
-        return 0.25 * s, (T[2, 1] - T[1, 2]) / s, (T[0, 2] - T[2, 0]) / s, (T[1, 0] - T[0, 1]) / s
-    if m00 > m11 and m00 > m22:
-        s = 2.0 * math.sqrt(max(1.0 + m00 - m11 - m22, 1e-300))
-        return (T[2, 1] - T[1, 2]) / s, 0.25 * s, (T[0, 1] + T[1, 0]) / s, (T[0, 2] + T[2, 0]) / s
-    if m11 > m22:
-        s = 2.0 * math.sqrt(max(1.0 + m11 - m00 - m22, 1e-300))
-        return (T[0, 2] - T[2, 0]) / s, (T[0, 1] + T[1, 0]) / s, 0.25 * s, (T[1, 2] + T[2, 1]) / s
-    s = 2.0 * math.sqrt(max(1.0 + m22 - m00 - m11, 1e-300))
-    return (T[1, 0] - T[0, 1]) / s, (T[0, 2] + T[2, 0]) / s, (T[1, 2] + T[2, 1]) / s, 0.25 * s
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _errors_of(r0, r1, r2, r3, d0, d1, d2, d3, g, o, st):
+    """(|dp|, cos and sin of the rotation angle, |t|) of the tool pose (r | d) against the goal whose
+    first three rows are ``g[o], g[o + st], ..., g[o + 11 st]`` (row-major; ``o`` unsigned; ``st`` 1 for
+    a goal's own 16 floats).
+
+    With R the rotation of the (normalised) real part and p = 2 vec(d r*) / |r|², R_rel = R_goal Rᵀ:
+    dp = p_goal − p, cos = (tr R_rel − 1) / 2, sin = |vee(R_rel − R_relᵀ)| / 2, t = p_goal − R_rel p
+    (the formulas of :func:`pipeline.solvers.base.pose_errors`, the numpy check)."""
+    nr2 = r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3
+    _, x, y, z = _qmul(d0, d1, d2, d3, r0, -r1, -r2, -r3)
+    px, py, pz = 2.0 * x / nr2, 2.0 * y / nr2, 2.0 * z / nr2
+    nr = math.sqrt(nr2)
+    w, x, y, z = r0 / nr, r1 / nr, r2 / nr, r3 / nr
+    R00, R01, R02 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)
+    R10, R11, R12 = 2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)
+    R20, R21, R22 = 2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)
+    G00, G01, G02, gx = g[o], g[o + st], g[o + 2 * st], g[o + 3 * st]
+    G10, G11, G12, gy = g[o + 4 * st], g[o + 5 * st], g[o + 6 * st], g[o + 7 * st]
+    G20, G21, G22, gz = g[o + 8 * st], g[o + 9 * st], g[o + 10 * st], g[o + 11 * st]
+    # R_rel[a, b] = Σ_k G[a, k] R[b, k]
+    A00 = G00 * R00 + G01 * R01 + G02 * R02
+    A01 = G00 * R10 + G01 * R11 + G02 * R12
+    A02 = G00 * R20 + G01 * R21 + G02 * R22
+    A10 = G10 * R00 + G11 * R01 + G12 * R02
+    A11 = G10 * R10 + G11 * R11 + G12 * R12
+    A12 = G10 * R20 + G11 * R21 + G12 * R22
+    A20 = G20 * R00 + G21 * R01 + G22 * R02
+    A21 = G20 * R10 + G21 * R11 + G22 * R12
+    A22 = G20 * R20 + G21 * R21 + G22 * R22
+    dx, dy, dz = gx - px, gy - py, gz - pz
+    u, v, s_ = A21 - A12, A02 - A20, A10 - A01
+    tx = gx - (A00 * px + A01 * py + A02 * pz)
+    ty = gy - (A10 * px + A11 * py + A12 * pz)
+    tz = gz - (A20 * px + A21 * py + A22 * pz)
+    return (math.sqrt(dx * dx + dy * dy + dz * dz), 0.5 * (A00 + A11 + A22 - 1.0),
+            0.5 * math.sqrt(u * u + v * v + s_ * s_), math.sqrt(tx * tx + ty * ty + tz * tz))
 
 
 @numba.njit(cache=True, error_model="numpy")
 def pose_check(K, axis, offset, prism, q, Tg, buf):
-    """Errors of joint values ``q`` (n,) against the goal ``Tg`` (4, 4); ``buf`` (8,) is scratch.
+    """Errors of joint values ``q`` (n,) against the goal ``Tg`` (4, 4); ``buf`` is unused (kept for
+    the callers' signature).
 
     Returns
     -------
@@ -140,29 +161,85 @@ def pose_check(K, axis, offset, prism, q, Tg, buf):
     angle : float   rotation angle of ``R_goal R^T`` in [0, pi] [rad]
     t : float       |translation of T_goal T^-1| [length]
     (NaN everywhere when ``q`` holds a non-finite value.)
+
+    :func:`pose_check8` gives the same floats, bit for bit, for 8 poses at once.
     """
     for i in range(q.shape[0]):
         if not math.isfinite(q[i]):
             return math.nan, math.nan, math.nan
-    fk_dq(K, axis, offset, prism, q, buf)
-    r0, r1, r2, r3 = buf[0], buf[1], buf[2], buf[3]
-    nr = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3)
-    # p = 2 d r*  (vector part), with r normalised against rounding
-    w, x, y, z = _qmul(buf[4], buf[5], buf[6], buf[7], r0, -r1, -r2, -r3)
-    px, py, pz = 2.0 * x / (nr * nr), 2.0 * y / (nr * nr), 2.0 * z / (nr * nr)
-    r0, r1, r2, r3 = r0 / nr, r1 / nr, r2 / nr, r3 / nr
-    dx, dy, dz = Tg[0, 3] - px, Tg[1, 3] - py, Tg[2, 3] - pz
-    dp = math.sqrt(dx * dx + dy * dy + dz * dz)
-    g0, g1, g2, g3 = _quat_of(Tg)
-    # relative rotation g r*: angle = 2 atan2(|vec|, |w|)
-    e0, e1, e2, e3 = _qmul(g0, g1, g2, g3, r0, -r1, -r2, -r3)
-    angle = 2.0 * math.atan2(math.sqrt(e1 * e1 + e2 * e2 + e3 * e3), abs(e0))
-    # t = p_goal - R_rel p, R_rel p = e (0, p) e*
-    a0, a1, a2, a3 = _qmul(e0, e1, e2, e3, 0.0, px, py, pz)
-    _, b1, b2, b3 = _qmul(a0, a1, a2, a3, e0, -e1, -e2, -e3)
-    ne = e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3
-    tx, ty, tz = Tg[0, 3] - b1 / ne, Tg[1, 3] - b2 / ne, Tg[2, 3] - b3 / ne
-    return dp, angle, math.sqrt(tx * tx + ty * ty + tz * tz)
+    r0, r1, r2, r3, d0, d1, d2, d3 = K[0, 0], K[0, 1], K[0, 2], K[0, 3], K[0, 4], K[0, 5], K[0, 6], K[0, 7]
+    for i in range(q.shape[0]):
+        h = 0.5 * (q[i] + offset[i])
+        s, c = sincos(h)
+        r0, r1, r2, r3, d0, d1, d2, d3 = _joint_step(r0, r1, r2, r3, d0, d1, d2, d3, h, s, c, axis[i, 0], axis[i, 1],
+                                                     axis[i, 2], prism[i], K[i + 1, 0], K[i + 1, 1], K[i + 1, 2],
+                                                     K[i + 1, 3], K[i + 1, 4], K[i + 1, 5], K[i + 1, 6], K[i + 1, 7])
+    dp, c, s, t = _errors_of(r0, r1, r2, r3, d0, d1, d2, d3, Tg.ravel(), np.uint64(0), 1)
+    return dp, atan2(s, c), t
+
+
+CHECK8_SCRATCH = 200  # floats of pose_check8's scratch besides 8 per joint
+
+
+@numba.njit(cache=True, error_model="numpy")
+def pose_check8(K, axis, offset, prism, Q, goals, k0, W, out):
+    """:func:`pose_check` of the 8 rows ``k0 .. k0 + 7`` of ``Q`` (N, n) against ``goals`` (N, 4, 4), the
+    same floats bit for bit, into ``out`` (3, 8): |dp|, angle and |t| per row. ``W`` (at least
+    :data:`CHECK8_SCRATCH` + 8 n floats) is scratch.
+
+    The poses are the vector lanes. Every value a pass reads or writes lies in the one array ``W`` at a
+    constant offset (quantity × 8 + row, indexed unsigned), so the compiler sees that the rows do not
+    overlap and runs the pass as vector instructions, 8 rows at once with AVX-512: each row's dual
+    quaternion at 0-63, the present joint's values at 64-71, the goals' 12 values at 72-167, the results
+    at 168-191, every joint's values from 200. A block with a value :func:`sincos_core` does not take
+    (NaN, infinite, beyond 2e5 [rad | length]) is checked again row by row."""
+    n = Q.shape[1]
+    for lane in range(8):
+        for c in range(8):
+            W[8 * c + lane] = K[0, c]
+        for r in range(3):
+            for c in range(4):
+                W[72 + 8 * (4 * r + c) + lane] = goals[k0 + lane, r, c]
+        for i in range(n):
+            W[200 + 8 * i + lane] = Q[k0 + lane, i] + offset[i]
+    odd = 0
+    for i in range(n):
+        a0, a1, a2, pr = axis[i, 0], axis[i, 1], axis[i, 2], prism[i]
+        kr0, kr1, kr2, kr3 = K[i + 1, 0], K[i + 1, 1], K[i + 1, 2], K[i + 1, 3]
+        kd0, kd1, kd2, kd3 = K[i + 1, 4], K[i + 1, 5], K[i + 1, 6], K[i + 1, 7]
+        for lane in range(8):  # half this joint's values, at a constant offset
+            W[64 + lane] = 0.5 * W[200 + 8 * i + lane]
+        for lane in range(8):
+            u = np.uint64(lane)  # unsigned: no wrap-around select on the index
+            h = W[64 + u]
+            s, c, ok = sincos_core(h)
+            odd += not ok
+            r0, r1, r2, r3, d0, d1, d2, d3 = _joint_step(W[u], W[8 + u], W[16 + u], W[24 + u], W[32 + u], W[40 + u],
+                                                         W[48 + u], W[56 + u], h, s, c, a0, a1, a2, pr, kr0, kr1,
+                                                         kr2, kr3, kd0, kd1, kd2, kd3)
+            W[u], W[8 + u], W[16 + u], W[24 + u] = r0, r1, r2, r3
+            W[32 + u], W[40 + u], W[48 + u], W[56 + u] = d0, d1, d2, d3
+    for lane in range(8):
+        u = np.uint64(lane)
+        dp, c, s, t = _errors_of(W[u], W[8 + u], W[16 + u], W[24 + u], W[32 + u], W[40 + u], W[48 + u], W[56 + u],
+                                 W, 72 + u, 8)
+        a, ok = atan2_core(s, c)
+        W[168 + u], W[176 + u], W[184 + u] = dp, a, t
+        W[192 + u] = ok
+    unusual = 0
+    for lane in range(8):
+        out[0, lane], out[1, lane], out[2, lane] = W[168 + lane], W[176 + lane], W[184 + lane]
+        unusual += W[192 + lane] == 0.0
+    if unusual:  # a zero or non-finite pair: libm's atan2
+        for lane in range(8):
+            dp, c, s, t = _errors_of(W[lane], W[8 + lane], W[16 + lane], W[24 + lane], W[32 + lane],
+                                     W[40 + lane], W[48 + lane], W[56 + lane], W, np.uint64(72 + lane), 8)
+            if not atan2_core(s, c)[1]:
+                out[1, lane] = math.atan2(s, c)
+    if odd:  # a value beyond sincos_core (NaN, infinite, huge): the rows again, one at a time
+        for lane in range(8):
+            out[0, lane], out[1, lane], out[2, lane] = pose_check(K, axis, offset, prism, Q[k0 + lane],
+                                                                  goals[k0 + lane], W)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -184,13 +261,3 @@ def check_one(K, axis, offset, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, buf
     """(meets the criterion, |dp|, angle, |t|) of one solution."""
     dp, ang, t = pose_check(K, axis, offset, prism, q, Tg, buf)
     return meets(crit, tol_pos, tol_rot, tol_dq, dp, ang, t), dp, ang, t
-
-
-@numba.njit(cache=True, error_model="numpy", parallel=True)
-def check_many(K, axis, offset, prism, Q, goals, crit, tol_pos, tol_rot, tol_dq, ok, out):
-    """:func:`check_one` for every row: ``Q`` (N, n), ``goals`` (N, 4, 4) -> ``ok`` (N,), ``out`` (N, 3)."""
-    for k in numba.prange(Q.shape[0]):
-        buf = np.empty(8)
-        r, dp, ang, t = check_one(K, axis, offset, prism, Q[k], goals[k], crit, tol_pos, tol_rot, tol_dq, buf)
-        ok[k] = r
-        out[k, 0], out[k, 1], out[k, 2] = dp, ang, t

@@ -38,7 +38,8 @@ import numpy as np
 import numba
 
 from pipeline.kinematics import fk_htm
-from pipeline.kinematics.fkcheck import check_model, check_one
+from pipeline.kinematics.fkcheck import CHECK8_SCRATCH, check_model, check_one, pose_check, pose_check8
+from pipeline.kinematics.fkcheck import meets as meets_compiled
 from pipeline.io.layout import STOP_REASONS, TRACE_COLS, StopReason  # noqa: F401  (re-exported)
 from pipeline.robots import LENGTH_UNITS, RobotModel
 from pipeline.solvers._kin import CRITERIA, CRITERION_CODE  # noqa: F401  (re-exported: the one success-test code)
@@ -778,8 +779,16 @@ def _unpack(F, n):
 def _result(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, code, require_limits, buf):
     """Everything of a result but its packing, for one solution (every path's finish): the FK check, the
     joint-limit record and :func:`final_code`. Returns (code, claimed, success, |dp|, angle, within)."""
-    K, axis, offset, limits, _ = _unpack(F, q.shape[0])
-    ok, dp, ang, _ = check_one(K, axis, offset, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, buf)
+    K, axis, offset, _, _ = _unpack(F, q.shape[0])
+    dp, ang, t = pose_check(K, axis, offset, prism, q, Tg, buf)
+    return _verdict(F, prism, q, crit, tol_pos, tol_rot, tol_dq, code, require_limits, dp, ang, t)
+
+
+@numba.njit(cache=True, inline="always")
+def _verdict(F, prism, q, crit, tol_pos, tol_rot, tol_dq, code, require_limits, dp, ang, t):
+    """:func:`_result` from the check's errors (|dp|, angle, |t|) of ``q``."""
+    limits = _unpack(F, q.shape[0])[3]
+    ok = meets_compiled(crit, tol_pos, tol_rot, tol_dq, dp, ang, t)
     inside = _within(q, limits, prism, LIMIT_TOL)
     code, claimed, success = final_code(code, ok, dp, q, inside, require_limits)
     return code, claimed, success, dp, ang, inside
@@ -794,15 +803,31 @@ def _finish_one(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, code, require_l
 @numba.njit(cache=True, parallel=True)
 def _finish_many(F, prism, Q, goals, crit, tol_pos, tol_rot, tol_dq, require_limits, code, claimed, success, dp, ang,
                  inside):
-    """:func:`_result` for every row of ``Q`` (N, n) against ``goals`` (N, 4, 4); ``code`` (N,) in and out."""
+    """:func:`_result` for every row of ``Q`` (N, n) against ``goals`` (N, 4, 4); ``code`` (N,) in and out.
+
+    The check runs 8 rows at a time (:func:`~pipeline.kinematics.fkcheck.pose_check8`, vector lanes), the
+    rows past the last 8 one at a time: the same floats either way."""
     Fb, pb, Qb, gb = borrowed(F), borrowed(prism), borrowed(Q), borrowed(goals)  # no atomic counting per row
-    N, chunk = Q.shape[0], 32
+    N, n, chunk = Q.shape[0], Q.shape[1], 32
+    K, axis, offset, _, _ = _unpack(Fb, n)
     for c_ in numba.prange((N + chunk - 1) // chunk):  # work items of 32 rows, one scratch each
-        buf = np.empty(8)
-        for k in range(c_ * chunk, min(N, (c_ + 1) * chunk)):
-            c, cl, su, d, a, w = _result(Fb, pb, Qb[k], gb[k], crit, tol_pos, tol_rot, tol_dq, code[k],
-                                         require_limits, buf)
-            code[k], claimed[k], success[k], dp[k], ang[k], inside[k] = c, cl, su, d, a, w
+        W = np.empty(CHECK8_SCRATCH + 8 * n)
+        E = np.empty((3, 8))
+        Wb, Eb = borrowed(W), borrowed(E)
+        hi = min(N, (c_ + 1) * chunk)
+        for k8 in range(c_ * chunk, hi, 8):
+            if k8 + 8 <= hi:
+                pose_check8(K, axis, offset, pb, Qb, gb, k8, Wb, Eb)
+            for k in range(k8, min(hi, k8 + 8)):
+                if k8 + 8 <= hi:
+                    e0, e1, e2 = Eb[0, k - k8], Eb[1, k - k8], Eb[2, k - k8]
+                else:
+                    e0, e1, e2 = pose_check(K, axis, offset, pb, Qb[k], gb[k], Wb)
+                c, cl, su, d, a, w = _verdict(Fb, pb, Qb[k], crit, tol_pos, tol_rot, tol_dq, code[k], require_limits,
+                                              e0, e1, e2)
+                code[k], claimed[k], success[k], dp[k], ang[k], inside[k] = c, cl, su, d, a, w
+        # the work item's scratch read after its last borrowed use (numba frees a local after its last use)
+        E[0, 0] = W[0]
 
 
 # ---- the check packed for a fused call (an analytic solver's kernel, choice and check in one call) ----

@@ -52,6 +52,7 @@ import numba
 import numpy as np
 
 from pipeline.solvers._kin import LIMIT_TOL
+from pipeline.kinematics.vmath import atan2_core as _atan2_core
 
 FAM_SPH, FAM_3P, FAM_SEARCH = 1, 2, 3
 MAX_SOL = 16
@@ -142,38 +143,6 @@ def any_perp(k):
 
 
 # ---- angles -------------------------------------------------------------------------------------
-_ATAN_EIGHTHS = np.array([math.atan(j / 8.0) for j in range(9)])  # atan(j/8), j = 0..8
-_PIO2_HI, _PIO2_LO = 1.5707963267948966, 6.123233995736766e-17  # π/2 = HI + LO (LO its rounding error)
-_PI_HI, _PI_LO = 3.141592653589793, 1.2246467991473532e-16
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _atan2_core(y, x):
-    """(atan2(y, x), whether the pair is ordinary), branch-free so that a loop over it vectorizes.
-
-    The ratio u = min/max of |x|, |y| (in [0, 1]) is split at its nearest eighth c = j/8:
-    atan(u) = atan(c) + atan(v) with v = (u − c)/(1 + u c), |v| ≤ 1/16, and atan(v) is its odd series
-    to v¹³ (truncation below 1e-18 relative); the octant is restored with π/2 and π each carried as
-    two floats. A pair with a zero, infinite or NaN ratio part is not ordinary: its angle here is
-    meaningless, and the callers take ``math.atan2``'s."""
-    ax = abs(x)
-    ay = abs(y)
-    swap = ay > ax
-    num = ax if swap else ay
-    den = ay if swap else ax
-    ok = (den > 0.0) & (den < math.inf) & (x == x) & (y == y)
-    u = num / den if ok else 0.0
-    j = int(u * 8.0 + 0.5)
-    c = j * 0.125
-    v = (u - c) / (1.0 + u * c)
-    s = v * v
-    a = _ATAN_EIGHTHS[j] + (v + v * s * (-1.0 / 3.0 + s * (0.2 + s * (-1.0 / 7.0 + s * (1.0 / 9.0 + s * (
-        -1.0 / 11.0 + s / 13.0))))))
-    a = ((_PIO2_HI - a) + _PIO2_LO) if swap else a
-    a = ((_PI_HI - a) + _PI_LO) if x < 0.0 else a
-    return math.copysign(a, y), ok
-
-
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def angles_of(Y, X, A, m):
     """``A[i] = atan2(Y[i], X[i])`` [rad] for i < m, within a few units in the last place of libm's:
