@@ -51,8 +51,8 @@ import math
 import numba
 import numpy as np
 
-from pipeline.solvers._kin import LIMIT_TOL
 from pipeline.kinematics.vmath import atan2_core as _atan2_core
+from pipeline.solvers._kin import LIMIT_TOL
 
 FAM_SPH, FAM_3P, FAM_SEARCH = 1, 2, 3
 MAX_SOL = 16
