@@ -121,3 +121,18 @@ def test_angle_of_an_exact_rotation_is_zero():
     K, axis, offset, prism = check_model(c)
     dp, ang, t = pose_check(K, axis, offset, prism, q, fk_htm(c, q), np.empty(8))
     assert dp < 1e-12 and ang < 1e-7 and t < 1e-12 and math.isfinite(ang)
+
+
+def test_half_turn_and_small_rotation_errors():
+    """Rotation errors of π (the pair (0, −1) of atan2, libm's) and of 1e-9 rad come out as such, in
+    one row and eight alike."""
+    c = _chain(4, 6, "general")
+    Q, goals = _rows(c, 8, 4)
+    Rz = lambda a: np.array([[np.cos(a), -np.sin(a), 0, 0], [np.sin(a), np.cos(a), 0, 0], [0, 0, 1, 0],  # noqa: E731
+                             [0, 0, 0, 1]])
+    for k, a in enumerate((np.pi, 1e-9, np.pi / 2, -2.0)):
+        goals[k] = fk_htm(c, Q[k]) @ Rz(a)
+    one, eight = _both(c, Q, goals)
+    assert np.array_equal(one, eight)
+    np.testing.assert_allclose(eight[:4, 1], [np.pi, 1e-9, np.pi / 2, 2.0], rtol=1e-7, atol=1e-12)
+    assert (eight[:4, 0] < 1e-9).all()  # a rotation about the tool's own z moves no point of the flange
