@@ -43,14 +43,20 @@ def test_independent_problems_keep_their_own_start(lwr):
 
 def test_the_jacobian_loop_reads_each_solves_thread_cpu_time_in_batches(lwr):
     """Batch solves of the Jacobian loop carry the thread's CPU time read in the kernel (not the process
-    time shared out by wall time): positive, and within the solve's own wall time (clock reads aside)."""
+    time shared out by wall time): positive, and within the solve's own wall time (clock reads aside).
+
+    The CPU clock's reads bracket the wall clock's, and reading it is a system call: its excess over
+    the wall time is that call, 0.6-1.5 µs here, but on a shared VM whose host preempts it inside the
+    call, over 2 µs for some solve now and then (seen once in a clean-clone CI run on a loaded machine).
+    So the median excess is held to 2 µs and each one to 50 µs."""
     from pipeline.runner import solve_set_batches
 
     ps = warm_start(lwr, 40, np.random.default_rng(3))
     (_, _, _, res), = list(solve_set_batches("dls", make_settings("dls"), lwr, ps))
     cpu, wall = res.cpu_times_s, res.solve_time_s
     assert cpu.shape == (40,) and np.all(cpu > 0)
-    assert np.all(cpu <= wall + 2e-6)
+    excess = cpu - wall
+    assert np.median(excess) <= 2e-6 and np.all(excess <= 50e-6), excess
 
 
 def test_repetitions_solve_each_problem_from_the_same_start(lwr):
