@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from pipeline.kinematics.chain import Chain
-from pipeline.kinematics.dualquat import dq_from_transform, dq_mul
+from pipeline.kinematics.dualquat import dq_from_transform
 from pipeline.kinematics.htm import dh_transform
 from pipeline.kinematics.vmath import atan2, atan2_core, sincos, sincos_core
 

@@ -816,10 +816,11 @@ def _finish_many(F, prism, Q, goals, crit, tol_pos, tol_rot, tol_dq, require_lim
         Wb, Eb = borrowed(W), borrowed(E)
         hi = min(N, (c_ + 1) * chunk)
         for k8 in range(c_ * chunk, hi, 8):
-            if k8 + 8 <= hi:
+            full = k8 + 8 <= hi
+            if full:
                 pose_check8(K, axis, offset, pb, Qb, gb, k8, Wb, Eb)
             for k in range(k8, min(hi, k8 + 8)):
-                if k8 + 8 <= hi:
+                if full:
                     e0, e1, e2 = Eb[0, k - k8], Eb[1, k - k8], Eb[2, k - k8]
                 else:
                     e0, e1, e2 = pose_check(K, axis, offset, pb, Qb[k], gb[k], Wb)

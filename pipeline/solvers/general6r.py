@@ -28,8 +28,8 @@ file form works:
    its leading matrix well conditioned. Its 24 × 24 companion matrix has 8 eigenvalues at ±i whatever
    the goal (the factor ``(1 + x3²)⁴`` of Raghavan and Roth's degree-24 polynomial); they are
    deflated (:func:`_deflate`) and the real eigenvalues of the remaining 16 × 16 (:func:`_eig_hess`,
-   LAPACK ``dgeev`` its fallback) give joint 3; the null vector ``m`` (one step of inverse iteration) joints 4 and 5, the 14
-   equations joints 1 and 2 (least squares on the eliminated products) and the pose joint 6. The
+   LAPACK ``dgeev`` its fallback) give joint 3; the null vector ``m`` (one step of inverse iteration)
+   joints 4 and 5, the 14 equations joints 1 and 2 (least squares on the eliminated products) and the pose joint 6. The
    whole goal is one compiled call (:func:`_all_roots`).
 4. Each root is polished by ``polish_steps`` Newton steps on the full pose and kept when the FK check
    (the compiled dual-quaternion check every result gets, with the settings' tolerances) passes;
@@ -437,8 +437,8 @@ def _eig_hess(a, wr, wi):
     then the Francis double-shift QR iteration on the active block only (eigenvalues, no vectors;
     the EISPACK algorithms balanc, elmhes and hqr as Press et al., Numerical Recipes, §11.5-11.6,
     give them). Returns False for a non-finite entry or when an eigenvalue does not converge in 30
-    iterations (the caller then asks LAPACK). On the deflated 16 × 16 here it takes 13-20 µs against LAPACK ``dgeev``'s 27-37
-    (the same real eigenvalues to 6e-10 on 2 000 goals; Newton polishes them after)."""
+    iterations (the caller then asks LAPACK). On the deflated 16 × 16 here it takes 13-20 µs against
+    LAPACK ``dgeev``'s 27-37 (the same real eigenvalues to 6e-10 on 2 000 goals; Newton polishes them after)."""
     n = a.shape[0]
     for i in range(n):
         for j in range(n):
