@@ -39,6 +39,7 @@ import numba
 import numpy as np
 
 from pipeline.kinematics import geometry
+from pipeline.solvers import lanes
 from pipeline.solvers import subproblems as sp
 from pipeline.solvers._kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, grid, now_ns
 from pipeline.solvers.base import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, SettingsError, check_pack,
@@ -300,7 +301,7 @@ def unpack(ints, G):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True):
+def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, given=-1, given_ns=0):
     """The FK-valid solutions of one pose, nearest to ``q_start`` first (wrapped joint distance, sum of
     squares), at most ``max_solutions`` into ``S``; ``q`` the chosen one. ``Sc`` (:func:`scratch`
     rows) holds the candidates: 6R, every closed-form candidate wrapped to (−π, π]; 7R, every
@@ -309,7 +310,9 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True):
     sweep checks about as many as it returns. ``W``, ``Z``, ``I``: the float, complex and int scratch of
     :func:`scratch` (the caller allocates them once, for a batch once per work item). ``start_row``
     False: the trace's row at ``q_start`` is left unwritten unless no solution is found (a batch
-    that keeps no traces needs only the row at ``q``). Returns (solutions, candidates, solve time [ns])."""
+    that keeps no traces needs only the row at ``q``). ``given`` >= 0: a 6R arm's closed-form candidates
+    are in Z's first rows already, that many (the batch's lanes, :mod:`pipeline.solvers.lanes`), and
+    ``given_ns`` [ns] their share of the time. Returns (solutions, candidates, solve time [ns])."""
     # every array below is a borrowed view: no atomic reference counting on the per-pose path
     ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace = (
         borrowed(ints), borrowed(G), borrowed(Tg), borrowed(q_start), borrowed(Sc), borrowed(W), borrowed(Z),
@@ -358,8 +361,11 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True):
         if n == 6:
             # every candidate is checked (in the order the closed form gives them: shared angles reuse
             # their sine and cosine); the valid ones compete by distance below
-            k = min(core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, q_start, samples, Q, nolim, Wr, Qr),
-                    sp.MAX_SOL)
+            if given >= 0:
+                k = given
+            else:
+                k = min(core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, q_start, samples, Q, nolim, Wr, Qr),
+                        sp.MAX_SOL)
             tried += k
             search = fam == sp.FAM_SEARCH  # only a search refines when nothing lies within the limits
             # every candidate FK-checked from the closed form's own cos/sin and turned into angles, both
@@ -477,7 +483,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True):
     else:
         for j in range(n):
             q[j] = S[0, j]
-    ns = now_ns(clk) - t0
+    ns = now_ns(clk) - t0 + given_ns
     if start_row or m == 0:
         fk_lines(H, P, RM, pM, q_start, R, p, cs, Zf)
         _doc_row(Tg, R, p, trace[0])
@@ -494,29 +500,51 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True):
 
 
 @numba.njit(cache=True, error_model="numpy", parallel=True)
-def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, doc, nsol, tried, ns):
+def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, doc, nsol, tried, ns, use_lanes):
     """:func:`solve_pose` for every row, on every core: work items of 32 poses, one scratch each;
     every pose writes only its own rows (results independent of the thread count). ``doc`` (N,):
     the document's error at each ``q``; ``traces`` (N, 2, 8) the trace rows, or (0, 2, 8) when no
-    trace is kept (each pose's rows then go to its work item's scratch, the row at the start unwritten)."""
+    trace is kept (each pose's rows then go to its work item's scratch, the row at the start unwritten).
+    ``use_lanes`` (:func:`pipeline.solvers.lanes.applies`): the closed form's candidates of 8 poses at a
+    time in vector lanes (:func:`~pipeline.solvers.lanes.candidates8`; the same floats as the single
+    call), each pose's time its share of the block's; a pose whose closed form takes a default, and
+    the poses past a work item's last 8, solved alone."""
     N = goals.shape[0]
     chunk = 32
     keep = traces.shape[0] == N
     gb, sb, Sb, Qb, tb = borrowed(goals), borrowed(starts), borrowed(S), borrowed(Qo), borrowed(traces)
     ib, Gb = borrowed(ints), borrowed(G)  # shared by the threads: no count updates on one cache line
+    fam, case = ints[1], ints[2]
+    H, P, RM, pM, par, _ = unpack(ib, Gb)
+    clip = par[0]
     for c in numba.prange((N + chunk - 1) // chunk):
         Sc, W, Z, I = scratch(ints)
         own = np.empty((2, TRACE_COLS))
-        Scb, Wb, Zb, Ib, ob = borrowed(Sc), borrowed(W), borrowed(Z), borrowed(I), borrowed(own)
-        for i in range(c * chunk, min(N, (c + 1) * chunk)):
-            tr = tb[i] if keep else ob
-            m, t, dt = solve_pose(ib, Gb, gb[i], sb[i], Scb, Wb, Zb, Ib, Sb[i], Qb[i], tr, keep)
-            doc[i] = tr[1, 0]
-            nsol[i] = m
-            tried[i] = t
-            ns[i] = dt
+        L = np.empty(lanes.SIZE)
+        Scb, Wb, Zb, Ib, ob, Lb = borrowed(Sc), borrowed(W), borrowed(Z), borrowed(I), borrowed(own), borrowed(L)
+        hi = min(N, (c + 1) * chunk)
+        for i8 in range(c * chunk, hi, lanes.LANES):
+            block = use_lanes and i8 + lanes.LANES <= hi
+            share = 0
+            if block:
+                t0 = now_ns(Ib)
+                lanes.candidates8(fam, case, H, P, RM, pM, clip, gb, i8, Lb)
+                share = (now_ns(Ib) - t0) // lanes.LANES
+            for i in range(i8, min(hi, i8 + lanes.LANES)):
+                given = -1
+                if block:
+                    k, free = lanes.take(Lb, i - i8, Zb)
+                    if not free:
+                        given = k
+                tr = tb[i] if keep else ob
+                m, t, dt = solve_pose(ib, Gb, gb[i], sb[i], Scb, Wb, Zb, Ib, Sb[i], Qb[i], tr, keep, given,
+                                      share if given >= 0 else 0)
+                doc[i] = tr[1, 0]
+                nsol[i] = m
+                tried[i] = t
+                ns[i] = dt
         # the work item's scratch read after its last borrowed use (numba frees a local after its last use)
-        I[0] = Sc.shape[0] + W.shape[0] + Z.shape[0] + own.shape[0]
+        I[0] = Sc.shape[0] + W.shape[0] + Z.shape[0] + own.shape[0] + L.shape[0]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -627,7 +655,8 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     nsol = np.zeros(N, np.int64)
     tried = np.zeros(N, np.int64)
     ns = np.zeros(N, np.int64)
-    solve_batch_kernel(k.ints, k.G, goals, starts, S, Q, traces, doc, nsol, tried, ns)
+    solve_batch_kernel(k.ints, k.G, goals, starts, S, Q, traces, doc, nsol, tried, ns,
+                       lanes.applies(n, int(k.ints[1]), int(k.ints[3])))
     rows = traces.reshape(2 * N, TRACE_COLS) if keep_traces else None
     offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces else None
     info = InfoRows(N, lambda i: _info(int(nsol[i]), int(tried[i]), float(doc[i]), fam))

@@ -161,39 +161,47 @@ def angles_of(Y, X, A, m):
 
 
 # ---- subproblems --------------------------------------------------------------------------------
+ONE = complex(1.0, 0.0)
+
+
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def sp1(k, p, q, default):
-    """e^{iθ} with rot(k, θ) p = q in the plane ⟂ k; e^{i default} (``default`` an angle [rad]) when p
-    or q lies on the axis."""
+def sp1d(k, p, q, dz):
+    """(e^{iθ} with rot(k, θ) p = q in the plane ⟂ k, or ``dz`` when p or q lies on the axis; whether it
+    did). Branch-free: the same floats in a vector lane as in a scalar call."""
     pp = perp(k, p)
     qp = perp(k, q)
     x = dot(pp, qp)
     y = dot(k, cross(pp, qp))
     r2 = x * x + y * y
-    if r2 < 1e-28 * (dot(p, p) * dot(q, q) + 1e-300):
-        return cis(default)
+    deg = r2 < 1e-28 * (dot(p, p) * dot(q, q) + 1e-300)
     r = math.sqrt(r2)
-    return complex(x / r, y / r)
+    z = complex(x / r, y / r)
+    return (dz if deg else z), deg
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def sp1(k, p, q, default):
+    """e^{iθ} with rot(k, θ) p = q in the plane ⟂ k; e^{i default} (``default`` an angle [rad]) when p
+    or q lies on the axis (its sine and cosine taken only then)."""
+    z, deg = sp1d(k, p, q, ONE)
+    if deg:
+        return cis(default)
+    return z
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def acos_branch(x, y, D, s, clip):
     """e^{iθ} with x cos θ + y sin θ = D, branch s = ±1 (θ = atan2(y, x) ± acos(D / ρ)), and validity
-    (the cosine clipped within ``clip`` of ±1)."""
+    (the cosine clipped within ``clip`` of ±1); (1, False) when invalid. Branch-free (selects), so it
+    runs in vector lanes (:mod:`pipeline.solvers.lanes`) with the floats of a scalar call."""
     rho = math.sqrt(x * x + y * y)
-    if rho <= 0.0:
-        return complex(1.0, 0.0), False
     c = D / rho
-    if c > 1.0:
-        if c > 1.0 + clip:
-            return complex(1.0, 0.0), False
-        c = 1.0
-    elif c < -1.0:
-        if c < -1.0 - clip:
-            return complex(1.0, 0.0), False
-        c = -1.0
+    bad = (rho <= 0.0) | (c > 1.0 + clip) | (c < -1.0 - clip)
+    c = 1.0 if c > 1.0 else c
+    c = -1.0 if c < -1.0 else c
     sa = s * math.sqrt(max(0.0, 1.0 - c * c))
-    return complex(x / rho, y / rho) * complex(c, sa), True
+    z = complex(x / rho, y / rho) * complex(c, sa)
+    return (ONE if bad else z), not bad
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -214,9 +222,10 @@ def sp3(k, p, q, d, s, clip, planar):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def sp2pair(ka, kb, u, v, clip, def_a):
-    """(za, zb) = (e^{iθa}, e^{iθb}) with u = rot(ka, θa) rot(kb, θb) v (|u| = |v|), both branches:
-    (za+, zb+, za−, zb−, ok); ``def_a`` [rad] for θa when it is free."""
+def sp2paird(ka, kb, u, v, clip, dza):
+    """(za+, zb+, za−, zb−, ok, free) = both branches of e^{iθa}, e^{iθb} with u = rot(ka, θa) rot(kb, θb) v
+    (|u| = |v|); where θa is free (u on ka) ``za = dza.conjugate()`` and ``free`` is set (θb free: 0).
+    Branch-free: the same floats in a vector lane as in a scalar call; ones when not ``ok``."""
     c = dot(ka, kb)
     den = 1.0 - c * c
     a1 = dot(ka, u)
@@ -227,16 +236,28 @@ def sp2pair(ka, kb, u, v, clip, def_a):
     y0 = add(scl(al, ka), scl(be, kb))
     g2 = (dot(u, u) - dot(y0, y0)) / den
     scale = dot(u, u) + 1e-300
-    if g2 < 0.0:
-        if g2 < -clip * scale:
-            one = complex(1.0, 0.0)
-            return one, one, one, one, False
-        g2 = 0.0
+    bad = g2 < -clip * scale
+    g2 = 0.0 if g2 < 0.0 else g2
     g = math.sqrt(g2)
     yp = add(y0, scl(g, n))
     ym = add(y0, scl(-g, n))
-    return (sp1(ka, u, yp, -def_a).conjugate(), sp1(kb, v, yp, 0.0), sp1(ka, u, ym, -def_a).conjugate(),
-            sp1(kb, v, ym, 0.0), True)
+    ap, fp = sp1d(ka, u, yp, dza)
+    am, fm = sp1d(ka, u, ym, dza)
+    bp = sp1d(kb, v, yp, ONE)[0]  # θb's default: e^{i0}
+    bm = sp1d(kb, v, ym, ONE)[0]
+    if bad:
+        return ONE, ONE, ONE, ONE, False, False
+    return ap.conjugate(), bp, am.conjugate(), bm, True, fp | fm
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def sp2pair(ka, kb, u, v, clip, def_a):
+    """(za, zb) = (e^{iθa}, e^{iθb}) with u = rot(ka, θa) rot(kb, θb) v (|u| = |v|), both branches:
+    (za+, zb+, za−, zb−, ok); ``def_a`` [rad] for θa when it is free (its sine and cosine taken only then)."""
+    r = sp2paird(ka, kb, u, v, clip, ONE)
+    if r[5]:
+        r = sp2paird(ka, kb, u, v, clip, cis(-def_a))
+    return r[0], r[1], r[2], r[3], r[4]
 
 
 # ---- lines ------------------------------------------------------------------------------------------
@@ -253,70 +274,124 @@ def meet_point(h1, p1, h2, p2):
     return scl(0.5, add(add(p1, scl(t1, h1)), add(p2, scl(t2, h2))))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def apply_E(H, P, i, z, x):
-    """E_i(θ) x: rotation by θ (``z = e^{iθ}``) about line i."""
-    pi = row(P, i)
-    return add(pi, rotz(row(H, i), z, sub(x, pi)))
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def apply_Einv(H, P, i, z, x):
-    return apply_E(H, P, i, z.conjugate(), x)
-
-
 # ---- position of a point by joints 1-3 ----------------------------------------------------------
-@numba.njit(cache=True, error_model="numpy")
-def pos3pair(case, H, P, o, x, w, sa, clip, pref):
-    """(z1, z2, z3) = e^{iθ} of joints 1-3 with E_1 E_2 E_3 x = w, for position case ``case`` (1: axes
-    1-2 meet at ``o``; 2: 2-3 meet at ``o``; 3: 1 ∥ 2; 4: 2 ∥ 3): the first stage on branch ``sa``,
-    both second-stage branches: (z1, z2, z3, ok) for +1, then for −1. ``pref`` [rad] the angles used
-    where one is free."""
-    h1, h2, h3 = row(H, 0), row(H, 1), row(H, 2)
-    p1, p2, p3 = row(P, 0), row(P, 1), row(P, 2)
-    one = complex(1.0, 0.0)
-    z = (one, one, one, False, one, one, one, False)
-    if case == 1:
-        d = math.sqrt(dot(sub(w, o), sub(w, o)))
-        t3, ok = sp3(h3, sub(x, p3), sub(o, p3), d, sa, clip, False)
-        if not ok:
-            return z
-        x3 = apply_E(H, P, 2, t3, x)
-        a1, a2, b1, b2, ok = sp2pair(h1, h2, sub(w, o), sub(x3, o), clip, pref[0])
-        return a1, a2, t3, ok, b1, b2, t3, ok
-    if case == 2:
-        d = math.sqrt(dot(sub(x, o), sub(x, o)))
-        tm, ok = sp3(h1, sub(w, p1), sub(o, p1), d, sa, clip, False)
-        if not ok:
-            return z
-        t1 = tm.conjugate()
-        w1 = apply_Einv(H, P, 0, t1, w)
-        a2, a3, b2, b3, ok = sp2pair(h2, h3, sub(w1, o), sub(x, o), clip, pref[1])
-        return t1, a2, a3, ok, t1, b2, b3, ok
-    if case == 3:
-        t3, ok = sp4(h1, h3, sub(x, p3), dot(h1, w) - dot(h1, p3), sa, clip)
-        if not ok:
-            return z
-        x3 = apply_E(H, P, 2, t3, x)
-        dw = perp(h1, sub(w, p1))
-        dd = math.sqrt(dot(dw, dw))
-        t2a, oka = sp3(h2, sub(x3, p2), sub(p1, p2), dd, 1.0, clip, True)
-        t2b, okb = sp3(h2, sub(x3, p2), sub(p1, p2), dd, -1.0, clip, True)
-        t1a = sp1(h1, sub(apply_E(H, P, 1, t2a, x3), p1), sub(w, p1), pref[0]) if oka else one
-        t1b = sp1(h1, sub(apply_E(H, P, 1, t2b, x3), p1), sub(w, p1), pref[0]) if okb else one
-        return t1a, t2a, t3, oka, t1b, t2b, t3, okb
-    tm, ok = sp4(h2, h1, sub(w, p1), dot(h2, x) - dot(h2, p1), sa, clip)
-    if not ok:
-        return z
+# Each stage below is branch-free (selects, no early return, no libm call), and reads the arm as tuples
+# of floats: the same function runs in a scalar call and in a vector lane of the batch
+# (:mod:`pipeline.solvers.lanes`), so both give the same floats. A stage takes the e^{iθ} an angle
+# gets where it is free (``dz``) and reports whether that was used (``free``): the scalar callers call
+# it with ``ONE`` and again with the true default only then (its sine and cosine only then).
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def lines(H, P):
+    """The 6 joint lines as tuples: ((h_1 .. h_6), (p_1 .. p_6))."""
+    return ((row(H, 0), row(H, 1), row(H, 2), row(H, 3), row(H, 4), row(H, 5)),
+            (row(P, 0), row(P, 1), row(P, 2), row(P, 3), row(P, 4), row(P, 5)))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def about(h, p, z, x):
+    """``p + rot(h, θ) (x − p)``: x turned by e^{iθ} = ``z`` about the line (h, p)."""
+    return add(p, rotz(h, z, sub(x, p)))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def pos_case1(hs, ps, o, x, w, sa, clip, dz):
+    """Position case 1 (axes 1-2 meet at ``o``) as one branch-free stage: see :func:`pos3d`."""
+    h1, h2, h3, p3 = hs[0], hs[1], hs[2], ps[2]
+    d = math.sqrt(dot(sub(w, o), sub(w, o)))
+    t3, ok = sp3(h3, sub(x, p3), sub(o, p3), d, sa, clip, False)
+    x3 = about(h3, p3, t3, x)
+    a1, a2, b1, b2, ok2, f = sp2paird(h1, h2, sub(w, o), sub(x3, o), clip, dz)
+    ok = ok & ok2
+    return a1, a2, t3, ok, b1, b2, t3, ok, f & ok
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def pos_case2(hs, ps, o, x, w, sa, clip, dz):
+    """Position case 2 (axes 2-3 meet at ``o``): see :func:`pos3d`."""
+    h1, h2, h3, p1 = hs[0], hs[1], hs[2], ps[0]
+    d = math.sqrt(dot(sub(x, o), sub(x, o)))
+    tm, ok = sp3(h1, sub(w, p1), sub(o, p1), d, sa, clip, False)
     t1 = tm.conjugate()
-    w1 = apply_Einv(H, P, 0, t1, w)
+    w1 = about(h1, p1, t1.conjugate(), w)
+    a2, a3, b2, b3, ok2, f = sp2paird(h2, h3, sub(w1, o), sub(x, o), clip, dz)
+    ok = ok & ok2
+    return t1, a2, a3, ok, t1, b2, b3, ok, f & ok
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def pos_case3(hs, ps, o, x, w, sa, clip, dz):
+    """Position case 3 (axes 1 ∥ 2): see :func:`pos3d`."""
+    h1, h2, h3 = hs[0], hs[1], hs[2]
+    p1, p2, p3 = ps[0], ps[1], ps[2]
+    t3, ok = sp4(h1, h3, sub(x, p3), dot(h1, w) - dot(h1, p3), sa, clip)
+    x3 = about(h3, p3, t3, x)
+    dw = perp(h1, sub(w, p1))
+    dd = math.sqrt(dot(dw, dw))
+    t2a, oka = sp3(h2, sub(x3, p2), sub(p1, p2), dd, 1.0, clip, True)
+    t2b, okb = sp3(h2, sub(x3, p2), sub(p1, p2), dd, -1.0, clip, True)
+    t1a, fa = sp1d(h1, sub(about(h2, p2, t2a, x3), p1), sub(w, p1), dz)
+    t1b, fb = sp1d(h1, sub(about(h2, p2, t2b, x3), p1), sub(w, p1), dz)
+    oka, okb = ok & oka, ok & okb
+    return t1a, t2a, t3, oka, t1b, t2b, t3, okb, (fa & oka) | (fb & okb)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def pos_case4(hs, ps, o, x, w, sa, clip, dz):
+    """Position case 4 (axes 2 ∥ 3): see :func:`pos3d`."""
+    h1, h2, h3 = hs[0], hs[1], hs[2]
+    p1, p2, p3 = ps[0], ps[1], ps[2]
+    tm, ok = sp4(h2, h1, sub(w, p1), dot(h2, x) - dot(h2, p1), sa, clip)
+    t1 = tm.conjugate()
+    w1 = about(h1, p1, t1.conjugate(), w)
     dw = perp(h2, sub(w1, p2))
     dd = math.sqrt(dot(dw, dw))
     t3a, oka = sp3(h3, sub(x, p3), sub(p2, p3), dd, 1.0, clip, True)
     t3b, okb = sp3(h3, sub(x, p3), sub(p2, p3), dd, -1.0, clip, True)
-    t2a = sp1(h2, sub(apply_E(H, P, 2, t3a, x), p2), sub(w1, p2), pref[1]) if oka else one
-    t2b = sp1(h2, sub(apply_E(H, P, 2, t3b, x), p2), sub(w1, p2), pref[1]) if okb else one
-    return t1, t2a, t3a, oka, t1, t2b, t3b, okb
+    t2a, fa = sp1d(h2, sub(about(h3, p3, t3a, x), p2), sub(w1, p2), dz)
+    t2b, fb = sp1d(h2, sub(about(h3, p3, t3b, x), p2), sub(w1, p2), dz)
+    oka, okb = ok & oka, ok & okb
+    return t1, t2a, t3a, oka, t1, t2b, t3b, okb, (fa & oka) | (fb & okb)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def pos3d(case, hs, ps, o, x, w, sa, clip, dz):
+    """Joints 1-3 placing x at w, for position case ``case``, as one branch-free stage
+    (:func:`pos_case1` .. :func:`pos_case4`): (z1, z2, z3, ok) for the second-stage branch +1, the same
+    for −1, then ``free`` (a valid branch took ``dz`` for its free angle: θ1 in cases 1 and 3, θ2 in 2
+    and 4)."""
+    if case == 1:
+        return pos_case1(hs, ps, o, x, w, sa, clip, dz)
+    if case == 2:
+        return pos_case2(hs, ps, o, x, w, sa, clip, dz)
+    if case == 3:
+        return pos_case3(hs, ps, o, x, w, sa, clip, dz)
+    return pos_case4(hs, ps, o, x, w, sa, clip, dz)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def pos_default(case, pref):
+    """e^{iθ} of the angle :func:`pos3d` takes where one is free: −θ1 (case 1, conjugated inside sp2),
+    −θ2 (2), θ1 (3), θ2 (4), θ from ``pref`` [rad]."""
+    if case == 1:
+        return cis(-pref[0])
+    if case == 2:
+        return cis(-pref[1])
+    if case == 3:
+        return cis(pref[0])
+    return cis(pref[1])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def pos3pair(case, H, P, o, x, w, sa, clip, pref):
+    """(z1, z2, z3) = e^{iθ} of joints 1-3 with E_1 E_2 E_3 x = w, for position case ``case`` (1: axes
+    1-2 meet at ``o``; 2: 2-3 meet at ``o``; 3: 1 ∥ 2; 4: 2 ∥ 3): the first stage on branch ``sa``,
+    both second-stage branches: (z1, z2, z3, ok) for +1, then for −1 (the angles of a branch that is
+    not ok are meaningless). ``pref`` [rad] the angles used where one is free."""
+    hs, ps = lines(H, P)
+    r = pos3d(case, hs, ps, o, x, w, sa, clip, ONE)
+    if r[8]:
+        r = pos3d(case, hs, ps, o, x, w, sa, clip, pos_default(case, pref))
+    return r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -330,29 +405,66 @@ def case_point(case, H, P):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
+def t9(R):
+    """The rotation block of a 3 × 3 or 4 × 4 array as 9 floats, row-major."""
+    return (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def mv9(m, v):
+    """``R v`` for R as 9 floats (:func:`t9`)."""
+    return (m[0] * v[0] + m[1] * v[1] + m[2] * v[2],
+            m[3] * v[0] + m[4] * v[1] + m[5] * v[2],
+            m[6] * v[0] + m[7] * v[1] + m[8] * v[2])
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def mtv9(m, v):
+    """``Rᵀ v`` for R as 9 floats (:func:`t9`)."""
+    return (m[0] * v[0] + m[3] * v[1] + m[6] * v[2],
+            m[1] * v[0] + m[4] * v[1] + m[7] * v[2],
+            m[2] * v[0] + m[5] * v[1] + m[8] * v[2])
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def gm9(g, m, v):
+    """``R_goal R_Mᵀ v`` with both rotations as 9 floats (:func:`t9`)."""
+    return mv9(g, mtv9(m, v))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def gm(Rg, RM, v):
     """``R_goal R_Mᵀ v`` (``Rg`` may be the 4 × 4 goal: only its rotation block is read)."""
-    x = matTvec(RM, v)
-    return (Rg[0, 0] * x[0] + Rg[0, 1] * x[1] + Rg[0, 2] * x[2],
-            Rg[1, 0] * x[0] + Rg[1, 1] * x[1] + Rg[1, 2] * x[2],
-            Rg[2, 0] * x[0] + Rg[2, 1] * x[1] + Rg[2, 2] * x[2])
+    return gm9(t9(Rg), t9(RM), v)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def back3t(hs, z1, z2, z3, v):
+    """``(R_1 R_2 R_3)ᵀ v`` (``hs`` the joint directions as tuples)."""
+    v = rotz(hs[0], z1.conjugate(), v)
+    v = rotz(hs[1], z2.conjugate(), v)
+    return rotz(hs[2], z3.conjugate(), v)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def back3(H, z1, z2, z3, v):
     """``(R_1 R_2 R_3)ᵀ v``."""
-    v = rotz(row(H, 0), z1.conjugate(), v)
-    v = rotz(row(H, 1), z2.conjugate(), v)
-    return rotz(row(H, 2), z3.conjugate(), v)
+    return back3t((row(H, 0), row(H, 1), row(H, 2)), z1, z2, z3, v)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def wrist9(g, pg, m, pM, c):
+    """w = T M⁻¹ c with the rotations as 9 floats (:func:`t9`), ``pg`` and ``pM`` 3-tuples."""
+    local = mtv9(m, sub(c, pM))
+    return (g[0] * local[0] + g[1] * local[1] + g[2] * local[2] + pg[0],
+            g[3] * local[0] + g[4] * local[1] + g[5] * local[2] + pg[1],
+            g[6] * local[0] + g[7] * local[1] + g[8] * local[2] + pg[2])
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def wrist_target(Rg, pg, RM, pM, c):
     """w = T M⁻¹ c."""
-    local = matTvec(RM, sub(c, (pM[0], pM[1], pM[2])))
-    return (Rg[0, 0] * local[0] + Rg[0, 1] * local[1] + Rg[0, 2] * local[2] + pg[0],
-            Rg[1, 0] * local[0] + Rg[1, 1] * local[1] + Rg[1, 2] * local[2] + pg[1],
-            Rg[2, 0] * local[0] + Rg[2, 1] * local[1] + Rg[2, 2] * local[2] + pg[2])
+    return wrist9(t9(Rg), (pg[0], pg[1], pg[2]), t9(RM), (pM[0], pM[1], pM[2]), c)
 
 
 # ---- the families ---------------------------------------------------------------------------------
@@ -388,87 +500,152 @@ def fits(z, lim, j):
     return into_limits(math.atan2(z.imag, z.real), lo, hi)[1]
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def sph_fixed(case, H, P, RM, pM):
+    """What a spherical-wrist solve needs of the arm alone, as tuples: (hs, ps, wrist centre c, the
+    position case's point o, e6 ⟂ h6, R_M (:func:`t9`), p_M)."""
+    hs, ps = lines(H, P)
+    return (hs, ps, meet_point(hs[3], ps[3], hs[4], ps[4]), case_point(case, H, P), any_perp(hs[5]), t9(RM),
+            (pM[0], pM[1], pM[2]))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def sph_goal(fx, g, pg):
+    """What it needs of the goal (rotation ``g`` as :func:`t9`, position ``pg``): (w, R_goal R_Mᵀ h6,
+    R_goal R_Mᵀ e6)."""
+    hs, c, e6, m = fx[0], fx[2], fx[4], fx[5]
+    return wrist9(g, pg, m, fx[6], c), gm9(g, m, hs[5]), gm9(g, m, e6)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, d4, d6):
+    """Joints 4-6 of one arm branch (θ1-θ3): (z4, z5, z6) on the sp2 branch +1, then −1, ok, free
+    (a free angle took ``d4`` = e^{−iθ4} or ``d6`` = e^{iθ6}). Branch-free."""
+    hs, e6 = fx[0], fx[4]
+    h4, h5, h6 = hs[3], hs[4], hs[5]
+    u = back3t(hs, t1, t2, t3, gh6)  # R4 R5 h6 = (R1 R2 R3)ᵀ R_goal R_Mᵀ h6
+    y0 = back3t(hs, t1, t2, t3, ge6)
+    a4, a5, b4, b5, ok, f = sp2paird(h4, h5, u, h6, clip, d4)
+    a6, fa = sp1d(h6, e6, rotz(h5, a5.conjugate(), rotz(h4, a4.conjugate(), y0)), d6)  # rot(h6, θ6) e6 = R5ᵀ R4ᵀ Rw e6
+    b6, fb = sp1d(h6, e6, rotz(h5, b5.conjugate(), rotz(h4, b4.conjugate(), y0)), d6)
+    return a4, a5, a6, b4, b5, b6, ok, (f | fa | fb) & ok
+
+
 @numba.njit(cache=True, error_model="numpy")
 def solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
     """Spherical wrist: up to 8 candidate solutions into Q; returns their count. A branch whose
     joints 1-3 (then 4-5) fall outside ``lim`` (6, 2) is dropped before the rest is computed (a 7R
     sweep passes the limits; a 6R arm ±inf: every solution)."""
-    c = meet_point(row(H, 3), row(P, 3), row(H, 4), row(P, 4))
-    w = wrist_target(Rg, pg, RM, pM, c)
-    o = case_point(case, H, P)
-    h4, h5, h6 = row(H, 3), row(H, 4), row(H, 5)
-    e6 = any_perp(h6)
-    gh6 = gm(Rg, RM, h6)
-    ge6 = gm(Rg, RM, e6)
+    fx = sph_fixed(case, H, P, RM, pM)
+    hs, ps, c, o = fx[0], fx[1], fx[2], fx[3]
+    w, gh6, ge6 = sph_goal(fx, t9(Rg), (pg[0], pg[1], pg[2]))
     n = 0
     for sa in (1.0, -1.0):
-        r = pos3pair(case, H, P, o, c, w, sa, clip, pref)
+        r = pos3d(case, hs, ps, o, c, w, sa, clip, ONE)
+        if r[8]:
+            r = pos3d(case, hs, ps, o, c, w, sa, clip, pos_default(case, pref))
         for sb in range(2):
             t1, t2, t3, ok = (r[0], r[1], r[2], r[3]) if sb == 0 else (r[4], r[5], r[6], r[7])
             if not ok or not (fits(t1, lim, 0) and fits(t2, lim, 1) and fits(t3, lim, 2)):
                 continue
-            u = back3(H, t1, t2, t3, gh6)  # R4 R5 h6 = (R1 R2 R3)ᵀ R_goal R_Mᵀ h6
-            y0 = back3(H, t1, t2, t3, ge6)
-            a4, a5, b4, b5, ok2 = sp2pair(h4, h5, u, h6, clip, pref[3])
-            if not ok2:
+            v = sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, ONE, ONE)
+            if v[7]:
+                v = sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, cis(-pref[3]), cis(pref[5]))
+            if not v[6]:
                 continue
             for sc in range(2):
-                t4, t5 = (a4, a5) if sc == 0 else (b4, b5)
+                t4, t5, t6 = (v[0], v[1], v[2]) if sc == 0 else (v[3], v[4], v[5])
                 if not (fits(t4, lim, 3) and fits(t5, lim, 4)):
                     continue
-                y = rotz(h5, t5.conjugate(), rotz(h4, t4.conjugate(), y0))  # rot(h6, θ6) e6 = R5ᵀ R4ᵀ Rw e6
-                t6 = sp1(h6, e6, y, pref[5])
                 if n < Q.shape[0]:
                     Q[n, 0], Q[n, 1], Q[n, 2], Q[n, 3], Q[n, 4], Q[n, 5] = t1, t2, t3, t4, t5, t6
                 n += 1
     return n
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def p3_fixed(H, P, RM, pM):
+    """What a three-parallel solve needs of the arm alone, as tuples: (hs, ps, s3, s4 (the signs of
+    h3 · h2 and h4 · h2), c (axes 5-6 meet), e2 ⟂ h2, R_M (:func:`t9`), p_M)."""
+    hs, ps = lines(H, P)
+    h2 = hs[1]
+    s3 = 1.0 if dot(hs[2], h2) > 0 else -1.0
+    s4 = 1.0 if dot(hs[3], h2) > 0 else -1.0
+    return (hs, ps, s3, s4, meet_point(hs[4], ps[4], hs[5], ps[5]), any_perp(h2), t9(RM),
+            (pM[0], pM[1], pM[2]))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def p3_first(fx, g, pg, sa, clip, d5):
+    """θ1 on branch ``sa`` by sp4, then (θ5, θ6) on both sp2 branches from ``h2ᵀ N = h2ᵀ R_5 R_6``:
+    (e^{−iθ1}, w1 = E_1⁻¹ w, z5+, z6+, z5−, z6−, ok, free) (``d5`` = e^{−iθ5} where θ5 is free)."""
+    hs, ps, c, m = fx[0], fx[1], fx[4], fx[6]
+    h1, h2, p1 = hs[0], hs[1], ps[0]
+    w = wrist9(g, pg, m, fx[7], c)
+    tm, ok = sp4(h2, h1, sub(w, p1), dot(h2, c) - dot(h2, p1), sa, clip)
+    t1 = tm.conjugate()
+    w1 = add(p1, rotz(h1, tm, sub(w, p1)))
+    v = mv9(m, mtv9(g, rotz(h1, t1, h2)))  # N = R1ᵀ RgM; v = Nᵀ h2
+    a5, a6, b5, b6, ok2, f = sp2paird(hs[4], hs[5], h2, v, clip, d5)
+    ok = ok & ok2
+    return tm, w1, a5, a6, b5, b6, ok, f & ok
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def p3_mid(fx, g, tm, w1, t5, t6):
+    """θ2 + θ3 + θ4 by sp1 and the planar 2R's target: (e^{i(θ2+θ3+θ4)}, target of E2 E3 p4, its
+    distance from axis 2)."""
+    hs, ps, c, e2, m = fx[0], fx[1], fx[4], fx[5], fx[6]
+    h2 = hs[1]
+    # R234 e2 = N R6ᵀ R5ᵀ e2
+    y = rotz(hs[4], t5.conjugate(), e2)
+    y = rotz(hs[5], t6.conjugate(), y)
+    y = rotz(hs[0], tm, gm9(g, m, y))
+    t234 = sp1d(h2, e2, y, ONE)[0]  # free: e^{i0}
+    # E2 E3 p4 = w1 − R234 (c − p4)
+    tgt = sub(w1, rotz(h2, t234, sub(c, ps[3])))
+    dw = perp(h2, sub(tgt, ps[1]))
+    return t234, tgt, math.sqrt(dot(dw, dw))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def p3_last(fx, t234, tgt, dd, s, clip, d2):
+    """The planar 2R on elbow branch ``s`` and θ4: (z2, z3, z4, ok, free) (``d2`` = e^{iθ2} where free)."""
+    hs, ps, s3, s4 = fx[0], fx[1], fx[2], fx[3]
+    h2, h3, p2, p3, p4 = hs[1], hs[2], ps[1], ps[2], ps[3]
+    t3, ok = sp3(h3, sub(p4, p3), sub(p2, p3), dd, s, clip, True)
+    x3 = about(h3, p3, t3, p4)
+    t2, f = sp1d(h2, sub(x3, p2), sub(tgt, p2), d2)
+    # θ4 = s4 (θ234 − θ2 − s3 θ3)
+    t4 = t234 * t2.conjugate() * (t3.conjugate() if s3 > 0 else t3)
+    t4 = t4.conjugate() if s4 < 0 else t4
+    return t2, t3, t4, ok, f & ok
+
+
 @numba.njit(cache=True, error_model="numpy")
 def solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q):
     """Three parallel axes (2-4) and axes 5-6 meeting: up to 8 candidates."""
-    h1, h2, h5, h6 = row(H, 0), row(H, 1), row(H, 4), row(H, 5)
-    p1, p2, p4 = row(P, 0), row(P, 1), row(P, 3)
-    s3 = 1.0 if dot(row(H, 2), h2) > 0 else -1.0
-    s4 = 1.0 if dot(row(H, 3), h2) > 0 else -1.0
-    c = meet_point(h5, row(P, 4), h6, row(P, 5))
-    w = wrist_target(Rg, pg, RM, pM, c)
-    e2 = any_perp(h2)
+    fx = p3_fixed(H, P, RM, pM)
+    g, pgt = t9(Rg), (pg[0], pg[1], pg[2])
     n = 0
     for sa in (1.0, -1.0):
-        tm, ok = sp4(h2, h1, sub(w, p1), dot(h2, c) - dot(h2, p1), sa, clip)
-        if not ok:
+        r = p3_first(fx, g, pgt, sa, clip, ONE)
+        if r[7]:
+            r = p3_first(fx, g, pgt, sa, clip, cis(-pref[4]))
+        if not r[6]:
             continue
-        t1 = tm.conjugate()
-        w1 = add(p1, rotz(h1, tm, sub(w, p1)))
-        # N = R1ᵀ RgM; v = Nᵀ h2
-        v = matvec(RM, matTvec(Rg, rotz(h1, t1, h2)))
-        a5, a6, b5, b6, ok2 = sp2pair(h5, h6, h2, v, clip, pref[4])
-        if not ok2:
-            continue
+        tm, w1 = r[0], r[1]
         for sb in range(2):
-            t5, t6 = (a5, a6) if sb == 0 else (b5, b6)
-            # R234 e2 = N R6ᵀ R5ᵀ e2
-            y = rotz(h5, t5.conjugate(), e2)
-            y = rotz(h6, t6.conjugate(), y)
-            y = rotz(h1, tm, gm(Rg, RM, y))
-            t234 = sp1(h2, e2, y, 0.0)
-            # E2 E3 p4 = w1 − R234 (c − p4)
-            tgt = sub(w1, rotz(h2, t234, sub(c, p4)))
-            dw = perp(h2, sub(tgt, p2))
-            dd = math.sqrt(dot(dw, dw))
+            t5, t6 = (r[2], r[3]) if sb == 0 else (r[4], r[5])
+            t234, tgt, dd = p3_mid(fx, g, tm, w1, t5, t6)
             for ic in range(2):
-                t3, ok3 = sp3(row(H, 2), sub(p4, row(P, 2)), sub(p2, row(P, 2)), dd, 1.0 - 2.0 * ic, clip, True)
-                if not ok3:
+                v = p3_last(fx, t234, tgt, dd, 1.0 - 2.0 * ic, clip, ONE)
+                if v[4]:
+                    v = p3_last(fx, t234, tgt, dd, 1.0 - 2.0 * ic, clip, cis(pref[1]))
+                if not v[3]:
                     continue
-                x3 = apply_E(H, P, 2, t3, p4)
-                t2 = sp1(h2, sub(x3, p2), sub(tgt, p2), pref[1])
-                # θ4 = s4 (θ234 − θ2 − s3 θ3)
-                t4 = t234 * t2.conjugate() * (t3.conjugate() if s3 > 0 else t3)
-                if s4 < 0:
-                    t4 = t4.conjugate()
                 if n < Q.shape[0]:
-                    Q[n, 0], Q[n, 1], Q[n, 2], Q[n, 3], Q[n, 4], Q[n, 5] = t1, t2, t3, t4, t5, t6
+                    Q[n, 0], Q[n, 1], Q[n, 2], Q[n, 3], Q[n, 4], Q[n, 5] = tm.conjugate(), v[0], v[1], v[2], t5, t6
                 n += 1
     return n
 
