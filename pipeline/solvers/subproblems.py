@@ -526,7 +526,8 @@ def sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, d4, d6):
     u = back3t(hs, t1, t2, t3, gh6)  # R4 R5 h6 = (R1 R2 R3)ᵀ R_goal R_Mᵀ h6
     y0 = back3t(hs, t1, t2, t3, ge6)
     a4, a5, b4, b5, ok, f = sp2paird(h4, h5, u, h6, clip, d4)
-    a6, fa = sp1d(h6, e6, rotz(h5, a5.conjugate(), rotz(h4, a4.conjugate(), y0)), d6)  # rot(h6, θ6) e6 = R5ᵀ R4ᵀ Rw e6
+    # rot(h6, θ6) e6 = R5ᵀ R4ᵀ Rw e6
+    a6, fa = sp1d(h6, e6, rotz(h5, a5.conjugate(), rotz(h4, a4.conjugate(), y0)), d6)
     b6, fb = sp1d(h6, e6, rotz(h5, b5.conjugate(), rotz(h4, b4.conjugate(), y0)), d6)
     return a4, a5, a6, b4, b5, b6, ok, (f | fa | fb) & ok
 
