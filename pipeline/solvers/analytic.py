@@ -631,7 +631,8 @@ def bind(prep: Prepared, s: AnalyticSettings):
         q = np.empty(n)
         trace = np.empty((2, TRACE_COLS))
         m, tried, ns = solve_pose(*args, np.ascontiguousarray(T_goal, dtype=float),
-                                  np.ascontiguousarray(q_start, dtype=float), *scratch(k.ints), S, q, trace)
+                                  np.ascontiguousarray(q_start, dtype=float), *scratch(k.ints), S, q, trace,
+                                  True, -1, 0)  # every argument given: numba's dispatch of omitted ones is slow
         return Raw(q=q, code=SUCCESS if m else NO_SOLUTION, iterations=1, solve_ns=ns, trace=trace,
                    solutions=S[:m], info=_info(m, tried, float(trace[1, 0]), fam))
 
