@@ -157,42 +157,25 @@ def _st_pos(L, u, r):
     _flags(L, u, r[3], r[7], r[8])
 
 
-# one pass per position case (a switch inside a pass keeps it scalar; one function with the case as an
-# argument, inlined 4 times, took the compiler minutes); branch sa: slots 0-7 +1, 8-15 −1
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _sph_a1(fx, clip, L):
-    for lane in range(2 * LANES):
-        u = np.uint64(lane)
-        g, pg = _goal(L, u)
-        w, sa = sp.sph_goal(fx, g, pg)[0], 1.0 if lane < LANES else -1.0
-        _st_pos(L, u, sp.pos_case1(fx[0], fx[1], fx[3], fx[2], w, sa, clip, sp.ONE))
+def _first_pass(pos):
+    """The spherical wrist's first-stage pass for one position case (``pos``, one of
+    :func:`~pipeline.solvers.subproblems.pos_case1` .. ``pos_case4``): branch sa +1 in slots 0-7, −1 in
+    8-15. One pass per case: a switch inside a pass keeps it scalar, and one pass with the case as an
+    argument, inlined once per case, took the compiler minutes."""
+
+    @numba.njit(cache=True, error_model="numpy", inline="always")
+    def first(fx, clip, L):
+        for lane in range(2 * LANES):
+            u = np.uint64(lane)
+            g, pg = _goal(L, u)
+            w, sa = sp.sph_goal(fx, g, pg)[0], 1.0 if lane < LANES else -1.0
+            _st_pos(L, u, pos(fx[0], fx[1], fx[3], fx[2], w, sa, clip, sp.ONE))
+
+    return first
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _sph_a2(fx, clip, L):
-    for lane in range(2 * LANES):
-        u = np.uint64(lane)
-        g, pg = _goal(L, u)
-        w, sa = sp.sph_goal(fx, g, pg)[0], 1.0 if lane < LANES else -1.0
-        _st_pos(L, u, sp.pos_case2(fx[0], fx[1], fx[3], fx[2], w, sa, clip, sp.ONE))
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _sph_a3(fx, clip, L):
-    for lane in range(2 * LANES):
-        u = np.uint64(lane)
-        g, pg = _goal(L, u)
-        w, sa = sp.sph_goal(fx, g, pg)[0], 1.0 if lane < LANES else -1.0
-        _st_pos(L, u, sp.pos_case3(fx[0], fx[1], fx[3], fx[2], w, sa, clip, sp.ONE))
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _sph_a4(fx, clip, L):
-    for lane in range(2 * LANES):
-        u = np.uint64(lane)
-        g, pg = _goal(L, u)
-        w, sa = sp.sph_goal(fx, g, pg)[0], 1.0 if lane < LANES else -1.0
-        _st_pos(L, u, sp.pos_case4(fx[0], fx[1], fx[3], fx[2], w, sa, clip, sp.ONE))
+_sph_a1, _sph_a2, _sph_a3, _sph_a4 = (_first_pass(f) for f in (sp.pos_case1, sp.pos_case2, sp.pos_case3,
+                                                               sp.pos_case4))
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")

@@ -319,20 +319,28 @@ def pos_case2(hs, ps, o, x, w, sa, clip, dz):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
+def planar2(ha, pa, hb, pb, x, tgt, ok, clip, dz):
+    """The 2R of two parallel joints a, b (lines (ha, pa), (hb, pb)) turning x onto tgt: θb by sp3 (the
+    distance of x from axis a), both branches, then θa by sp1: (za, zb, ok) for branch +1, the same for
+    −1, free (a valid branch took ``dz`` for θa); ``ok`` the earlier stage's."""
+    dw = perp(ha, sub(tgt, pa))
+    dd = math.sqrt(dot(dw, dw))
+    tba, oka = sp3(hb, sub(x, pb), sub(pa, pb), dd, 1.0, clip, True)
+    tbb, okb = sp3(hb, sub(x, pb), sub(pa, pb), dd, -1.0, clip, True)
+    taa, fa = sp1d(ha, sub(about(hb, pb, tba, x), pa), sub(tgt, pa), dz)
+    tab, fb = sp1d(ha, sub(about(hb, pb, tbb, x), pa), sub(tgt, pa), dz)
+    oka, okb = ok & oka, ok & okb
+    return taa, tba, oka, tab, tbb, okb, (fa & oka) | (fb & okb)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def pos_case3(hs, ps, o, x, w, sa, clip, dz):
     """Position case 3 (axes 1 ∥ 2): see :func:`pos3d`."""
     h1, h2, h3 = hs[0], hs[1], hs[2]
     p1, p2, p3 = ps[0], ps[1], ps[2]
     t3, ok = sp4(h1, h3, sub(x, p3), dot(h1, w) - dot(h1, p3), sa, clip)
-    x3 = about(h3, p3, t3, x)
-    dw = perp(h1, sub(w, p1))
-    dd = math.sqrt(dot(dw, dw))
-    t2a, oka = sp3(h2, sub(x3, p2), sub(p1, p2), dd, 1.0, clip, True)
-    t2b, okb = sp3(h2, sub(x3, p2), sub(p1, p2), dd, -1.0, clip, True)
-    t1a, fa = sp1d(h1, sub(about(h2, p2, t2a, x3), p1), sub(w, p1), dz)
-    t1b, fb = sp1d(h1, sub(about(h2, p2, t2b, x3), p1), sub(w, p1), dz)
-    oka, okb = ok & oka, ok & okb
-    return t1a, t2a, t3, oka, t1b, t2b, t3, okb, (fa & oka) | (fb & okb)
+    t1a, t2a, oka, t1b, t2b, okb, f = planar2(h1, p1, h2, p2, about(h3, p3, t3, x), w, ok, clip, dz)
+    return t1a, t2a, t3, oka, t1b, t2b, t3, okb, f
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -342,15 +350,8 @@ def pos_case4(hs, ps, o, x, w, sa, clip, dz):
     p1, p2, p3 = ps[0], ps[1], ps[2]
     tm, ok = sp4(h2, h1, sub(w, p1), dot(h2, x) - dot(h2, p1), sa, clip)
     t1 = tm.conjugate()
-    w1 = about(h1, p1, t1.conjugate(), w)
-    dw = perp(h2, sub(w1, p2))
-    dd = math.sqrt(dot(dw, dw))
-    t3a, oka = sp3(h3, sub(x, p3), sub(p2, p3), dd, 1.0, clip, True)
-    t3b, okb = sp3(h3, sub(x, p3), sub(p2, p3), dd, -1.0, clip, True)
-    t2a, fa = sp1d(h2, sub(about(h3, p3, t3a, x), p2), sub(w1, p2), dz)
-    t2b, fb = sp1d(h2, sub(about(h3, p3, t3b, x), p2), sub(w1, p2), dz)
-    oka, okb = ok & oka, ok & okb
-    return t1, t2a, t3a, oka, t1, t2b, t3b, okb, (fa & oka) | (fb & okb)
+    t2a, t3a, oka, t2b, t3b, okb, f = planar2(h2, p2, h3, p3, x, about(h1, p1, t1.conjugate(), w), ok, clip, dz)
+    return t1, t2a, t3a, oka, t1, t2b, t3b, okb, f
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -366,6 +367,12 @@ def pos3d(case, hs, ps, o, x, w, sa, clip, dz):
     if case == 3:
         return pos_case3(hs, ps, o, x, w, sa, clip, dz)
     return pos_case4(hs, ps, o, x, w, sa, clip, dz)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def pos3d_call(case, hs, ps, o, x, w, sa, clip, dz):
+    """:func:`pos3d` as a call (for the rare second pass: not inlined twice)."""
+    return pos3d(case, hs, ps, o, x, w, sa, clip, dz)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -583,12 +590,9 @@ def solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
     w, gh6, ge6 = sph_goal(fx, t9(Rg), (pg[0], pg[1], pg[2]))
     n = 0
     for sa in (1.0, -1.0):
-        dz = ONE
-        for _ in range(2):  # once more with the true default only where a free angle took it
-            r = pos3d(case, hs, ps, o, c, w, sa, clip, dz)
-            if not r[8]:
-                break
-            dz = pos_default(case, pref)
+        r = pos3d(case, hs, ps, o, c, w, sa, clip, ONE)
+        if r[8]:  # once more with the true default only where a free angle took it
+            r = pos3d_call(case, hs, ps, o, c, w, sa, clip, pos_default(case, pref))
         for sb in range(2):
             t1, t2, t3, ok = (r[0], r[1], r[2], r[3]) if sb == 0 else (r[4], r[5], r[6], r[7])
             if not ok or not (fits(t1, lim, 0) and fits(t2, lim, 1) and fits(t3, lim, 2)):
