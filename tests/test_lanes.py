@@ -18,6 +18,7 @@ from pipeline.robots import load_robot
 from pipeline.solvers import lanes, make_settings, solve, solve_batch
 from pipeline.solvers.analytic import packed, unpack
 from pipeline.solvers.registry import bind
+from tests.conftest import homogeneous, rodrigues
 from pipeline.solvers import subproblems as sp
 
 ROBOTS = Path(__file__).resolve().parents[1] / "data" / "robots"
@@ -58,22 +59,13 @@ def _arm(kind: str, rng) -> tuple:
     return H, P, RM, rng.normal(size=3) * 0.3
 
 
-def _rot(h, t) -> np.ndarray:
-    K = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
-    return np.eye(3) + math.sin(t) * K + (1 - math.cos(t)) * K @ K
-
-
 def _fk(H, P, RM, pM, q) -> np.ndarray:
     """T(q) = E_1(q_1) .. E_6(q_6) M, E_i the rotation by q_i about line i."""
     T = np.eye(4)
     for h, p, t in zip(H, P, q):
-        E = np.eye(4)
-        E[:3, :3] = _rot(h, t)
-        E[:3, 3] = p - E[:3, :3] @ p
-        T = T @ E
-    M = np.eye(4)
-    M[:3, :3], M[:3, 3] = RM, pM
-    return T @ M
+        R = rodrigues(h, t)
+        T = T @ homogeneous(R, p - R @ p)
+    return T @ homogeneous(RM, pM)
 
 
 def _single(kind, H, P, RM, pM, Tg, pref, Q) -> int:

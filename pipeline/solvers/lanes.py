@@ -70,10 +70,17 @@ def _stz(L, k, u, z):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
+def _st2(L, k, u, x0, x1):
+    """x0 into slot u (second branch +1), x1 into slot u + 16 (−1)."""
+    _st(L, k, u, x0)
+    _st(L, k, u + np.uint64(2 * LANES), x1)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _st2z(L, k, u, z0, z1):
-    """z0 into slot u (second branch +1), z1 into slot u + 16 (−1)."""
-    _stz(L, k, u, z0)
-    _stz(L, k, u + np.uint64(2 * LANES), z1)
+    """:func:`_st2` of two e^{iθ} (real parts, then imaginary parts)."""
+    _st2(L, k, u, z0.real, z1.real)
+    _st2(L, k + 1, u, z0.imag, z1.imag)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -99,10 +106,8 @@ def _cand(L, c, u, z1, z2, z3, z4, z5, z6, ok, free):
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _flags(L, u, ok0, ok1, free):
     """The first stage's ok of each second branch and its free flag (both slots)."""
-    _st(L, GOAL + 9, u, 1.0 if ok0 else 0.0)
-    _st(L, GOAL + 9, u + np.uint64(2 * LANES), 1.0 if ok1 else 0.0)
-    _st(L, GOAL + 10, u, 1.0 if free else 0.0)
-    _st(L, GOAL + 10, u + np.uint64(2 * LANES), 1.0 if free else 0.0)
+    _st2(L, GOAL + 9, u, 1.0 if ok0 else 0.0, 1.0 if ok1 else 0.0)
+    _st2(L, GOAL + 10, u, 1.0 if free else 0.0, 1.0 if free else 0.0)
 
 
 # ---- three parallel axes ----------------------------------------------------------------------------
@@ -114,9 +119,9 @@ def _p3_a(fx, clip, L):
         g, pg = _goal(L, u)
         tm, w1, a5, a6, b5, b6, ok, f = sp.p3_first(fx, g, pg, 1.0 if lane < LANES else -1.0, clip, sp.ONE)
         _st2z(L, GOAL, u, tm, tm)
-        _st2z(L, GOAL + 2, u, complex(w1[0], w1[1]), complex(w1[0], w1[1]))
-        _st(L, GOAL + 4, u, w1[2])
-        _st(L, GOAL + 4, u + np.uint64(2 * LANES), w1[2])
+        _st2(L, GOAL + 2, u, w1[0], w1[0])
+        _st2(L, GOAL + 3, u, w1[1], w1[1])
+        _st2(L, GOAL + 4, u, w1[2], w1[2])
         _st2z(L, GOAL + 5, u, a5, b5)
         _st2z(L, GOAL + 7, u, a6, b6)
         _flags(L, u, ok, ok, f)

@@ -117,13 +117,6 @@ def row(A, i):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def matvec(R, v):
-    return (R[0, 0] * v[0] + R[0, 1] * v[1] + R[0, 2] * v[2],
-            R[1, 0] * v[0] + R[1, 1] * v[1] + R[1, 2] * v[2],
-            R[2, 0] * v[0] + R[2, 1] * v[1] + R[2, 2] * v[2])
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
 def matTvec(R, v):
     """``Rᵀ v`` for the rotation block of a 3 × 3 or 4 × 4 array."""
     return (R[0, 0] * v[0] + R[1, 0] * v[1] + R[2, 0] * v[2],
@@ -636,7 +629,7 @@ def p3_first(fx, g, pg, sa, clip, d5):
     w = wrist9(g, pg, m, fx[7], c)
     tm, ok = sp4(h2, h1, sub(w, p1), dot(h2, c) - dot(h2, p1), sa, clip)
     t1 = tm.conjugate()
-    w1 = add(p1, rotz(h1, tm, sub(w, p1)))
+    w1 = about(h1, p1, tm, w)
     v = mv9(m, mtv9(g, rotz(h1, t1, h2)))  # N = R1ᵀ RgM; v = Nᵀ h2
     a5, a6, b5, b6, ok2, f = sp2paird(hs[4], hs[5], h2, v, clip, d5)
     ok = ok & ok2
