@@ -8,6 +8,7 @@ solve_problems    solve every problem of a set with one registered solver, write
 solvers           list the registered IK solvers, their settings, defaults and units
 new_study         write a study YAML that runs registered solvers on your robots
 rerun_failures    rerun one archive's failed problems with changed stop rules (Table 16 of 000)
+race              time one arm's finalists against each other in one process, interleaved (after its solve jobs)
 aggregate_tables  compute a study's tables from its archives, beside the published values
 plot_figures      render a study's figures from its archives
 render_report     assemble results/report.html
@@ -93,6 +94,15 @@ def cmd_solvers(args) -> None:
     from pipeline.jobs.build import solver_listing
 
     print(solver_listing(args.name, as_json=args.json))
+
+
+def cmd_race(args) -> None:
+    from pipeline.jobs.race import race_arm
+
+    if args.goals < 1 or args.min_passes < 1 or args.max_passes < args.min_passes or not args.budget > 0:
+        raise CLIError("--goals, --min-passes: at least 1; --max-passes: at least --min-passes; --budget: above 0 s")
+    print(race_arm(args.study, args.robot, args.archives, args.out, goals=args.goals,
+                   passes=(args.min_passes, args.max_passes), budget_s=args.budget))
 
 
 def cmd_aggregate_tables(args) -> None:
@@ -274,6 +284,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("name", nargs="?", help="show one solver")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=cmd_solvers)
+
+    p = sub.add_parser("race", help="time one arm's finalists against each other in one process, interleaved, "
+                       "into an MCAP archive (after the arm's solve jobs)")
+    p.add_argument("--study", required=True, help="the study's settings file (the answer's protocol)")
+    p.add_argument("--robot", required=True, help="the arm's robot file")
+    p.add_argument("--archives", nargs="+", required=True, help="the arm's solve archives (every set, every label)")
+    p.add_argument("--out", required=True, help="the race archive to write (.mcap)")
+    p.add_argument("--goals", type=int, default=300, help="goals per problem set at most (default 300)")
+    p.add_argument("--min-passes", type=int, default=3, help="passes over the goals at least (default 3)")
+    p.add_argument("--max-passes", type=int, default=7, help="passes at most (default 7)")
+    p.add_argument("--budget", type=float, default=60.0, help="a set's race adds no pass beyond the least once it "
+                   "has taken this long [s] (default 60)")
+    p.set_defaults(func=cmd_race)
 
     for verb, fn, what in (("aggregate_tables", cmd_aggregate_tables, "tables (CSV)"),
                            ("plot_figures", cmd_plot_figures, "figures (PNG/SVG)")):

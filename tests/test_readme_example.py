@@ -20,16 +20,19 @@ def _example() -> str:
 
 def test_readme_example_runs_as_written(capsys):
     code = _example()
-    assert len(code.strip().splitlines()) <= 6
+    assert len(code.strip().splitlines()) <= 9
+    assert code.count("load_robot(") == 1 and code.count("solvers.bind(") == 1  # once each, outside the loop
     env: dict = {}
     exec(compile(code, "README.md", "exec"), env)  # noqa: S102  (our own README)
-    res = env["res"]
-    assert res.success and res.within_limits
     from pipeline.kinematics import fk_htm
 
-    np.testing.assert_allclose(fk_htm(env["arm"].chain, res.q), env["goal"], atol=1e-9)
+    ok = [r for r in env["results"] if r.success]
+    assert len(ok) >= 990 and all(r.within_limits for r in ok)
+    for r, T in list(zip(env["results"], env["goals"]))[:50]:
+        if r.success:
+            np.testing.assert_allclose(fk_htm(env["arm"].chain, r.q), T, atol=1e-9)
     out = capsys.readouterr().out
-    assert out.startswith("True ")
+    assert re.match(r"\d+ of 1000 solved, [0-9.]+ µs per call \d+ solutions", out), out
 
 
 def test_solve_with_a_mapping_reuses_its_binding():

@@ -305,7 +305,12 @@ def classify(chain: Chain, tol: float = DEFAULT_TOL, unit: str = "m", free_order
     unit : str                  the chain's length unit (for the evidence text)
     free_order : sequence of int, optional
         7R arms: the joints (0-based) tried as the free parameter, in order (default: every
-        joint, the middle ones first: 2, 3, 4, 1, 5, 0, 6).
+        joint, the middle one last: 2, 4, 1, 5, 0, 6, 3). The middle joint of an anthropomorphic 7R
+        arm is its elbow, which sets the shoulder-wrist distance that the goal all but fixes: swept,
+        it finds solutions only in a narrow band of its values, far along the self-motion from a
+        seed (Franka Panda warm starts, start within 0.3 rad of the goal: median 0.56 rad from the
+        seed, 26 % beyond 1 rad, with joint 4 free; 0.45 rad and 8 % with joint 7 free, at the same
+        speed); any other joint moves the arm along its self-motion smoothly.
     """
     lines = joint_lines(chain)
     ev = evidence(lines, tol, unit)
@@ -321,7 +326,7 @@ def classify(chain: Chain, tol: float = DEFAULT_TOL, unit: str = "m", free_order
             return Decomposition(None, reason=_refusal6(lines, tol, unit), evidence=ev)
         return Decomposition(fam, rev, case, None, _describe(fam, rev, case, searched), ev, searched)
     if n == 7:
-        order = list(free_order) if free_order is not None else [2, 3, 4, 1, 5, 0, 6]
+        order = list(free_order) if free_order is not None else [2, 4, 1, 5, 0, 6, 3]
         found = {}
         for k in order:
             got = [_classify6(fix_joint(lines, k, v), tol) for v in (0.0, 1.0)]

@@ -181,9 +181,10 @@ def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | Non
                     calls.setdefault(call, []).append(str(pset))
         calls = [(" and ".join(sets), call) for call, sets in calls.items()]
         robots.append({"robot": robot, "sentences": list(g["answer"]), "table": table, "calls": calls,
-                       "key": by_name.get(f"key_{robot}"),
+                       "key": by_name.get(f"key_{robot}"), "race": by_name.get(f"race_{robot}"),
                        "figures": [x for x in figures if x.get("extra", {}).get("robot") == robot]})
-    return {"robots": robots, "figures": [x for x in figures if x.get("extra", {}).get("answer")]}
+    return {"robots": robots, "plain": by_name.get("answer_plain"),
+            "figures": [x for x in figures if x.get("extra", {}).get("answer")]}
 
 
 HEAD_TABLES = ("claims", "not_reproduced")  # pipeline.studies.claims: shown first in a study's section
@@ -237,8 +238,8 @@ def study_context(study: Study, results: Path) -> dict:
     if answer:
         answer["id"] = study.id  # shown at the top of the report; the study's section keeps the rest
         answer["samples"] = samples
-        shown = ({id(x) for r in answer["robots"] for x in (r["table"], r["key"], *r["figures"]) if x is not None}
-                 | {id(f) for f in answer["figures"]})
+        shown = ({id(x) for r in answer["robots"] for x in (r["table"], r["key"], r["race"], *r["figures"]) if x is not None}
+                 | {id(f) for f in answer["figures"]} | ({id(answer["plain"])} if answer["plain"] else set()))
         tables = [t for t in tables if id(t) not in shown and t["name"] != "answer"]
         figures = [f for f in figures if id(f) not in shown]
     claims_csv = folder / "tables" / "claims.csv"

@@ -11,8 +11,9 @@ evidence) and :mod:`pipeline.solvers.subproblems` solves it:
   refined by regula falsi): up to 16 (the offset-wrist arms);
 - 6R, no family: every solution by algebraic elimination (:mod:`pipeline.solvers.general6r`, the
   solver ``general_6r``; Raghavan-Roth / Manocha-Canny), up to 16;
-- 7R: one joint (chosen from the geometry, or ``free_joint``) held at ``free_samples`` values
-  evenly spread over its limits, plus the start's own value; the other six by the 6R closed form
+- 7R: one joint (chosen from the geometry, or ``free_joint``) held at the start's own value, at
+  six values beside it (±0.05, ±0.15, ±0.3 rad: a warm start's nearest solution lies there) and at
+  ``free_samples`` values evenly spread over its limits; the other six by the 6R closed form
   of their family. Solutions outside the joint limits are dropped (revolute joints moved by 2π
   into them where they fit).
 
@@ -305,7 +306,9 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
     """The FK-valid solutions of one pose, nearest to ``q_start`` first (wrapped joint distance, sum of
     squares), at most ``max_solutions`` into ``S``; ``q`` the chosen one. ``Sc`` (:func:`scratch`
     rows) holds the candidates: 6R, every closed-form candidate wrapped to (−π, π]; 7R, every
-    candidate of every swept value moved into the joint limits (those that do not fit are dropped).
+    candidate of every swept value (the start's value first) moved by turns to lie nearest the start
+    within the joint limits (:func:`pipeline.solvers.subproblems.near_limits`: a continuous joint does
+    not jump a turn away from the seed; those that do not fit are dropped).
     Candidates are FK-checked nearest first until ``max_solutions`` pass or none is left, so a 7R
     sweep checks about as many as it returns. ``W``, ``Z``, ``I``: the float, complex and int scratch of
     :func:`scratch` (the caller allocates them once, for a batch once per work item). ``start_row``
@@ -404,10 +407,18 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
                 lo, hi = -math.pi, math.pi
             if hi - lo > 2.0 * math.pi:  # one turn: v and v + 2π give the same solutions
                 hi = lo + 2.0 * math.pi
-            for it in range(nfree + 1):
-                v = q_start[free] if it == 0 else lo + (hi - lo) * (it - 0.5) / nfree
-                if attempt == 1 and it == 0:
+            for it in range(nfree + 1 + N_NEAR):
+                # the start's value, then values beside it (a tracking user's answer lies there), then the grid
+                if attempt == 1 and it <= N_NEAR:
                     continue
+                if it == 0:
+                    v = q_start[free]
+                elif it <= N_NEAR:
+                    v = q_start[free] + NEAR[it - 1]
+                    if not (lim[free, 0] <= v <= lim[free, 1]):
+                        continue
+                else:
+                    v = lo + (hi - lo) * (it - N_NEAR - 0.5) / nfree
                 _fix(H, P, RM, pM, free, v, H6, P6, RM6, pM6)
                 k = min(core6(fam, case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr),
                         sp.MAX_SOL)
@@ -426,7 +437,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
                         else:
                             x = Ang[c_ * kv + r]
                             c_ += 1
-                        x, ok = sp.into_limits(sp.wrap(x), lim[j, 0], lim[j, 1])
+                        x, ok = sp.near_limits(x, q_start[j], lim[j, 0], lim[j, 1])
                         if not ok:
                             inside = False
                             break
@@ -550,7 +561,13 @@ def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, doc, nsol, tried, 
 @numba.njit(cache=True, error_model="numpy")
 def _capacity(ints):
     """Scratch rows per pose: 16 for 6R, 16 per swept value for 7R."""
-    return sp.MAX_SOL if ints[0] == 6 else sp.MAX_SOL * (ints[6] + 1)
+    return sp.MAX_SOL if ints[0] == 6 else sp.MAX_SOL * (ints[6] + 1 + N_NEAR)
+
+
+# 7R: the free joint's values tried beside the start's before the grid [rad] (a warm start's nearest
+# solution usually lies on the self-motion within a few tenths of a radian of the seed's value)
+NEAR = np.array([-0.05, 0.05, -0.15, 0.15, -0.3, 0.3])
+N_NEAR = len(NEAR)
 
 
 # the float scratch W: R (9) and p (3) of a pose, the candidates' distances (capacity), each joint's

@@ -533,6 +533,21 @@ def into_limits(x, lo, hi):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
+def near_limits(x, ref, lo, hi):
+    """(x moved by 2π multiples to lie nearest ``ref`` within [lo, hi] where one such value exists,
+    else :func:`into_limits`'s answer; whether the result lies within the limits). A tracking user
+    wants a joint of range wider than one turn (±2π, continuous joints) to stay beside its seed, not
+    jump a turn: the representative within π of ``ref`` first, then the one a turn towards the limits."""
+    y = ref + wrap(x - ref)
+    if lo <= y <= hi:
+        return y, True
+    z = y + 2.0 * math.pi if y < lo else y - 2.0 * math.pi
+    if lo <= z <= hi:
+        return z, True
+    return into_limits(x, lo, hi)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def fits(z, lim, j):
     """The angle of ``z``, moved by 2π multiples, lies within ``lim[j]`` (±inf: always, no atan2)."""
     lo, hi = lim[j, 0], lim[j, 1]

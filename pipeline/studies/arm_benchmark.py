@@ -2,8 +2,13 @@
 catalogue arm, cold and warm starts, computed from the archives alone.
 
 Tables
-    ``answer`` — one row per robot and problem set: the recommendation (label, method, library,
-    settings, success with its Wilson 95 % interval, median call time) and the Python call to copy.
+    ``answer_plain`` — the answer in plain words: arm x start set -> method, library, success with its
+    interval, median call time, median distance to the seed (warm starts); what the report opens with.
+    ``answer`` — the same rows in full: label, settings, how the time was taken, the labels not
+    significantly worse, the finalists, those not for tracking, and the program to copy.
+    ``race_<robot>`` — the race of the arm's finalists (:mod:`pipeline.jobs.race`): per label the race
+    time (median over goals of each goal's fastest pass), its paired ratio to the fastest with a 95 %
+    interval, and the load record.
     ``key_<robot>`` — at most 8 key labels per robot (the recommendation, best closed form of ours
     and of a peer, best single search, best with restarts, TRAC-IK, the Robotics Toolbox's LM), both
     problem sets, with intervals, time percentiles and the joint distance to the start.
@@ -15,19 +20,21 @@ Figures
     share of goals solved within a time budget (10 µs to 10 ms) and the distributions of call time and
     of the position error of the successes.
 
-The rule (written once, here, and quoted in the tables' notes)
-    Labels compete on a problem set when they ran at least ``MIN_SHARE`` of its goals and their job
-    (one per robot) got at least ``MIN_CPU_SHARE`` of a core (CPU time / wall time summed over the
-    solves of its single-threaded labels; a starved job's labels are flagged and not ranked). The best is the label with the highest success rate. A label is *not
+The rule (written once, here, and quoted in the tables' notes as :data:`RULE`)
+    Correctness from the archives: labels compete on a problem set when they ran at least
+    ``MIN_SHARE`` of its goals; the best is the label with the highest success rate; a label is *not
     significantly worse* when, on the goals both ran (paired), the one-sided exact McNemar test does
     not find it worse at the 5 % level (:func:`worse_p`); every rate is shown with its Wilson 95 %
-    interval. Among those, a closed form (registry kind ``analytic``) wins; the
-    recommendation is then the fastest by median wall time of the whole call: most calls of a few µs
-    run unpreempted, so the median over hundreds of them barely moves with the machine's load
-    (measured: 25-26 of 26 recommendations unchanged with a second build running, against 18 of 26
-    by median CPU time, which this machine's thread clock under-reads under load), and the jobs that
-    did not get a core are flagged besides. Method and library come from the registry (archived as metadata), never from a
-    setting.
+    interval. On a warm set, a label whose median joint distance to the seed is above
+    ``TRACK_FACTOR`` times the smallest among them is not recommended for tracking (:func:`shortlist`).
+    Among those left, a closed form (registry kind ``analytic``) wins. Speed from a race: where more
+    than one finalist is left, the arm's race job (after its solve jobs, :mod:`pipeline.jobs.race`)
+    calls them on the same goals in one process, interleaved, and they are ranked on paired per-goal
+    ratios (:func:`race_summary`); finalists within ``TIE_RATIO`` of the fastest tie, and a tie goes
+    to our own library, then the label's name (:func:`pick_fastest`), so that load moving two
+    near-equal times does not move the answer. Load is recorded beside the times (the race's load
+    average, each job's CPU share) and never withholds an answer. Method and library come from the
+    registry (archived as metadata), never from a setting.
 """
 
 from __future__ import annotations
@@ -40,10 +47,10 @@ import numpy as np
 import pandas as pd
 
 from pipeline.studies import FigureSpec, TableSpec
+from pipeline.solvers._kin import LIMIT_TOL
 from pipeline.studies.generic import joint_distance, runs_frame
 
 MIN_SHARE = 0.1  # labels run on at least this share of a set's goals compete for the answer
-MIN_CPU_SHARE = 0.9  # a job whose solves got less CPU than this share of their wall time is starved
 Z95 = 1.959963984540054  # two-sided 95 % normal quantile (Wilson interval)
 ALPHA = 0.05  # a label is significantly worse than the best when the one-sided McNemar p-value is below this
 SMOKE_GOALS = 200  # below this many goals per set the answer is a smoke run, not a recommendation
@@ -145,8 +152,8 @@ def _job_shares(df: pd.DataFrame, timing: dict | None) -> dict:
 
 def method_table(df: pd.DataFrame, meta: dict, timing: dict | None = None) -> pd.DataFrame:
     """One row per (robot, problem set, solver label). ``CPU share`` is the label's own CPU / wall time
-    over its solves (shown); ``job CPU share`` its robot's job's (:func:`_job_shares`, which decides
-    ``starved``); ``timing`` (:func:`job_timing`) serves archives without per-solve CPU time."""
+    over its solves (shown); ``job CPU share`` its robot's job's (:func:`_job_shares`: the load record,
+    shown beside the times, never a gate); ``timing`` (:func:`job_timing`) serves archives without per-solve CPU time."""
     rows = []
     for (robot, pset, label), g in df.groupby(["robot", "problem_set", "solver"], sort=False):
         method = g["method"].iloc[0]
@@ -160,23 +167,25 @@ def method_table(df: pd.DataFrame, meta: dict, timing: dict | None = None) -> pd
         call = g["call_time_s"].to_numpy(dtype=float)
         ok_t = np.isfinite(cpu) & np.isfinite(call)
         share = float(cpu[ok_t].sum() / call[ok_t].sum()) if ok_t.any() and call[ok_t].sum() > 0 else math.nan
+        dist = joint_distance(ok["q_solution"], ok["q_start"]) if len(ok) else np.array([])
         rows.append({
             "robot": robot, "problem set": pset, "solver": label, "method": method, "library": library,
             "kind": _kind(method), "search": f"restarts (<= {r})" if r else "single", "problems": n,
             "success [%]": 100 * k / n, "success CI low [%]": 100 * lo, "success CI high [%]": 100 * hi,
             "within limits [%]": 100 * g["within_limits"].astype(bool).mean(),
+            "successes not nearest the seed": int(g["not nearest"].sum()) if "not nearest" in g else 0,
             "CPU time p50 [µs]": 1e6 * _p(cpu, 50), "CPU time p95 [µs]": 1e6 * _p(cpu, 95),
             "call time p50 [µs]": 1e6 * _p(call, 50), "call time p95 [µs]": 1e6 * _p(call, 95),
             "solve time p50 [µs]": 1e6 * _p(g["solve_time_s"], 50),
             "CPU share [%]": 100 * share,
             "iterations p50": _p(g["iterations"], 50),
-            "joint distance to start p50, successes [rad]": _p(joint_distance(ok["q_solution"], ok["q_start"]), 50) if len(ok) else math.nan,
+            "joint distance to start p50, successes [rad]": _p(dist, 50),
+            "joint distance to start p95, successes [rad]": _p(dist, 95),
             "position error p99, successes [mm]": _p(ok["position_error_mm"], 99),
             "orientation error p99, successes [rad]": _p(ok["orientation_error"], 99),
         })
     out = pd.DataFrame(rows)
-    out["job CPU share [%]"] = out["robot"].map(_job_shares(df, timing))
-    out["starved"] = out["job CPU share [%]"] < 100 * MIN_CPU_SHARE  # NaN (not measured) is not starved
+    out["job CPU share [%]"] = out["robot"].map(_job_shares(df, timing))  # the load record: shown, never a gate
     out["success 95 % CI [%]"] = [f"{lo:.1f}-{hi:.1f}" for lo, hi in
                                   zip(out["success CI low [%]"], out["success CI high [%]"])]
     return out
@@ -190,87 +199,274 @@ def _ids(df: pd.DataFrame) -> dict:
     return out
 
 
-def python_call(robot: str, method: str, settings: dict, robot_file: str = "") -> str:
-    """The call a user copies: ``pipeline.solvers.solve`` with the label's non-default settings."""
+# plain words for the answer table: registered method -> what a robotics engineer calls it
+WORDS = {
+    "analytic": "closed form", "analytic_ur": "closed form for UR arms (Hawkins)",
+    "analytic_puma": "closed form for PUMA-type arms", "analytic_4dof": "closed form of the 4-DOF arm",
+    "general_6r": "closed form by algebraic elimination", "eaik": "closed form (EAIK)", "ik_geo": "closed form (IK-Geo)",
+    "ur_analytic_ik": "closed form for UR arms (ur_analytic_ik)", "jacobian_transpose": "Jacobian transpose",
+    "pseudoinverse": "Jacobian pseudoinverse", "dls": "damped least squares",
+    "sdls": "selectively damped least squares", "inverse_jacobian_fd": "inverse Jacobian (finite differences)",
+    "levenberg_marquardt": "Levenberg-Marquardt", "jpinv_descent": "pseudoinverse gradient descent",
+    "bfgs": "BFGS", "lbfgsb": "L-BFGS-B", "nelder_mead": "Nelder-Mead", "zero_position": "Zero-Position method",
+    "newton_raphson": "Newton-Raphson", "pso": "particle swarm", "rtb_ik_lm": "Levenberg-Marquardt (Robotics Toolbox)",
+    "rtb_ik_nr": "Newton-Raphson (Robotics Toolbox)", "rtb_ik_gn": "Gauss-Newton (Robotics Toolbox)",
+    "pinocchio_clik": "closed-loop IK (Pinocchio)", "trac_ik": "TRAC-IK",
+}
+
+
+def in_words(method: str, settings: dict, dof: int, kind: str) -> str:
+    """A label in plain words: "closed form, all solutions", "closed form, 1 free joint swept",
+    "damped least squares, 20 random restarts"."""
+    words = WORDS.get(method, method.replace("_", " "))
+    if kind == "analytic":
+        return words + (", 1 free joint swept" if dof == 7 else ", all solutions")
+    r = int(settings.get("restarts", 0) or 0)
+    if method == "trac_ik":
+        return f"{words}, {1e3 * float(settings.get('timeout', 0.005)):.0f} ms budget"
+    return words + (f", {r} random restarts" if r else ", one search")
+
+
+def python_call(robot: str, method: str, settings: dict, robot_file: str = "", warm: bool = False,
+                goals: int = 1000) -> str:
+    """The program a user copies: the robot loaded once, the solver bound once with the label's settings
+    (those that differ from the registry's defaults), then a loop solving ``goals`` goals (drawn here from
+    random angles: replace them with yours), its first call (which compiles or loads the method's kernels)
+    left out of the printed median. ``warm``: each start lies within 0.3 rad of its goal's angles."""
     from pipeline.robots import ROBOT_FILES
 
     where = robot if (ROBOT_FILES / f"{robot}.yaml").is_file() or not robot_file else robot_file
     args = ", ".join(f"{k!r}: {v!r}" for k, v in sorted(settings.items()))
-    return (f"solvers.solve({method!r}, robots.load_robot({where!r}), T_goal, q_start"
-            + (f", {{{args}}})" if args else ")"))
+    start = ("np.clip(q + rng.uniform(-0.3, 0.3, robot.n), lo, hi))  # a seed near the answer (tracking)" if warm
+             else "rng.uniform(lo, hi))  # any start within the limits")
+    return "\n".join([
+        "import time",
+        "",
+        "import numpy as np",
+        "",
+        "from pipeline import robots, solvers",
+        "from pipeline.kinematics import fk_htm",
+        "",
+        f"robot = robots.load_robot({where!r})  # once: a shipped arm's name or a robot file's path",
+        f"ik = solvers.bind({method!r}, robot" + (f", {{{args}}})" if args else ")") + "  # once: method and settings",
+        "lo, hi = np.clip(robot.limits, -np.pi, np.pi).T",
+        "rng = np.random.default_rng(0)",
+        "goals, starts = [], []  # your goals: 4x4 poses in the robot file's length unit",
+        f"for q in rng.uniform(lo, hi, ({goals}, robot.n)):",
+        "    goals.append(fk_htm(robot.chain, q))",
+        f"    starts.append({start}",
+        "ik.solve(goals[0], starts[0])  # the first call compiles or loads the kernels: not timed",
+        "times, solved = [], 0",
+        "for T_goal, q_start in zip(goals, starts):",
+        "    t0 = time.perf_counter()",
+        "    res = ik.solve(T_goal, q_start)  # res.q: joint angles [rad]; res.success: checked by FK",
+        "    times.append(time.perf_counter() - t0)",
+        "    solved += bool(res.success)",
+        "print(f\"solved {solved} of {len(goals)}, median {1e6 * np.median(times):.1f} us per call\")",
+    ])
 
 
-def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", robot_files: dict | None = None
-            ) -> pd.DataFrame:
-    """One recommendation per (robot, problem set) by the module's rule (see the module docstring)."""
+TIE_RATIO = 1.10  # a finalist whose race time is within this factor of the fastest's ties with it
+TRACK_FACTOR = 2.0  # warm sets: a median distance to the seed above this times the smallest is not for tracking
+RACE_TOPIC = "/arm_benchmark/race"  # one JSON record per timed call (pipeline.jobs.race)
+RACE_SET_TOPIC = "/arm_benchmark/race_set"  # one JSON record per (robot, problem set): who raced, the load
+
+
+def is_warm(pset: str, warm_sets=None) -> bool:
+    """Whether a problem set's starts are seeds near the answer (kind ``warm_start``); without the
+    study's list, a set named ``warm``."""
+    return pset in warm_sets if warm_sets is not None else pset == "warm"
+
+
+def shortlist(g: pd.DataFrame, succ: dict, robot: str, pset: str, warm: bool) -> dict:
+    """The labels of one (robot, problem set) that may be recommended, from the archives alone.
+
+    ``g``: the set's rows of :func:`method_table`. Returns ``best`` (the highest success rate: more
+    goals, then the label name break ties), ``pool`` (labels run on at least ``MIN_SHARE`` of the
+    goals and not significantly worse than the best), ``far`` (warm sets: pool labels whose median
+    distance to the seed is above ``TRACK_FACTOR`` times the pool's smallest: not for tracking),
+    ``finalists`` (the closed forms left, else every label left) and ``closed`` (whether a closed form
+    is among them). No timing enters here."""
+    cand = g[g["problems"] >= MIN_SHARE * g["problems"].max()]
+    best = cand.sort_values(["success [%]", "problems", "solver"], ascending=[False, False, True]).iloc[0]
+    b = succ.get((robot, pset, best["solver"]))
+    ok_rows = []
+    for _, c in cand.iterrows():
+        s = succ.get((robot, pset, c["solver"]))
+        common = s.index.intersection(b.index) if s is not None and b is not None else []
+        if len(common) == 0:
+            continue
+        sc, sb = s.loc[common].to_numpy(), b.loc[common].to_numpy()
+        if worse_p(int((sb & ~sc).sum()), int((sc & ~sb).sum())) >= ALPHA:
+            ok_rows.append(c)
+    pool = pd.DataFrame(ok_rows)
+    far = pool.iloc[0:0]
+    left = pool
+    if warm and len(pool):
+        dist = pool["joint distance to start p50, successes [rad]"].astype(float)
+        if dist.notna().any():
+            far = pool[dist > TRACK_FACTOR * dist.min()]
+            left = pool[~pool["solver"].isin(far["solver"])]
+    closed = left[left["kind"] == "analytic"]
+    finalists = closed if len(closed) else left
+    return {"best": best, "pool": pool, "far": far, "finalists": finalists, "closed": bool(len(closed))}
+
+
+def race_summary(calls: pd.DataFrame) -> pd.DataFrame:
+    """Per (robot, problem set, label) of a race (:mod:`pipeline.jobs.race`): each goal's time is the
+    fastest of its passes (a call the machine preempted is only slower); the label's time is the median
+    over goals, and its ratio to the fastest label is the median of the paired per-goal ratios with a
+    distribution-free 95 % interval (order statistics of the binomial)."""
+    cols = ["robot", "problem set", "solver", "race goals", "passes", "race time p50 [µs]", "race time p95 [µs]",
+            "race CPU time p50 [µs]", "ratio to fastest p50", "ratio CI low", "ratio CI high"]
+    if calls is None or calls.empty:
+        return pd.DataFrame(columns=cols)
+    per = calls.groupby(["robot", "problem_set", "solver", "problem_id"], sort=False).agg(
+        wall=("wall_ns", "min"), cpu=("cpu_ns", "min"), passes=("pass", "nunique")).reset_index()
+    rows = []
+    for (robot, pset), g in per.groupby(["robot", "problem_set"], sort=False):
+        wide = g.pivot_table(index="problem_id", columns="solver", values="wall", sort=False).dropna()
+        med = wide.median()
+        lead = med.idxmin()
+        for label in wide.columns:
+            r = np.sort((wide[label] / wide[lead]).to_numpy(dtype=float))
+            n = len(r)
+            k = int(max(0, math.floor(n / 2 - Z95 * math.sqrt(n) / 2)))
+            u = int(min(n - 1, math.ceil(n / 2 + Z95 * math.sqrt(n) / 2)))
+            h = g[g["solver"] == label]
+            rows.append({"robot": robot, "problem set": pset, "solver": label, "race goals": n,
+                         "passes": int(h["passes"].max()), "race time p50 [µs]": 1e-3 * float(np.median(wide[label])),
+                         "race time p95 [µs]": 1e-3 * float(np.percentile(wide[label], 95)),
+                         "race CPU time p50 [µs]": 1e-3 * float(np.median(h["cpu"])),
+                         "ratio to fastest p50": float(np.median(r)), "ratio CI low": float(r[k]) if n else math.nan,
+                         "ratio CI high": float(r[u]) if n else math.nan})
+    return pd.DataFrame(rows, columns=cols)
+
+
+def pick_fastest(fin: pd.DataFrame, times: dict) -> tuple[str, set]:
+    """The recommendation among ``fin`` (finalist rows) given each label's time (``times``: label -> µs,
+    the race's ratio-consistent median where raced): the labels within ``TIE_RATIO`` of the fastest tie,
+    and a tie goes to our own library first (nothing more to install), then the label's name, so that
+    load that moves two near-equal times cannot move the answer. Returns (label, the tied labels)."""
+    t = {lab: times.get(lab, math.nan) for lab in fin["solver"]}
+    finite = {k: v for k, v in t.items() if np.isfinite(v)}
+    if not finite:
+        tied = set(fin["solver"])
+    else:
+        fastest = min(finite.values())
+        tied = {k for k, v in finite.items() if v <= TIE_RATIO * fastest}
+    lib = dict(zip(fin["solver"], fin["library"]))
+    return sorted(tied, key=lambda k: (lib[k] != "ours", k))[0], tied
+
+
+def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", robot_files: dict | None = None,
+            race: pd.DataFrame | None = None, race_sets: dict | None = None, warm_sets=None) -> pd.DataFrame:
+    """One recommendation per (robot, problem set) by the module's rule (see the module docstring).
+
+    ``race``: :func:`race_summary` of the arms' races (None or empty: times from the solve archives,
+    which were timed in separate jobs, and the answer says so); ``race_sets``: (robot, set) -> the race's
+    record (goals, passes, load); ``warm_sets``: the problem sets of kind ``warm_start``."""
     succ = _ids(df)
+    race = race if race is not None else pd.DataFrame(columns=["robot", "problem set", "solver"])
+    dofs = df.groupby("robot")["q_start"].first().map(len).to_dict() if "q_start" in df else {}
     rows = []
     for (robot, pset), g in mt.groupby(["robot", "problem set"], sort=False):
-        starved = g[g["starved"]]
-        cand = g[(g["problems"] >= MIN_SHARE * g["problems"].max()) & ~g["starved"]]
+        warm = is_warm(pset, warm_sets)
         smoke = scale == "quick" or int(g["problems"].max()) < SMOKE_GOALS
-        base = {"robot": robot, "problem set": pset, "goals": int(g["problems"].max()),
-                "starved labels": ", ".join(starved["solver"]), "smoke run": smoke}
+        sl = shortlist(g, succ, robot, pset, warm)
+        best, pool, far, fin = sl["best"], sl["pool"], sl["far"], sl["finalists"]
+        rs = race[(race["robot"] == robot) & (race["problem set"] == pset)]
+        raced = set(rs["solver"]) >= set(fin["solver"]) and len(fin) > 1
+        if raced:
+            r_by = rs.set_index("solver")
+            lead_t = float(r_by["race time p50 [µs]"].min())
+            times = {lab: lead_t * float(r_by.loc[lab, "ratio to fastest p50"]) for lab in fin["solver"]}
+        else:
+            times = dict(zip(fin["solver"], fin["call time p50 [µs]"]))
+        label, tied = pick_fastest(fin, times)
+        pick = fin[fin["solver"] == label].iloc[0]
+        method, settings = meta.get(label, (pick["method"], {}))
+        dof = int(dofs.get(robot, 0))
+        words = in_words(method, settings, dof, pick["kind"])
+        rec = race_sets.get((robot, pset), {}) if race_sets else {}
+        if len(fin) == 1:
+            how = ("the only " + ("closed form" if sl["closed"] else "label") + " left: no timing decides; its median "
+                   "call time is from the solve archive")
+            t_med = float(pick["call time p50 [µs]"])
+        elif raced:
+            rr = rs.set_index("solver").loc[label]
+            how = (f"raced against {len(fin) - 1} other finalist(s) in one process, interleaved in shuffled order "
+                   f"({int(rr['race goals'])} goals x {int(rr['passes'])} passes, each goal's fastest pass; load "
+                   f"average {rec.get('load_start', '?')} -> {rec.get('load_end', '?')} on {rec.get('cores', '?')} "
+                   f"cores)" + (f"; tied within {TIE_RATIO:.2f}x: {', '.join(sorted(tied))} (ours first, then by name)"
+                                if len(tied) > 1 else ""))
+            t_med = float(times[label])
+        else:
+            how = ("not raced (no race archive): median call times of the solve jobs, timed in separate jobs"
+                   + (f"; tied within {TIE_RATIO:.2f}x: {', '.join(sorted(tied))}" if len(tied) > 1 else ""))
+            t_med = float(pick["call time p50 [µs]"])
+        dist = float(pick["joint distance to start p50, successes [rad]"])
+        dist95 = float(pick.get("joint distance to start p95, successes [rad]", math.nan))
+        base = {"robot": robot, "problem set": pset, "goals": int(g["problems"].max()), "smoke run": smoke}
         smoke_text = (f" Smoke run ({int(g['problems'].max())} goals at most, scale {scale or '?'}): the intervals "
-                      f"are wide and most labels tie; not a recommendation." if smoke else "")
-        if cand.empty:
-            share = g["job CPU share [%]"].iloc[0]
-            rows.append({**base, "recommendation": "", "answer": (
-                f"{robot}, {pset} starts: no recommendation: the job solving this arm got {share:.0f} % of a core "
-                f"(less than {MIN_CPU_SHARE:.0%}), so its times are not its own; rebuild on a quiet machine."
-                + smoke_text)})
-            continue
-        best = cand.sort_values(["success [%]", "problems", "call time p50 [µs]"], ascending=[False, False, True]).iloc[0]
-        b = succ.get((robot, pset, best["solver"]))
-        ok_rows = []
-        for _, c in cand.iterrows():
-            s = succ.get((robot, pset, c["solver"]))
-            common = s.index.intersection(b.index) if s is not None and b is not None else []
-            if len(common) == 0:
-                continue
-            sc, sb = s.loc[common].to_numpy(), b.loc[common].to_numpy()
-            if worse_p(int((sb & ~sc).sum()), int((sc & ~sb).sum())) >= ALPHA:
-                ok_rows.append(c)
-        pool = pd.DataFrame(ok_rows)
-        closed = pool[pool["kind"] == "analytic"]
-        pick = (closed if len(closed) else pool).sort_values(["call time p50 [µs]", "success [%]"],
-                                                              ascending=[True, False]).iloc[0]
-        method, settings = meta.get(pick["solver"], (pick["method"], {}))
-        call = python_call(robot, method, settings, (robot_files or {}).get(robot, ""))
-        text = (f"{robot}, {pset} starts: use {pick['solver']} ({method}, {pick['library']}"
-                f"{', ' + ', '.join(f'{k}={v}' for k, v in sorted(settings.items())) if settings else ''}): "
+                      f"are wide and most labels tie." if smoke else "")
+        text = (f"{robot}, {pset} starts: use {words} ({label}, {pick['library']}): "
                 f"{pick['success [%]']:.1f} % of {int(pick['problems'])} goals "
                 f"(95 % CI {pick['success CI low [%]']:.1f}-{pick['success CI high [%]']:.1f}), median "
-                f"{pick['call time p50 [µs]']:.0f} µs per call (median wall time); the best rate is {best['solver']}'s "
-                f"{best['success [%]']:.1f} %, and {len(pool)} label(s) are not significantly worse"
-                f"{' (a closed form among them wins)' if len(closed) else ''}.")
+                f"{t_med:.0f} µs per call ({how})"
+                + (f", median {dist:.2f} rad from the seed" if warm and np.isfinite(dist) else "")
+                + f". The best rate is {best['solver']}'s {best['success [%]']:.1f} %; {len(pool)} label(s) are not "
+                  f"significantly worse" + (" and a closed form among them wins" if sl["closed"] else "") + ".")
+        if len(far):
+            text += (" Not recommended for tracking (median distance to the seed more than "
+                     f"{TRACK_FACTOR:.0f}x the smallest, "
+                     f"{float(pool['joint distance to start p50, successes [rad]'].min()):.2f} rad): "
+                     + ", ".join(f"{r['solver']} ({float(r['joint distance to start p50, successes [rad]']):.2f} rad)"
+                                 for _, r in far.iterrows()) + ".")
         text += smoke_text
-        if len(starved):
-            text += f" Not ranked (job starved of CPU): {', '.join(starved['solver'])}."
-        rows.append({**base, "recommendation": pick["solver"], "method": method, "library": pick["library"],
-                     "settings": json.dumps(settings, sort_keys=True),
+        call = python_call(robot, method, settings, (robot_files or {}).get(robot, ""), warm)
+        rows.append({**base, "recommendation": label, "in words": words, "method": method,
+                     "library": pick["library"], "settings": json.dumps(settings, sort_keys=True),
                      "success [%]": pick["success [%]"], "success CI low [%]": pick["success CI low [%]"],
                      "success CI high [%]": pick["success CI high [%]"], "its goals": int(pick["problems"]),
-                     "call time p50 [µs]": pick["call time p50 [µs]"], "best rate label": best["solver"],
-                     "best rate [%]": best["success [%]"], "not significantly worse": ", ".join(pool["solver"]),
+                     "call time p50 [µs]": t_med, "timing": how,
+                     "distance to seed p50 [rad]": dist if warm else math.nan,
+                     "distance to seed p95 [rad]": dist95 if warm else math.nan,
+                     "best rate label": best["solver"], "best rate [%]": best["success [%]"],
+                     "not significantly worse": ", ".join(pool["solver"]),
+                     "not for tracking": ", ".join(far["solver"]), "finalists": ", ".join(fin["solver"]),
                      "call": call, "answer": text})
-    # the same columns whether or not any job got a recommendation (a loaded machine can starve them all)
     return pd.DataFrame(rows, columns=ANSWER_COLUMNS)
 
 
-ANSWER_COLUMNS = ["robot", "problem set", "goals", "starved labels", "smoke run", "recommendation", "method", "library",
+ANSWER_COLUMNS = ["robot", "problem set", "goals", "smoke run", "recommendation", "in words", "method", "library",
                   "settings", "success [%]", "success CI low [%]", "success CI high [%]", "its goals",
-                  "call time p50 [µs]", "best rate label", "best rate [%]", "not significantly worse", "call", "answer"]
+                  "call time p50 [µs]", "timing", "distance to seed p50 [rad]", "distance to seed p95 [rad]",
+                  "best rate label", "best rate [%]", "not significantly worse", "not for tracking", "finalists",
+                  "call", "answer"]
+
+
+def plain_table(ans: pd.DataFrame) -> pd.DataFrame:
+    """The answer in plain words, one row per arm and start set (what the report opens with)."""
+    return pd.DataFrame({
+        "arm": ans["robot"], "starts": ans["problem set"], "method": ans["in words"], "library": ans["library"],
+        "success [%] (95 % CI)": [f"{s:.1f} ({lo:.1f}-{hi:.1f})" for s, lo, hi in
+                                  zip(ans["success [%]"], ans["success CI low [%]"], ans["success CI high [%]"])],
+        "median call [µs]": ans["call time p50 [µs]"].round(1),
+        "median distance to seed [rad]": ans["distance to seed p50 [rad]"].round(3),
+        "label": ans["recommendation"]})
 
 
 def key_labels(mt: pd.DataFrame, ans: pd.DataFrame, robot: str) -> list[str]:
-    """At most :data:`KEY_ROWS` labels of one robot: the recommendations, then the best (success, then
-    call time, on the cold set where it ran) of each group: closed form ours / peer, single search,
-    restarts, TRAC-IK, the Robotics Toolbox's LM (single and restarts), Pinocchio's CLIK."""
+    """At most :data:`KEY_ROWS` labels of one robot: the recommendations, then the best of each group
+    (closed form ours / peer, single search, restarts, TRAC-IK, the Robotics Toolbox's LM single and with
+    restarts, Pinocchio's CLIK) among the labels run on at least ``SMOKE_GOALS`` goals of a set (all of
+    a smaller set), by the lower end of the success interval, then the rate, on the cold set where it ran.
+    A group with no such label has no key row."""
     g = mt[mt["robot"] == robot]
-    big = g["problems"] >= MIN_SHARE * g.groupby("problem set")["problems"].transform("max")
-    order = g.assign(_cold=g["problem set"] != "cold", _few=~big).sort_values(
-        ["_cold", "_few", "success [%]", "call time p50 [µs]"], ascending=[True, True, False, True])
+    big = g["problems"] >= np.minimum(SMOKE_GOALS, g.groupby("problem set")["problems"].transform("max"))
+    order = g[big].assign(_cold=g["problem set"] != "cold").sort_values(
+        ["_cold", "success CI low [%]", "success [%]", "solver"], ascending=[True, False, False, True])
     picks = [x for x in ans.loc[ans["robot"] == robot, "recommendation"] if isinstance(x, str) and x]
     ours = order["library"] == "ours"
     groups = [order[ours & (order["kind"] == "analytic")], order[~ours & (order["kind"] == "analytic")],
@@ -286,12 +482,9 @@ def key_labels(mt: pd.DataFrame, ans: pd.DataFrame, robot: str) -> list[str]:
 
 
 def _refusals(study) -> pd.DataFrame:
-    from pipeline.robots import load_robot
     from pipeline.settings import refusals
 
-    robots_dir = Path(study.path).parent.parent / "robots"
-    names = sorted({r for ps in study.problem_sets for r in study.set_robots(ps)})
-    models = {r: load_robot(robots_dir / f"{r}.yaml") for r in names}
+    models = _models(study)
     rows = {}
     for (pset, robot, label), why in refusals(study, models).items():
         rows.setdefault((robot, label), {"robot": robot, "solver": label, "method": study.solvers[label].method,
@@ -310,12 +503,16 @@ def _robot_files(archives) -> dict:
     return {a.metadata["robot"]: a.metadata.get("robot_file", "") for a in archives}
 
 
-RULE = (f"Labels run on at least {MIN_SHARE:.0%} of a set's goals whose job (one per arm) got at least "
-        f"{MIN_CPU_SHARE:.0%} of a core compete; the best is the highest success rate; a label is not significantly worse when, on the "
+RULE = (f"Correctness from the archives, speed from a race. Labels run on at least {MIN_SHARE:.0%} of a set's goals "
+        f"compete; the best is the highest success rate; a label is not significantly worse when, on the "
         f"goals both ran, a one-sided exact McNemar test does not find it worse at the {ALPHA:.0%} level; "
-        f"intervals are Wilson 95 %; among those a "
-        f"closed form wins, then the fastest by median wall time of the whole call (a median of many short calls "
-        f"barely moves with machine load; starved jobs are flagged)."
+        f"intervals are Wilson 95 %. On a warm set (seeds near the answer) a label whose median distance to the seed "
+        f"is more than {TRACK_FACTOR:.0f}x the smallest among them is not recommended for tracking. Among those left a "
+        f"closed form wins; where more than one finalist is left they are raced per arm after its solve jobs: bound "
+        f"once, called on the same goals in one process, interleaved in shuffled order over several passes, each "
+        f"goal's fastest pass kept, ranked on the median of paired per-goal ratios; finalists within "
+        f"{TIE_RATIO:.2f}x of the fastest tie and a tie goes to our own library, then the label's name. Load is "
+        f"recorded beside every time and never withholds an answer."
         f" Success = pose within 0.1 mm and 1e-3 rad by an independent FK AND the returned angles "
         f"within the joint limits (revolute joints wrapped by 2 pi; 1e-6 rad tolerance for every method, "
         f"pipeline.solvers._kin.LIMIT_TOL).")
@@ -328,18 +525,126 @@ _KEY_COLUMNS = ["solver", "problem set", "library", "problems", "success [%]", "
                 "joint distance to start p50, successes [rad]", "position error p99, successes [mm]"]
 
 
+NEAREST_TOL = 1e-9  # [rad] a returned solution is the nearest when no admissible one is nearer by more than this
+
+
+def travel(q, q0, limits: np.ndarray, prismatic: np.ndarray, turns: bool) -> float:
+    """How far the joints move from ``q0`` to ``q`` (Euclidean norm of the per-joint moves [rad | length]).
+    ``turns``: each revolute joint may first take ``q``'s value moved by whole turns to the one within its
+    limits nearest ``q0`` (a solution row, whose representative is free); inf when some joint has none.
+    Otherwise the moves are ``q - q0`` as given (the angles a method returned are what the arm is sent)."""
+    d = np.asarray(q, float) - np.asarray(q0, float)
+    if not turns:
+        return float(np.sqrt((d * d).sum()))
+    lo, hi = limits[:, 0] - LIMIT_TOL, limits[:, 1] + LIMIT_TOL
+    w = (d + np.pi) % (2 * np.pi) - np.pi
+    best = np.full(len(d), np.inf)
+    for k in (0, -1, 1, -2, 2):
+        c = w + 2 * np.pi * k
+        fit = (np.asarray(q0) + c >= lo) & (np.asarray(q0) + c <= hi) & (np.abs(c) < np.abs(best))
+        best = np.where(fit, c, best)
+    best = np.where(prismatic, d, best)
+    return float(np.sqrt((best * best).sum()))
+
+
+def nearest_flags(df: pd.DataFrame, archives, warm: set, models: dict) -> np.ndarray:
+    """Per row of ``df`` (a :func:`runs_frame`): whether the returned angles are the solution nearest the
+    seed among the method's own solutions: no solution the method returned moves the joints less
+    (:func:`travel`: each solution row by whole turns to its representative within the limits nearest
+    the seed; the returned angles as they are). Only warm sets of methods that return several solutions
+    (the archive's ``/ik/solutions``) are checked; every other row is True. On a warm set a success
+    counts as the answer only when it holds: a tracking user is given the solution beside the seed."""
+    out = np.ones(len(df), dtype=bool)
+    by_path = {str(a.path): a for a in archives}
+    rows = np.flatnonzero(df["problem_set"].isin(warm).to_numpy())
+    for path, idx in pd.Series(rows, index=df["archive"].iloc[rows].to_numpy()).groupby(level=0):
+        a, model = by_path.get(path), models.get(df["robot"].iloc[idx.iloc[0]])
+        if a is None or model is None or _kind(a.metadata.get("method", "")) != "analytic":
+            continue
+        lim, prism = np.asarray(model.limits, float), np.asarray(model.chain.prismatic, bool)
+        for i in idx.to_numpy():
+            r = df.iloc[i]
+            sols = a.solutions(int(r["problem_id"]), int(r["repetition"]))
+            if not sols or len(sols) < 2 or not bool(r["success"]):
+                continue
+            near = min(travel(s, r["q_start"], lim, prism, True) for s in sols)
+            out[i] = travel(r["q_solution"], r["q_start"], lim, prism, False) <= near + NEAREST_TOL
+    return out
+
+
+def warm_sets(study) -> set:
+    """The study's problem sets whose starts are seeds near the answer (kind ``warm_start``)."""
+    return {k for k, v in study.problem_sets.items() if v.get("kind") == "warm_start"}
+
+
+def race_records(archives) -> tuple[pd.DataFrame, dict]:
+    """The timed calls of every race archive (``measurement: race``) as a frame (robot, problem_set,
+    solver, problem_id, pass, wall_ns, cpu_ns, success), and (robot, set) -> the race's set record."""
+    calls, sets = [], {}
+    for a in archives:
+        if a.metadata.get("measurement") != "race":
+            continue
+        robot = a.metadata.get("robot", "")
+        calls += [{**r, "robot": robot} for r in a.messages(RACE_TOPIC)]
+        for r in a.messages(RACE_SET_TOPIC):
+            sets[(robot, r["problem_set"])] = r
+    cols = ["robot", "problem_set", "solver", "problem_id", "pass", "wall_ns", "cpu_ns", "success"]
+    return pd.DataFrame(calls, columns=cols), sets
+
+
+def _models(study) -> dict:
+    from pipeline.robots import load_robot
+
+    robots_dir = Path(study.path).parent.parent / "robots"
+    names = sorted({r for ps in study.problem_sets for r in study.set_robots(ps)})
+    return {r: load_robot(robots_dir / f"{r}.yaml") for r in names}
+
+
+def _answers_only(df: pd.DataFrame, archives, study) -> pd.DataFrame:
+    """``df`` with a warm set's success kept only where the returned solution is the nearest to the seed
+    among the method's admissible solutions (:func:`nearest_flags`); ``not nearest`` counts the others."""
+    near = nearest_flags(df, archives, warm_sets(study), _models(study))
+    df = df.copy()
+    df["not nearest"] = df["success"].astype(bool) & ~near
+    df["success"] = df["success"].astype(bool) & near
+    return df
+
+
 def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     df = runs_frame(archives)
     refused = _refusals(study)
     if df.empty:
         return [TableSpec("answer", "Answer", pd.DataFrame(), "No solve records in the archives.")]
     meta = label_settings(archives)
+    df = _answers_only(df, archives, study)
     mt = method_table(df, meta, job_timing(archives))
-    ans = answers(mt, df, meta, _scale(archives), _robot_files(archives))
-    tables = [TableSpec("answer", "Which method for which arm (from the archives)", ans,
-                        f"Per robot and problem set, one recommendation. {RULE} The call column is the "
-                        f"pipeline.solvers.solve() call with the label's settings that differ from the registry's "
-                        f"defaults (T_goal: 4x4 pose in the robot file's unit; q_start: start angles).")]
+    calls, race_sets = race_records(archives)
+    race = race_summary(calls)
+    ans = answers(mt, df, meta, _scale(archives), _robot_files(archives), race, race_sets, warm_sets(study))
+    tables = [TableSpec("answer_plain", "Which method for which arm, in plain words", plain_table(ans),
+                        "One row per arm and start set (cold: any start within the limits; warm: a seed within 0.3 rad "
+                        "of the answer, as when tracking a path). Success: FK-verified within 0.1 mm and 1e-3 rad and "
+                        "within the joint limits, with its Wilson 95 % interval. Median call: wall time of the whole "
+                        "call [µs], from the arm's race where more than one finalist was left (one process, "
+                        "interleaved, each goal's fastest of several passes; the load average of the race is in the "
+                        "answer table's timing column), else from its solve job. Median distance to seed: wrapped "
+                        "joint distance [rad] of the successes. The answer table below says why each was chosen."),
+              TableSpec("answer", "Which method for which arm (from the archives)", ans,
+                        f"Per robot and problem set, one recommendation. {RULE} The call column is a complete "
+                        f"program: the robot loaded once, the solver bound once with the label's settings that "
+                        f"differ from the registry's defaults, then a loop over 1 000 goals (tests/test_answer_calls.py "
+                        f"runs every one in a fresh process).")]
+    for robot, g in race.groupby("robot", sort=False):
+        rec = [race_sets.get((robot, p), {}) for p in g["problem set"].unique()]
+        load = "; ".join(f"{r.get('problem_set')}: load {r.get('load_start')} -> {r.get('load_end')}, "
+                         f"race CPU share {r.get('cpu_share')}" for r in rec if r)
+        tables.append(TableSpec(
+            f"race_{robot}", f"{robot}: the race of the finalists (one process, interleaved)", g.drop(columns="robot"),
+            "Each finalist bound once and called on the same goals, round robin in a shuffled order per goal, "
+            "over several passes; a goal's time is its fastest pass [µs] (a preempted call is only slower), the "
+            "label's race time the median over goals; ratio to fastest = median of the paired per-goal ratios, "
+            f"with a distribution-free 95 % interval. Finalists within {TIE_RATIO:.2f}x tie. Load record: "
+            + (load or "not recorded") + "."))
     for robot, g in mt.groupby("robot", sort=False):
         keys = key_labels(mt, ans, robot)
         k = g[g["solver"].isin(keys)].copy()
@@ -366,7 +671,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             "percentile of the call time and the CPU time; the per-sample file has every solve's. CPU time = CPU "
             "time of the whole pipeline.solvers.solve() call (the calling thread's; TRAC-IK: the process's); call time = its wall time (peers: their whole library call "
             "inside it); CPU share = CPU / wall time summed over the label's solves; job CPU share = the same over "
-            "every single-threaded label of the arm's job (below 90 %: starved, nothing ranked; TRAC-IK idles "
+            "every single-threaded label of the arm's job (the load record: below 100 % the machine was busy; nothing is withheld for it; TRAC-IK idles "
             "while its two threads race, so its own share says nothing of the machine). "
             "Errors: 99th percentile over the successes. " + RULE))
     heat = mt.pivot_table(index="robot", columns=["problem set", "solver"], values="success [%]", sort=False)
@@ -386,8 +691,11 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     if df.empty:
         return []
     meta = label_settings(archives)
+    df = _answers_only(df, archives, study)
     mt = method_table(df, meta, job_timing(archives))
-    ans = answers(mt, df, meta, _scale(archives), _robot_files(archives))
+    calls, race_sets = race_records(archives)
+    ans = answers(mt, df, meta, _scale(archives), _robot_files(archives), race_summary(calls), race_sets,
+                  warm_sets(study))
     figs = []
     for pset, g in mt.groupby("problem set", sort=False):
         # labels as rows, robots as columns: 9 in wide (the report's text column at 1 400 px, shown 1:1), cell
