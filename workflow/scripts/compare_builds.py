@@ -1,6 +1,6 @@
 """Compare two builds of the same config (e.g. a local and a SLURM quick build): identical apart from timings.
 
-    python workflow/scripts/compare_builds.py RESULTS_A RESULTS_B [--tables-only | --verdicts]
+    python workflow/scripts/compare_builds.py RESULTS_A RESULTS_B [--tables-only | --verdicts | --answers]
 
 ``--tables-only`` leaves out step 2 (the archives): for builds written in different archive formats,
 which one reader cannot both read.
@@ -10,6 +10,11 @@ machine and one while a second build loads it): every study's claims table must 
 verdicts (ours and on the published numbers) row by row, and every time column of a table a claim
 reads must rank its rows the same (tables with a ``statistic`` column aside); the largest relative
 difference of each time column and each build's load record (``machine_load.csv``) are printed.
+
+``--answers`` compares the benchmark's answers (two builds, e.g. one quiet and one loaded): both answer
+tables side by side (arm, start set, the method each recommends, success, median call, distance to the
+seed) with each build's load record (every race's load average and CPU share, the solve jobs' CPU share);
+exit 1 when a row has no recommendation or the two builds recommend different labels.
 
 Checks, exit 1 on any difference:
 
@@ -220,8 +225,57 @@ def compare_verdicts(a: Path, b: Path) -> list[str]:
     return problems
 
 
+def compare_answers(a: Path, b: Path) -> list[str]:
+    """``--answers``: the two builds' answer tables side by side and their load records (module docstring)."""
+    import pandas as pd
+
+    from pipeline.io.archive import read_archive
+    from pipeline.studies.arm_benchmark import RACE_SET_TOPIC
+
+    t = {}
+    for label, root in (("A", a), ("B", b)):
+        ans = pd.read_csv(root / "arm_benchmark" / "tables" / "answer.csv", keep_default_na=False)
+        t[label] = ans.set_index(["robot", "problem set"])
+        races = []
+        for f in sorted((root / "arm_benchmark" / "race").glob("*.mcap")):
+            for r in read_archive(f).messages(RACE_SET_TOPIC):
+                if r.get("raced"):
+                    races.append((float(r["load_start"]), float(r["load_end"]), float(r["cpu_share"])))
+        load = pd.read_csv(root / "arm_benchmark" / "tables" / "machine_load.csv") \
+            if (root / "arm_benchmark" / "tables" / "machine_load.csv").is_file() else None
+        print(f"load record {label} ({root}): {len(races)} races, load average "
+              f"{min((x for r in races for x in r[:2]), default=float('nan')):.2f}-"
+              f"{max((x for r in races for x in r[:2]), default=float('nan')):.2f}, race CPU share "
+              f"{min((r[2] for r in races), default=float('nan')):.2f}-{max((r[2] for r in races), default=float('nan')):.2f}"
+              + ("" if load is None else f"; solve jobs: CPU share >= {load['job CPU share, smallest [-]'].min():.2f}, "
+                                         f"1-min load <= {load['1-min load average, largest [-]'].max():.2f}"))
+    rows, problems = [], []
+    for key in t["A"].index.union(t["B"].index, sort=False):
+        ra = t["A"].loc[key] if key in t["A"].index else None
+        rb = t["B"].loc[key] if key in t["B"].index else None
+        pick = [x["recommendation"] if x is not None else "" for x in (ra, rb)]
+        rows.append({"arm": key[0], "set": key[1], "A": pick[0], "B": pick[1],
+                     "A call [µs]": ra["call time p50 [µs]"] if ra is not None else "",
+                     "B call [µs]": rb["call time p50 [µs]"] if rb is not None else "",
+                     "A seed dist [rad]": ra["distance to seed p50 [rad]"] if ra is not None else "",
+                     "B seed dist [rad]": rb["distance to seed p50 [rad]"] if rb is not None else "",
+                     "same": pick[0] == pick[1] and bool(pick[0])})
+        if not all(pick):
+            problems.append(f"{key}: no recommendation in {'A' if not pick[0] else 'B'}")
+        elif pick[0] != pick[1]:
+            problems.append(f"{key}: {pick[0]} against {pick[1]}")
+    print(pd.DataFrame(rows).to_string(index=False, float_format=lambda x: f"{x:.3g}"))
+    return problems
+
+
 def main(argv: list[str]) -> int:
     a, b = (Path(x) for x in argv[1:3])
+    if "--answers" in argv[3:]:
+        problems = compare_answers(a, b)
+        for p in problems:
+            print("differs:", p)
+        print("same answers" if not problems else f"{len(problems)} differences")
+        return 1 if problems else 0
     if "--verdicts" in argv[3:]:
         problems = compare_verdicts(a, b)
         for p in problems:
