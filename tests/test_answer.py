@@ -167,7 +167,7 @@ def test_load_on_some_passes_does_not_move_the_race(hits, victim):
         lead = r["race time p50 [µs]"].min()
         return ab.pick_fastest(fin, dict(zip(r["solver"], lead * r["ratio to fastest p50"])))[0]
 
-    assert pick(quiet) == pick(busy) == "analytic"  # ik_geo within 1.10x of analytic: ours wins the tie
+    assert pick(quiet) == pick(busy) == "analytic"  # ik_geo within 1.15x of analytic: ours wins the tie
 
 
 def test_warm_sets_weigh_the_distance_to_the_seed():

@@ -384,6 +384,12 @@ def test_report_opens_with_the_answer(built):
     assert html.index("Which method for which arm, in plain words") < html.index('id="answer-ur5"')
     races = sorted((built / "arm_benchmark" / "race").glob("*.mcap"))
     assert len(races) == 13  # one race archive per arm, raced or not
+    race = pd.read_csv(built / "arm_benchmark" / "tables" / "race_ur5.csv")  # several closed forms on a UR arm
+    assert {"analytic", "analytic_ur"} <= set(race["solver"]) and (race["ratio to fastest p50"] >= 1).all()
+    ur5 = ans[ans["robot"] == "ur5"]
+    assert ur5["timing"].str.contains("raced against").all() and ur5["timing"].str.contains("load average").all()
+    panda = ans[ans["robot"] == "franka_panda"]  # one closed form among the best: no timing decides
+    assert (panda["recommendation"] == "analytic").all() and panda["timing"].str.contains("no timing decides").all()
     heat = pd.read_csv(built / "arm_benchmark" / "tables" / "heatmap.csv")
     assert len(heat) == 13
     for robot in ("ur5", "franka_panda"):

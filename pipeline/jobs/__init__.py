@@ -5,6 +5,7 @@ arguments and calls one function here).
 ``solve``      make_problems and the solve job: a problem set through one registered solver into one archive
 ``build``      tables, figures and new study files from archives and settings
 ``reproduce``  re-run an archive's solves and compare them with it (findings, never read errors)
+``race``       time one arm's finalists against each other in one process, interleaved (the answer's speed)
 ``replay``     re-run archived problems into a Foxglove-viewable MCAP
 ``verify``     recompute every table from its archives and check the results tree
 

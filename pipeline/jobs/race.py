@@ -62,7 +62,7 @@ def race_arm(study_path, robot_path, archive_paths: list, out, *, goals: int = G
     archives = [a for a in archives if a.solves and a.metadata.get("robot") == model.name]
     if not archives:
         raise UsageError(f"{robot_path}: no solve archive of robot {model.name!r} among the {len(archive_paths)} given")
-    df = runs_frame(archives)
+    df = ab.answer_frame(runs_frame(archives), archives, study)  # the tables' own frame: the same finalists
     meta = ab.label_settings(archives)
     mt = ab.method_table(df, meta, ab.job_timing(archives))
     succ = ab._ids(df)

@@ -266,7 +266,7 @@ def python_call(robot: str, method: str, settings: dict, robot_file: str = "", w
     ])
 
 
-TIE_RATIO = 1.10  # a finalist whose race time is within this factor of the fastest's ties with it
+TIE_RATIO = 1.15  # a finalist whose race time is within this factor of the fastest's ties with it (see RULE)
 TRACK_FACTOR = 2.0  # warm sets: a median distance to the seed above this times the smallest is not for tracking
 RACE_TOPIC = "/arm_benchmark/race"  # one JSON record per timed call (pipeline.jobs.race)
 RACE_SET_TOPIC = "/arm_benchmark/race_set"  # one JSON record per (robot, problem set): who raced, the load
@@ -600,7 +600,7 @@ def _models(study) -> dict:
     return {r: load_robot(robots_dir / f"{r}.yaml") for r in names}
 
 
-def _answers_only(df: pd.DataFrame, archives, study) -> pd.DataFrame:
+def answer_frame(df: pd.DataFrame, archives, study) -> pd.DataFrame:
     """``df`` with a warm set's success kept only where the returned solution is the nearest to the seed
     among the method's admissible solutions (:func:`nearest_flags`); ``not nearest`` counts the others."""
     near = nearest_flags(df, archives, warm_sets(study), _models(study))
@@ -616,7 +616,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     if df.empty:
         return [TableSpec("answer", "Answer", pd.DataFrame(), "No solve records in the archives.")]
     meta = label_settings(archives)
-    df = _answers_only(df, archives, study)
+    df = answer_frame(df, archives, study)
     mt = method_table(df, meta, job_timing(archives))
     calls, race_sets = race_records(archives)
     race = race_summary(calls)
@@ -635,16 +635,18 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                         f"differ from the registry's defaults, then a loop over 1 000 goals (tests/test_answer_calls.py "
                         f"runs every one in a fresh process).")]
     for robot, g in race.groupby("robot", sort=False):
-        rec = [race_sets.get((robot, p), {}) for p in g["problem set"].unique()]
-        load = "; ".join(f"{r.get('problem_set')}: load {r.get('load_start')} -> {r.get('load_end')}, "
-                         f"race CPU share {r.get('cpu_share')}" for r in rec if r)
+        g = g.drop(columns="robot").copy()
+        for col, key in (("load average, start [-]", "load_start"), ("load average, end [-]", "load_end"),
+                         ("race CPU share [-]", "cpu_share")):
+            g[col] = [float(race_sets.get((robot, p), {}).get(key, "nan")) for p in g["problem set"]]
         tables.append(TableSpec(
-            f"race_{robot}", f"{robot}: the race of the finalists (one process, interleaved)", g.drop(columns="robot"),
+            f"race_{robot}", f"{robot}: the race of the finalists (one process, interleaved)", g,
             "Each finalist bound once and called on the same goals, round robin in a shuffled order per goal, "
             "over several passes; a goal's time is its fastest pass [µs] (a preempted call is only slower), the "
             "label's race time the median over goals; ratio to fastest = median of the paired per-goal ratios, "
-            f"with a distribution-free 95 % interval. Finalists within {TIE_RATIO:.2f}x tie. Load record: "
-            + (load or "not recorded") + "."))
+            f"with a distribution-free 95 % interval. Finalists within {TIE_RATIO:.2f}x tie. The load record: the "
+            "1-minute load average when the set's race started and ended, and the race's CPU time over its wall "
+            "time (below 1: the machine was busy; the ratios are paired, so load lands on every label alike)."))
     for robot, g in mt.groupby("robot", sort=False):
         keys = key_labels(mt, ans, robot)
         k = g[g["solver"].isin(keys)].copy()
@@ -691,7 +693,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     if df.empty:
         return []
     meta = label_settings(archives)
-    df = _answers_only(df, archives, study)
+    df = answer_frame(df, archives, study)
     mt = method_table(df, meta, job_timing(archives))
     calls, race_sets = race_records(archives)
     ans = answers(mt, df, meta, _scale(archives), _robot_files(archives), race_summary(calls), race_sets,

@@ -270,22 +270,16 @@ def compare_answers(a: Path, b: Path) -> list[str]:
 
 def main(argv: list[str]) -> int:
     a, b = (Path(x) for x in argv[1:3])
-    if "--answers" in argv[3:]:
-        problems = compare_answers(a, b)
-        for p in problems:
-            print("differs:", p)
-        print("same answers" if not problems else f"{len(problems)} differences")
-        return 1 if problems else 0
-    if "--verdicts" in argv[3:]:
-        problems = compare_verdicts(a, b)
-        for p in problems:
-            print("differs:", p)
-        print("same verdicts" if not problems else f"{len(problems)} differences")
-        return 1 if problems else 0
-    problems = compare(a, b, archives="--tables-only" not in argv[3:])
+    flags = argv[3:]
+    if "--answers" in flags:
+        problems, same = compare_answers(a, b), "same answers"
+    elif "--verdicts" in flags:
+        problems, same = compare_verdicts(a, b), "same verdicts"
+    else:
+        problems, same = compare(a, b, archives="--tables-only" not in flags), "same apart from timings"
     for p in problems:
         print("differs:", p)
-    print("same apart from timings" if not problems else f"{len(problems)} differences")
+    print(same if not problems else f"{len(problems)} differences")
     return 1 if problems else 0
 
 
