@@ -669,23 +669,74 @@ def wrap_into_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray) -
     return q
 
 
+@numba.njit(cache=True)
+def nearest_rep(x, ref, limits, prismatic, tol, out):
+    """``x`` (n,) moved joint by joint by whole turns to the value within the limits (up to ``tol``)
+    nearest ``ref`` (n,), into ``out``; returns the joint travel from ``ref`` (Euclidean norm of the
+    moves), inf when a joint fits no turn or a value is not finite. Prismatic joints keep their value;
+    an unbounded revolute joint takes the turn nearest ``ref``."""
+    two_pi = 2.0 * math.pi
+    acc = 0.0
+    for j in range(x.shape[0]):
+        if prismatic[j]:
+            c = x[j] - ref[j]
+        else:
+            w = x[j] - ref[j]
+            w = w - two_pi * math.floor((w + math.pi) / two_pi)
+            c = math.inf
+            for k in (0, -1, 1, -2, 2):
+                y = w + two_pi * k
+                if limits[j, 0] - tol <= ref[j] + y <= limits[j, 1] + tol and abs(y) < abs(c):
+                    c = y
+        out[j] = ref[j] + c
+        acc += c * c
+    return math.sqrt(acc) if math.isfinite(acc) else math.inf
+
+
+@numba.njit(cache=True)
+def nearest_of(q, S, ref, limits, prismatic, tol, out, d):
+    """:func:`nearest_rep` of ``q`` (n,) and of every row of ``S`` (m, n): ``d`` (m + 1,) their travels
+    (``q`` first); the representative of the least travel into ``out``. Returns its index (0: ``q``,
+    1 + i: row i of ``S``), -1 when none fits the limits."""
+    best = -1
+    bd = math.inf
+    for i in range(S.shape[0] + 1):
+        d[i] = nearest_rep(q if i == 0 else S[i - 1], ref, limits, prismatic, tol, out)
+        if d[i] < bd:
+            bd = d[i]
+            best = i
+    if best >= 0:
+        nearest_rep(q if best == 0 else S[best - 1], ref, limits, prismatic, tol, out)
+    return best
+
+
 def _within_limit_choice(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings,
                          q_start: np.ndarray | None) -> np.ndarray:
-    """The returned angles under ``require_limits``: wrapped into the limits; for an analytic method
-    whose chosen solution is outside them, the FK-valid solution within them nearest the start."""
-    q = wrap_into_limits(raw.q, prep.limits, prep.prismatic)
-    if raw.solutions is None or within_limits(q, prep.limits, prep.prismatic) or len(raw.solutions) == 0:
-        return q
-    ref = q if q_start is None else np.asarray(q_start, dtype=float)
-    best, best_d = None, math.inf
-    for cand in np.asarray(raw.solutions, dtype=float):
-        c = wrap_into_limits(cand, prep.limits, prep.prismatic)
-        if not within_limits(c, prep.limits, prep.prismatic) or not check(prep, T_goal, c, settings)[0]:
+    """The returned angles under ``require_limits``: wrapped into the limits; for an analytic method, the
+    solution that moves the joints least from the start (each one, the method's first choice among them,
+    moved by whole turns to its value within the limits nearest the start, :func:`nearest_of`). The first
+    choice is judged beside the method's other solutions: a joint whose limits are narrower than a turn
+    may put the solution nearest by wrapped angles on the far side of the joint's range (a UR3 elbow at
+    +3.13 rad for a seed at -2.88), where a neighbouring solution lies within 0.5 rad. Another solution
+    than the first is taken only if it passes the independent FK check (the first is checked by
+    :func:`finish` as every result is); if it does not, the next nearest that does."""
+    if raw.solutions is None or len(raw.solutions) == 0 or q_start is None:
+        return wrap_into_limits(raw.q, prep.limits, prep.prismatic)
+    S = np.ascontiguousarray(raw.solutions, dtype=float).reshape(len(raw.solutions), -1)
+    ref = np.ascontiguousarray(q_start, dtype=float)
+    lim, prism = prep.memo("limit_arrays", lambda: (np.ascontiguousarray(prep.limits, dtype=float),
+                                                    np.ascontiguousarray(prep.prismatic, dtype=np.bool_)))
+    out, d = np.empty(ref.shape[0]), np.empty(len(S) + 1)
+    best = nearest_of(np.ascontiguousarray(raw.q, dtype=float), S, ref, lim, prism, LIMIT_TOL, out, d)
+    if best == 0 or (best > 0 and check(prep, T_goal, out, settings)[0]):
+        return out
+    for i in np.argsort(d, kind="stable"):  # (rare) the nearest other solution failed the check
+        if i == best or not np.isfinite(d[i]):
             continue
-        dist = float(np.abs(c - ref).sum())
-        if dist < best_d:
-            best, best_d = c, dist
-    return q if best is None else best
+        nearest_rep(np.asarray(raw.q if i == 0 else S[i - 1], dtype=float), ref, lim, prism, LIMIT_TOL, out)
+        if i == 0 or check(prep, T_goal, out, settings)[0]:
+            return out
+    return wrap_into_limits(raw.q, prep.limits, prep.prismatic)
 
 
 def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, call_ns: int = 0,
