@@ -140,7 +140,8 @@ class Settings:
                             minimum=1.0)
     require_limits: bool = setting(False, "a success must also lie within the robot file's joint limits "
                                    "(revolute joints wrapped by 2 pi first, and returned wrapped; an analytic "
-                                   "method returns the nearest solution within the limits)")
+                                   "method returns the solution that moves the joints least from the start, "
+                                   "each by whole turns to its value within the limits nearest the start)")
     restarts: int = setting(0, "random restarts after a failed search (iterative methods): each restart starts "
                             "uniformly within the joint limits (+-pi for unbounded revolute joints) and the "
                             "first success ends the call; iterations and solve time add up over the searches",
