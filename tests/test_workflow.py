@@ -6,8 +6,8 @@ import json
 import os
 import re
 import subprocess
-from pathlib import Path
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest

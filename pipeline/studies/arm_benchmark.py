@@ -39,6 +39,7 @@ The rule (written once, here, and quoted in the tables' notes as :data:`RULE`)
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from pathlib import Path
@@ -47,7 +48,6 @@ import numpy as np
 import pandas as pd
 
 from pipeline.studies import FigureSpec, TableSpec
-from pipeline.solvers._kin import LIMIT_TOL
 from pipeline.studies.generic import joint_distance, runs_frame
 
 MIN_SHARE = 0.1  # labels run on at least this share of a set's goals compete for the answer
@@ -533,18 +533,14 @@ def travel(q, q0, limits: np.ndarray, prismatic: np.ndarray, turns: bool) -> flo
     ``turns``: each revolute joint may first take ``q``'s value moved by whole turns to the one within its
     limits nearest ``q0`` (a solution row, whose representative is free); inf when some joint has none.
     Otherwise the moves are ``q - q0`` as given (the angles a method returned are what the arm is sent)."""
-    d = np.asarray(q, float) - np.asarray(q0, float)
+    from pipeline.solvers.base import LIMIT_TOL, nearest_rep
+
+    q, q0 = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(q0, dtype=float)
     if not turns:
+        d = q - q0
         return float(np.sqrt((d * d).sum()))
-    lo, hi = limits[:, 0] - LIMIT_TOL, limits[:, 1] + LIMIT_TOL
-    w = (d + np.pi) % (2 * np.pi) - np.pi
-    best = np.full(len(d), np.inf)
-    for k in (0, -1, 1, -2, 2):
-        c = w + 2 * np.pi * k
-        fit = (np.asarray(q0) + c >= lo) & (np.asarray(q0) + c <= hi) & (np.abs(c) < np.abs(best))
-        best = np.where(fit, c, best)
-    best = np.where(prismatic, d, best)
-    return float(np.sqrt((best * best).sum()))
+    return float(nearest_rep(q, q0, np.ascontiguousarray(limits, dtype=float),
+                             np.ascontiguousarray(prismatic, dtype=np.bool_), LIMIT_TOL, np.empty_like(q)))
 
 
 def nearest_flags(df: pd.DataFrame, archives, warm: set, models: dict) -> np.ndarray:
@@ -593,11 +589,16 @@ def race_records(archives) -> tuple[pd.DataFrame, dict]:
 
 
 def _models(study) -> dict:
+    """The study's robots, loaded once per process (the refusals and the nearest-solution check share them)."""
+    return _models_at(str(Path(study.path).parent.parent / "robots"),
+                      tuple(sorted({r for ps in study.problem_sets for r in study.set_robots(ps)})))
+
+
+@functools.lru_cache(maxsize=4)
+def _models_at(robots_dir: str, names: tuple) -> dict:
     from pipeline.robots import load_robot
 
-    robots_dir = Path(study.path).parent.parent / "robots"
-    names = sorted({r for ps in study.problem_sets for r in study.set_robots(ps)})
-    return {r: load_robot(robots_dir / f"{r}.yaml") for r in names}
+    return {r: load_robot(Path(robots_dir) / f"{r}.yaml") for r in names}
 
 
 def answer_frame(df: pd.DataFrame, archives, study) -> pd.DataFrame:
