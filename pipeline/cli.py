@@ -34,6 +34,8 @@ from pathlib import Path
 
 from pipeline.errors import UsageError as CLIError  # noqa: E402  (the one usage error, printed as ``error: ...``)
 
+MAX_THREADS = 64  # --threads of solve_problems
+
 
 def _load_config(args) -> dict:
     """The run config file with ``--set KEY=VALUE`` overrides (values parsed as YAML); each source is
@@ -72,6 +74,9 @@ def cmd_make_problems(args) -> None:
 def cmd_solve_problems(args) -> None:
     from pipeline.jobs.solve import solve_problems
 
+    if args.limit < 0 or not 1 <= args.threads <= MAX_THREADS:
+        raise CLIError(f"--limit: at least 0 (0 = every problem), got {args.limit}; --threads: 1 to {MAX_THREADS}, "
+                       f"got {args.threads}")
     solve_problems(args.study, args.problem_set, args.problems, args.solver, args.robot, args.scale, args.out,
                    limit=args.limit, threads=args.threads)
 
@@ -99,8 +104,10 @@ def cmd_solvers(args) -> None:
 def cmd_race(args) -> None:
     from pipeline.jobs.race import race_arm
 
-    if args.goals < 1 or args.min_passes < 1 or args.max_passes < args.min_passes or not args.budget > 0:
-        raise CLIError("--goals, --min-passes: at least 1; --max-passes: at least --min-passes; --budget: above 0 s")
+    if (not 1 <= args.goals <= 100_000 or args.min_passes < 1 or not args.min_passes <= args.max_passes <= 1000
+            or not 0 < args.budget <= 3600):
+        raise CLIError("--goals: 1 to 100000; --min-passes: at least 1; --max-passes: --min-passes to 1000; "
+                       "--budget: above 0 s, at most 3600 s")
     print(race_arm(args.study, args.robot, args.archives, args.out, goals=args.goals,
                    passes=(args.min_passes, args.max_passes), budget_s=args.budget))
 
@@ -207,6 +214,15 @@ def cmd_replay(args) -> None:
           f"topics {', '.join(s.topics)}")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a usage error on one line (``error: <prog>: <message> (see <prog> --help)``), like
+    every other error of the verbs; the usage text stays in ``--help``."""
+
+    def error(self, message):
+        sys.stderr.write(f"error: {self.prog}: {message} (see {self.prog} --help)\n")
+        raise SystemExit(2)
+
+
 class _VerbHelp(argparse.HelpFormatter):
     """Help that lists each verb on one line (without argparse's extra ``VERB`` header line)."""
 
@@ -218,7 +234,7 @@ class _VerbHelp(argparse.HelpFormatter):
 
 def build_parser() -> argparse.ArgumentParser:
     # the verbs are listed once, by the subparsers (one line each); the description is the first line
-    ap = argparse.ArgumentParser(
+    ap = _Parser(
         prog="python -m pipeline", description=__doc__.splitlines()[0].replace("``", "")
         + " Each verb is also a Snakemake rule of the same name; `python -m pipeline VERB --help` for its options.",
         formatter_class=lambda prog: _VerbHelp(prog, max_help_position=34, width=140))
@@ -358,8 +374,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", choices=["auto", "iterations", "solutions"], default="auto",
                    help="per-iteration frames, or one frame per problem (default: solutions for a chained path "
                         "under --all, else iterations)")
-    p.add_argument("--max-frames", type=int, default=200, help="at most this many iteration frames per problem")
-    p.add_argument("--dt", type=float, default=0.05, help="seconds between frames (log times)")
+    p.add_argument("--max-frames", type=int, default=200, help="at most this many iteration frames per problem (2 to 100000)")
+    p.add_argument("--dt", type=float, default=0.05, help="seconds between frames (log times; 1e-6 to 3600)")
     p.set_defaults(func=cmd_replay)
 
     p = sub.add_parser("import_urdf", aliases=["import-urdf"],
@@ -395,7 +411,23 @@ def build_parser() -> argparse.ArgumentParser:
     # study packages may add their own verbs (a module-level ``register_cli(subparsers)``)
     for mod in _study_cli_modules():
         mod.register_cli(sub)
+    _add_force_flags(sub)
     return ap
+
+
+def _add_force_flags(sub) -> None:
+    """``--force`` on every verb that writes a named file (``--out``, ``-o``, ``--csv``, ``--write-robot``):
+    without it an existing file is not overwritten (:func:`pipeline.io.outputs.check_outputs`)."""
+    seen = set()
+    for p in sub.choices.values():
+        if id(p) in seen:
+            continue
+        seen.add(id(p))
+        dests = {a.dest for a in p._actions}
+        if "force" not in dests and dests & {"out", "csv", "write_robot"}:
+            p.add_argument("--force", action="store_true",
+                           help="overwrite an existing output file (never a file this command reads, nor an archive "
+                                "or problem set of a results tree)")
 
 
 def _study_cli_modules() -> list:
@@ -444,6 +476,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)  # first: `--help` and usage errors need no heavy import
 
     from pipeline.io.archive import ArchiveError
+    from pipeline.io.outputs import check_outputs
     from pipeline.io.problems import ProblemFileError
     from pipeline.provenance import DamagedFileError
     from pipeline.robots import RobotFileError
@@ -453,6 +486,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         _check_yaml_arguments(args)
+        check_outputs(vars(args), force=bool(getattr(args, "force", False)))
         args.func(args)
     except (CLIError, ArchiveError, ProblemFileError, RobotFileError, ConfigError, SettingsError,
             NotApplicableError, YAMLInputError, DamagedFileError) as exc:

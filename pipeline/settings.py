@@ -353,6 +353,9 @@ def _check_applicable(study: Study, models: dict) -> Study:
     unless the study skips such jobs (``skip_inapplicable``): then they are recorded in ``refused``."""
     from dataclasses import replace
 
+    for pset, robot, label in study.jobs():
+        study.solvers[label].settings.check_robot(models[robot].n,
+                                                  f"{study.path}: solvers/{label} on robot '{robot}'")
     refused = refusals(study, models)
     if refused and not study.skip_inapplicable:
         (pset, robot, label), why = next(iter(refused.items()))

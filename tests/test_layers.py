@@ -13,7 +13,7 @@ PKG = Path(__file__).resolve().parent.parent / "pipeline"
 
 # (layer, module-name prefixes); the longest matching prefix decides
 LAYERS = [
-    (0, ["pipeline", "pipeline.provenance", "pipeline.yamlio", "pipeline.errors", "pipeline.catalogue",
+    (0, ["pipeline", "pipeline.provenance", "pipeline.yamlio", "pipeline.errors", "pipeline.names", "pipeline.catalogue",
          "pipeline.kinematics"]),
     (1, ["pipeline.robots", "pipeline.urdf", "pipeline.problems"]),
     (2, ["pipeline.io"]),

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from pipeline.errors import UsageError
 from pipeline.io.layout import SAMPLES_FILE
+from pipeline.names import check_name, check_path
 
 STUDY = "arm_benchmark"
 
@@ -30,12 +31,15 @@ def prepare_arm_data(robot, data: Path, out: Path) -> str:
         model = load_robot(robot)
     except RobotFileError as exc:
         raise UsageError(str(exc)) from None
-    text = answer_study_text(data, f"# written by `python -m pipeline benchmark_arm {robot}`: {{src}} with robots: "
-                                   f"[{model.name}]\n", robots=[model.name])
+    check_name(model.name, f"{robot}: field 'name'")
+    text = answer_study_text(data, lambda src: f"# written by `python -m pipeline benchmark_arm {robot.name}`: {src} with "
+                                               f"robots: [{model.name}]\n", robots=[model.name])
     (out / "studies").mkdir(parents=True, exist_ok=True)
     (out / "robots").mkdir(parents=True, exist_ok=True)
     (out / "studies" / f"{STUDY}.yaml").write_text(text, encoding="utf-8")
-    shutil.copyfile(robot, out / "robots" / f"{model.name}.yaml")
+    copy = out / "robots" / f"{model.name}.yaml"
+    if not (copy.exists() and copy.samefile(robot)):  # re-running on the copy a first run wrote
+        shutil.copyfile(robot, copy)
     urdf_dir = robot.resolve().parent / "urdf"
     if urdf_dir.is_dir():  # URDF-form robot files name their URDF relative to the robots folder
         shutil.copytree(urdf_dir, out / "robots" / "urdf", dirs_exist_ok=True)
@@ -56,10 +60,15 @@ def benchmark_arm(robot, *, scale: str = "full", cores: int = 2, results=None, d
     root = Path(__file__).resolve().parents[2]  # the checkout: Snakefile, workflow/
     if not (root / "Snakefile").is_file():
         raise UsageError(f"{root}: no Snakefile here (benchmark_arm runs the workflow of a source checkout)")
-    name = robot.stem
-    results = Path(results or f"results/arm_{name}").resolve()
+    if results is None:
+        check_name(robot.stem, f"{robot}: the file name")
+    results = Path(results or f"results/arm_{robot.stem}").resolve()
+    data = Path(data).resolve()
+    # both folders reach the rules' shell commands through Snakemake's config: no shell text in them
+    check_path(results, "--results (resolved)")
+    check_path(data, "--data (resolved)")
     data_out = results / "data"
-    name = prepare_arm_data(robot, Path(data).resolve(), data_out)
+    name = prepare_arm_data(robot, data, data_out)
     cmd = [sys.executable, "-m", "snakemake", "--cores", str(cores), "--config", f"studies=[{STUDY}]", f"scale={scale}",
            f"data_dir={data_out}", f"results_dir={results}"]
     if dry_run:

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from pipeline.errors import UsageError
+from pipeline.names import check_name
 
 
 def new_study(id: str, robots: list[str], solvers: list[str] | None = None, *, count: int = 500, spread: float = 0.3,
@@ -18,8 +19,9 @@ def new_study(id: str, robots: list[str], solvers: list[str] | None = None, *, c
     from pipeline.settings import ConfigError, load_study
     from pipeline.solvers import NotApplicableError, get, make_settings, names, prepare
 
-    if not id.replace("_", "a").isalnum() or not id.islower() or "__" in id:
-        raise UsageError(f"study id {id!r}: use lowercase letters, digits and single underscores")
+    check_name(id, "study id")
+    for r in robots:
+        check_name(r, "robot id")
     out = Path(data) / "studies" / f"{id}.yaml"
     if out.exists() and not force:
         raise UsageError(f"{out}: exists (use --force to overwrite)")
@@ -70,9 +72,10 @@ def new_study(id: str, robots: list[str], solvers: list[str] | None = None, *, c
 
 
 
-def answer_study_text(data: Path, header: str, **fields) -> str:
+def answer_study_text(data: Path, header, **fields) -> str:
     """``<data>/studies/arm_benchmark.yaml`` (the answer's protocol: problem sets, labels,
-    interpretations) with ``fields`` replaced, as YAML under ``header`` (comment lines)."""
+    interpretations) with ``fields`` replaced, as YAML under ``header(src)`` (comment lines; ``src`` is
+    the protocol file's path). ``header`` is a function, so that no user text goes through ``str.format``."""
     import yaml
 
     src = data / "studies" / "arm_benchmark.yaml"
@@ -80,7 +83,7 @@ def answer_study_text(data: Path, header: str, **fields) -> str:
         raise UsageError(f"{src}: no such study file (the answer's protocol is read from it; --data names the folder)")
     doc = yaml.safe_load(src.read_text(encoding="utf-8"))
     doc.update(fields)
-    return header.format(src=src) + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=120)
+    return header(str(src).encode("unicode_escape").decode()) + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=120)
 
 
 def _answer_protocol(id: str, robots: list[str], data: Path, out: Path, title: str) -> str:
@@ -91,8 +94,9 @@ def _answer_protocol(id: str, robots: list[str], data: Path, out: Path, title: s
     for r in robots:
         load_robot(data / "robots" / f"{r}.yaml")
     text = answer_study_text(
-        data, f"# Written by `python -m pipeline new_study {id} --protocol answer`: {{src}} (problem sets, labels,\n"
-              f"# interpretations) on robots {robots}; tables and figures as arm_benchmark's (tables_from).\n",
+        data, lambda src: f"# Written by `python -m pipeline new_study {id} --protocol answer`: {src} (problem sets, "
+                          f"labels,\n# interpretations) on robots {robots}; tables and figures as arm_benchmark's "
+                          "(tables_from).\n",
         study=id, robots=list(robots), tables_from="arm_benchmark",
         title=title or f"Which IK method for {', '.join(robots)}: the answer's protocol")
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -48,6 +48,10 @@ import numpy as np
 from pipeline.io.archive import AtomicMcap
 
 TOL = 1e-9  # re-run vs archived q_solution [rad | robot length unit]
+# seconds between frames: from 1 us (log times are whole nanoseconds) to one hour, so that every frame's
+# log time fits MCAP's unsigned 64-bit nanoseconds (MAX_FRAMES x problems x 3600 s stays far below 584 years)
+DT_RANGE = (1e-6, 3600.0)
+MAX_FRAMES = 100_000  # iterate frames per problem at most (--max-frames)
 FRAME_SCHEMA = {
     "title": "ik_pipeline.ReplayFrame",
     "description": "one replay frame: which problem and iterate the arm shows, and its errors",
@@ -237,10 +241,11 @@ def replay(archive: str | Path, out: str | Path, *, problem: int | None = None, 
 
     if frames not in ("auto", "iterations", "solutions"):
         raise ReplayError(f"frames: {frames!r} is not one of auto, iterations, solutions")
-    if max_frames < 2:
-        raise ReplayError(f"max_frames: must be >= 2, got {max_frames}")
-    if not (dt > 0 and math.isfinite(dt)):
-        raise ReplayError(f"dt: must be a positive number of seconds, got {dt}")
+    if not 2 <= max_frames <= MAX_FRAMES:
+        raise ReplayError(f"max_frames: must lie in [2, {MAX_FRAMES}], got {max_frames}")
+    if not (DT_RANGE[0] <= dt <= DT_RANGE[1]):  # log times are whole nanoseconds in an unsigned 64-bit field
+        raise ReplayError(f"dt: must lie in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s (frame log times are nanoseconds), "
+                          f"got {dt}")
     arch = read_archive(archive, problems=problems)
     meta = arch.metadata
     method, settings = settings_from_archive(meta, str(arch.path))

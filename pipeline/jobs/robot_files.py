@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from pipeline.errors import UsageError
+from pipeline.names import check_name
 
 
 def _write_checked(out: Path, text: str, check) -> None:
@@ -36,6 +37,7 @@ def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, leng
 
     out = Path(out)
     name = name or out.stem
+    check_name(name, "--name" if name != out.stem else f"--out {out}: the robot's name (the file name)")
     if name != out.stem:
         raise UsageError(f"--name {name!r}: a robot file's name must equal its file name; use --out "
                        f"{out.with_name(name + (out.suffix or '.yaml'))}")

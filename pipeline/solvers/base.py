@@ -198,6 +198,10 @@ class Settings:
     def check(self, where: str) -> None:
         """Cross-field rules of a method (override; raise :class:`SettingsError`)."""
 
+    def check_robot(self, n_joints: int, where: str) -> None:
+        """Rules that need the robot (a list of one value per joint, say): override; raise
+        :class:`SettingsError`. ``check_inputs`` calls it for every (robot, solver) job of a study."""
+
     def as_dict(self) -> dict:
         return asdict(self)
 

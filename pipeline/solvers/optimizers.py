@@ -410,6 +410,11 @@ class LBFGSBSettings(CostSettings):
         except ValueError as exc:
             raise SettingsError(f"{where}: field 'bounds': {exc}") from None
 
+    def check_robot(self, n_joints: int, where: str) -> None:
+        b = parse_bounds(self.bounds)
+        if isinstance(b, list) and len(b) != n_joints:
+            raise SettingsError(f"{where}: field 'bounds': {len(b)} pairs for a robot with {n_joints} joints")
+
 
 @dataclass(frozen=True)
 class NelderMeadSettings(CostSettings):
