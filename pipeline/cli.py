@@ -134,7 +134,7 @@ def cmd_import_urdf(args) -> None:
             raise CLIError(f"--xacro-arg {item!r}: expected NAME:=VALUE")
         xargs[key] = value
     print(import_urdf(args.urdf, args.base, args.tip, args.out, name=args.name, length_unit=args.length_unit,
-                      xacro_args=xargs))
+                      xacro_args=xargs, xacro_paths=args.xacro_path or []))
 
 
 def cmd_benchmark_arm(args) -> None:
@@ -382,7 +382,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="write a robot file (general joint form) from a URDF chain")
     p.add_argument("urdf", help="the URDF file, or a xacro file (*.xacro or xmlns:xacro: expanded with the xacro "
                    "package first)")
-    p.add_argument("--xacro-arg", action="append", metavar="NAME:=VALUE", help="a xacro argument (repeatable)")
+    p.add_argument("--xacro-arg", action="append", metavar="NAME:=VALUE", help="a xacro argument (repeatable); "
+                   "also the only value $(env NAME) / $(optenv NAME) may take (a xacro file may not read the "
+                   "environment)")
+    p.add_argument("--xacro-path", action="append", metavar="DIR", help="a folder, besides the xacro file's own, "
+                   "that it may include or load YAML from (repeatable)")
     p.add_argument("--base", required=True, help="base link of the chain")
     p.add_argument("--tip", required=True, help="tip link of the chain (below --base)")
     p.add_argument("--out", required=True, help="robot file to write, data/robots/<name>.yaml")

@@ -118,53 +118,83 @@ def _raw_origins(root) -> dict:
 
 
 def is_xacro(path: Path) -> bool:
-    """A xacro file: named ``*.xacro`` or using the xacro namespace (``xmlns:xacro``)."""
+    """A xacro file: named ``*.xacro`` or using the xacro namespace (``xmlns:xacro``). Only a regular file
+    is opened to look (a FIFO would block)."""
+    import os
+    import stat
+
     if str(path).endswith(".xacro"):
         return True
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return False
         with open(path, "rb") as fh:
             return b"xmlns:xacro" in fh.read(65536)
-    except OSError:
+    except (OSError, ValueError):
         return False
 
 
-def expand_xacro(path: Path, args: dict | None = None) -> str:
-    """The URDF text of a xacro file (the ``xacro`` package: macros, properties, ``$(arg ...)`` with
-    ``args``). ``$(find pkg)`` needs a ROS package path and is refused with one line naming the file."""
-    import contextlib
-    import io
+def expand_xacro(path: Path, args: dict | None = None, xacro_paths=(), *, time_limit: float | None = None,
+                 memory_mib: int | None = None) -> str:
+    """The URDF text of a xacro file, expanded in a separate, limited process (:mod:`pipeline.xacro_sandbox`):
+    macros, properties, includes, ``xacro.load_yaml``, ``$(arg ...)`` with ``args``; expressions through
+    :mod:`pipeline.safe_expr` (arithmetic, never code); files read only from the file's own folder and
+    ``xacro_paths``; ``$(env X)``/``$(optenv X)`` only from ``args``; no ROS substitutions (``$(find
+    pkg)``). Any failure or refusal is one line naming the file (:class:`URDFImportError`)."""
+    import os
 
-    import xacro
+    from pipeline import xacro_sandbox
 
-    err = io.StringIO()
+    for d in xacro_paths or ():
+        if not os.path.isdir(d):
+            raise _fail(path, f"--xacro-path {d}: no such folder")
     try:
-        with contextlib.redirect_stderr(err):
-            doc = xacro.process_file(str(path), mappings={str(k): str(v) for k, v in (args or {}).items()})
-    except Exception as exc:  # noqa: BLE001  xacro raises its own XacroException, and KeyError/OSError
-        msg = (str(exc) or type(exc).__name__).splitlines()[0]
-        if "find" in msg or "package" in msg.lower():
-            msg += " (a $(find pkg) include needs that ROS package; expand the file with ROS's xacro first)"
-        raise _fail(path, f"xacro cannot expand the file ({msg})") from None
-    return doc.toprettyxml(indent="  ")
+        return xacro_sandbox.expand(path, args, tuple(xacro_paths or ()),
+                                    time_limit=xacro_sandbox.TIME_LIMIT_S if time_limit is None else time_limit,
+                                    memory_mib=xacro_sandbox.MEMORY_MIB if memory_mib is None else memory_mib)
+    except xacro_sandbox.SandboxError as exc:
+        raise _fail(path, str(exc)) from None
 
 
-def _load(path: Path, xacro_args: dict | None = None):
-    """Parse the URDF (lxml for the XML check and the written origins, yourdfpy for the model); a xacro
-    file is expanded first (:func:`expand_xacro`)."""
-    import tempfile
+def _parse_expanded(path: Path, text: str):
+    """The URDF text a xacro file expanded to, parsed from memory; messages name the user's file."""
+    import io
 
     from lxml import etree
     import yourdfpy
 
+    shown = f"{path} (expanded by xacro)"
+    data = text.encode("utf-8")
+    parser = etree.XMLParser(remove_blank_text=True, resolve_entities=False, no_network=True, load_dtd=False)
+    try:
+        root = etree.fromstring(data, parser)
+    except etree.XMLSyntaxError as exc:
+        raise _fail(shown, f"not valid XML ({str(exc).splitlines()[0]})") from None
+    if root.tag != "robot":
+        raise _fail(shown, f"not a URDF (root element <{root.tag}>, expected <robot>)")
+    _check_elements(root, shown)
+    try:
+        urdf = yourdfpy.URDF.load(io.BytesIO(data), build_scene_graph=False, build_collision_scene_graph=False,
+                                  load_meshes=False, load_collision_meshes=False, mesh_dir=str(Path(path).parent))
+    except Exception as exc:  # noqa: BLE001  the library raises many kinds; one line names the file
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise _fail(shown, f"yourdfpy cannot parse the URDF ({msg})") from None
+    return urdf.robot, _raw_origins(root)
+
+
+def _load(path: Path, xacro_args: dict | None = None, xacro_paths=()):
+    """Parse the URDF (lxml for the XML check and the written origins, yourdfpy for the model); a xacro
+    file is expanded first (:func:`expand_xacro`) and its text parsed from memory."""
+    from lxml import etree
+    import yourdfpy
+
+    from pipeline.errors import not_regular
+
+    why = not_regular(path)
+    if why:  # a FIFO would block the read
+        raise _fail(path, why)
     if is_xacro(path) and Path(path).is_file():
-        text = expand_xacro(path, xacro_args)
-        with tempfile.TemporaryDirectory() as tmp:
-            expanded = Path(tmp) / (Path(path).name.removesuffix(".xacro") or "robot.urdf")
-            expanded.write_text(text, encoding="utf-8")
-            try:
-                return _load(expanded)
-            except URDFImportError as exc:  # name the user's file, not the temporary one
-                raise URDFImportError(str(exc).replace(str(expanded), f"{path} (expanded by xacro)")) from None
+        return _parse_expanded(path, expand_xacro(path, xacro_args, xacro_paths))
     try:
         root = etree.parse(str(path), etree.XMLParser(remove_blank_text=True)).getroot()
     except OSError as exc:
@@ -292,7 +322,7 @@ def _chain_joints(robot, path: Path, base_link: str, tip_link: str) -> list:
 
 
 def import_urdf(path, base_link: str, tip_link: str, name: str | None = None, length_unit: str = "m",
-                xacro_args: dict | None = None) -> dict:
+                xacro_args: dict | None = None, xacro_paths=()) -> dict:
     """A robot-file document (general form) for the URDF chain from ``base_link`` to ``tip_link``.
 
     Parameters
@@ -302,6 +332,8 @@ def import_urdf(path, base_link: str, tip_link: str, name: str | None = None, le
     name : str, optional          robot name (= the robot file's stem); default the URDF's robot name
     length_unit : {"m", "cm", "mm"}
         The document's unit: translations and prismatic limits are converted from metres.
+    xacro_args : dict, optional   a xacro file's ``$(arg NAME)`` values (also its only ``$(env NAME)`` values)
+    xacro_paths : folders         folders besides the xacro file's own that it may include or load YAML from
 
     Returns
     -------
@@ -318,7 +350,7 @@ def import_urdf(path, base_link: str, tip_link: str, name: str | None = None, le
     path = Path(path)
     if length_unit not in LENGTH_UNITS:
         raise _fail(path, f"unknown length unit {length_unit!r} (allowed: {', '.join(LENGTH_UNITS)})")
-    robot, raw = _load(path, xacro_args)
+    robot, raw = _load(path, xacro_args, xacro_paths)
     joints_urdf = _chain_joints(robot, path, base_link, tip_link)
     f = _unit_factor("m", length_unit)
     pending, folded_names, joints, folds = _EYE, [], [], []
@@ -460,9 +492,10 @@ def import_header(path, base_link: str, tip_link: str, length_unit: str = "m") -
 
 
 def imported_yaml(path, base_link: str, tip_link: str, name: str | None = None, length_unit: str = "m",
-                  xacro_args: dict | None = None) -> str:
+                  xacro_args: dict | None = None, xacro_paths=()) -> str:
     """:func:`import_urdf` written as a robot file (header comment + :func:`robot_yaml`)."""
-    doc = import_urdf(path, base_link, tip_link, name=name, length_unit=length_unit, xacro_args=xacro_args)
+    doc = import_urdf(path, base_link, tip_link, name=name, length_unit=length_unit, xacro_args=xacro_args,
+                      xacro_paths=xacro_paths)
     return robot_yaml(doc, import_header(path, base_link, tip_link, length_unit))
 
 

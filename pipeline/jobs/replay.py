@@ -46,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.io.archive import AtomicMcap
+from pipeline.names import is_name
 
 TOL = 1e-9  # re-run vs archived q_solution [rad | robot length unit]
 # seconds between frames: from 1 us (log times are whole nanoseconds) to one hour, so that every frame's
@@ -249,6 +250,9 @@ def replay(archive: str | Path, out: str | Path, *, problem: int | None = None, 
     arch = read_archive(archive, problems=problems)
     meta = arch.metadata
     method, settings = settings_from_archive(meta, str(arch.path))
+    if not robot and not is_name(meta.get("robot")):  # a name, not a path: the robot file is read from --data
+        raise ReplayError(f"{arch.path}: metadata field 'robot': {str(meta.get('robot'))[:80]!r} is not a robot name "
+                          "(give the robot file with --robot)")
     robot_path = Path(robot) if robot else Path(data) / "robots" / f"{meta['robot']}.yaml"
     if not robot_path.is_file():
         raise ReplayError(f"{arch.path}: robot {meta['robot']!r}: no robot file {robot_path} (use --data or --robot)")

@@ -27,8 +27,9 @@ def _write_checked(out: Path, text: str, check) -> None:
 
 
 def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, length_unit: str = "m",
-                xacro_args: dict | None = None) -> str:
-    """Write ``out`` (a robot file, general joint form) from the URDF chain ``base`` ... ``tip``; returns what to print."""
+                xacro_args: dict | None = None, xacro_paths=()) -> str:
+    """Write ``out`` (a robot file, general joint form) from the URDF chain ``base`` ... ``tip``; returns what to print.
+    ``xacro_args``/``xacro_paths``: a xacro file's arguments and the folders besides its own it may read."""
     import re
 
     from pipeline.robots import RobotFileError, load_robot
@@ -42,7 +43,8 @@ def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, leng
         raise UsageError(f"--name {name!r}: a robot file's name must equal its file name; use --out "
                        f"{out.with_name(name + (out.suffix or '.yaml'))}")
     try:
-        text = imported_yaml(urdf, base, tip, name=name, length_unit=length_unit, xacro_args=xacro_args)
+        text = imported_yaml(urdf, base, tip, name=name, length_unit=length_unit, xacro_args=xacro_args,
+                             xacro_paths=xacro_paths)
     except URDFImportError as exc:
         raise UsageError(f"URDFImportError: {exc}") from None
 

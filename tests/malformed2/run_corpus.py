@@ -160,8 +160,9 @@ def file_runs(path: Path, tmp: Path) -> list[tuple[str, list[str], str]]:
     kind, stem = path.parent.name, path.stem
     rel = os.path.relpath(path, ROOT)
     if kind == "urdfs":
+        name = re.sub("[^a-z0-9]+", "_", stem.lower()).strip("_")  # a robot name (pipeline/names.py)
         return [("import_urdf", ["import-urdf", rel, "--base", "base", "--tip", "tip", "--out",
-                                 str(tmp / "urdfs" / stem / f"{stem}.yaml")], rel)]
+                                 str(tmp / "urdfs" / stem / f"{name}.yaml")], rel)]
     if kind == "points":
         return [("robot", ["robot", rel], rel)]
     return BASE.runs_for(path, tmp)
