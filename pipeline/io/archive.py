@@ -56,6 +56,18 @@ an interrupted job never leaves a file that looks complete. Chunks use the mcap 
 Only format 5 is read; an archive of an earlier format is refused in one line naming its format
 and the package version that wrote it (rebuild it with the workflow).
 
+Reading is bounded and checked before memory is spent (:data:`MAX_ARCHIVE_BYTES`,
+:data:`MAX_CHUNK_BYTES`, :data:`MAX_UNCOMPRESSED_BYTES`, :data:`MAX_SOLVES`, each set from the
+largest archive of a full build with a margin): the file's size is checked before it is read, each
+chunk's declared uncompressed size before it is decompressed, and a chunk is decompressed by a
+streaming zstd reader that stops one byte past its declared size (the ``mcap`` reader's own chunk
+decompression, which sizes its buffer from the chunk's or the zstd frame's declared size, is not
+used; ``mcap`` parses the summary and the metadata only). The reader also checks the structure
+across the three channels (:class:`_Structure`): a solve is one (labels, problem id, repetition) of
+the file, traces and solutions belong to the solves of their batch, once each, and solution counts
+are the solves' ``n_solutions``. A file past a cap or with a broken structure is one
+:class:`ArchiveError` line naming it and the cap or field.
+
 Quaternions are w-first everywhere in the library; in records, and only there, the goal
 orientation is x, y, z, w (Foxglove ``Pose`` style).
 """
@@ -791,8 +803,9 @@ def _trace_batch(data: bytes) -> dict[str, np.ndarray]:
     return out
 
 
-def _solution_batch(data: bytes) -> dict[str, np.ndarray]:
-    """One ``SolutionBatch`` decoded and checked; ``rows`` (sum of counts, joints), NaN where absent."""
+def _solution_batch(data: bytes, rows: bool = True) -> dict[str, np.ndarray]:
+    """One ``SolutionBatch`` decoded and checked; ``rows`` (sum of counts, joints), NaN where absent
+    (not built when ``rows`` is False: the counts checked only)."""
     b = _decode(SOLUTION_FIELDS, data)
     n = len(b["problem_id"])
     if len(b["repetition"]) != n or len(b["count"]) != n:
@@ -802,6 +815,10 @@ def _solution_batch(data: bytes) -> dict[str, np.ndarray]:
     j, m = int(b["joints"][0]), int(b["count"].sum())
     if len(b["solutions"]) != m * j or len(b["absent"]) not in (0, m):
         raise ValueError(f"field 'solutions' holds {len(b['solutions'])} values, the counts promise {m * j}")
+    if n > BATCH:
+        raise ValueError(f"field 'problem_id' holds {n} solves, a message holds at most {BATCH}")
+    if not rows:
+        return b
     rows = b["solutions"].reshape(m, j).astype(float)
     if len(b["absent"]):
         rows[((b["absent"][:, None] >> np.arange(j, dtype=np.uint64)) & 1).astype(bool)] = np.nan
@@ -818,22 +835,171 @@ def _loads(data: bytes, path, topic: str, seq: int):
         raise ArchiveError(f"{path}: message {seq} on {topic} is not JSON ({exc})") from None
 
 
-def _iter_messages(path: Path, topics):
-    from mcap.reader import make_reader
+# ---- bounded reading ---------------------------------------------------------------------------------
+# Every read of an archive is bounded before memory is spent: the file's size, each chunk's declared and
+# actual uncompressed size, the sum over its chunks, and the solve records it may expand to. The caps
+# are set from the largest archive of a full build (every study at full scale, 1 314 archives): 5.2 MiB
+# on disk (cerbaro2019's Jacobian-transpose runs), 6.2 MiB uncompressed in all, 4.4 MiB in its largest
+# chunk (a 1 000-solve /ik/trace batch of every_method's Nelder-Mead), 10 000 solve records (the
+# 10 000-problem studies; 2 000 problems x 5 repetitions is the same). A file past a cap is refused in
+# one line naming it and the cap (ArchiveError), never read further.
+MAX_ARCHIVE_BYTES = 256 << 20       # the file on disk: ~50x the largest; it is held in memory while read
+MAX_CHUNK_BYTES = 64 << 20          # one chunk decompressed (declared and actual): ~14x the largest
+MAX_UNCOMPRESSED_BYTES = 1 << 30    # all chunks of a file decompressed: ~160x; bounds the time a read takes
+MAX_SOLVES = 100_000                # solve records (and metadata 'problems' x 'repetitions'): 10x the
+                                    # largest; a record costs ~3 kB of memory read back, so ~300 MB at most
+_CHUNK, _MESSAGE, _DATA_END = 0x06, 0x05, 0x0F
 
+
+def _mib(n: int) -> str:
+    return f"{n >> 20} MiB" if n >= 1 << 20 and not n % (1 << 20) else f"{n} bytes"
+
+
+def _file_bytes(path: Path) -> bytes:
+    """The bytes of an archive, refused past :data:`MAX_ARCHIVE_BYTES` (checked before they are read)."""
     try:
         with open(path, "rb") as fh:
-            reader = make_reader(fh, validate_crcs=True)  # chunk CRCs checked on every read
-            for schema, channel, msg in reader.iter_messages(topics=topics):
-                yield schema, channel, msg
+            size = os.fstat(fh.fileno()).st_size
+            data = b"" if size > MAX_ARCHIVE_BYTES else fh.read(MAX_ARCHIVE_BYTES + 1)  # one byte past the cap at most
+    except OSError as exc:
+        raise ArchiveError(f"{path}: cannot read archive ({exc.strerror or exc})") from None
+    if size > MAX_ARCHIVE_BYTES or len(data) > MAX_ARCHIVE_BYTES:
+        raise ArchiveError(f"{path}: {max(size, len(data))} bytes, past the {_mib(MAX_ARCHIVE_BYTES)} archive cap "
+                           f"(MAX_ARCHIVE_BYTES); not read")
+    return data
+
+
+def _summary_reader(data: bytes):
+    """An mcap reader over the bytes in memory (a record declaring more bytes than the file holds reads
+    what there is: nothing is allocated for a declared length)."""
+    import io
+
+    from mcap.reader import SeekingReader
+
+    return SeekingReader(io.BytesIO(data), validate_crcs=True, record_size_limit=MAX_CHUNK_BYTES)
+
+
+def _unzstd(payload, size: int, where: str) -> bytes:
+    """Decompress one chunk's zstd data to at most ``size`` bytes (its declared size, already within
+    :data:`MAX_CHUNK_BYTES`) plus one: the output buffer is never sized from the data (a frame may declare
+    any content size) and the window is bounded too."""
+    import zstandard
+
+    out = bytearray()
+    try:
+        dec = zstandard.ZstdDecompressor(max_window_size=MAX_CHUNK_BYTES)
+        with dec.stream_reader(payload, read_across_frames=True) as r:
+            while len(out) <= size:
+                part = r.read(size + 1 - len(out))
+                if not part:
+                    break
+                out += part
+    except zstandard.ZstdError as exc:
+        raise ArchiveError(f"{where}: damaged zstd data ({exc})") from None
+    if len(out) > size:
+        raise ArchiveError(f"{where}: decompresses past the {size} bytes its header declares (uncompressed_size)")
+    return bytes(out)
+
+
+@dataclass(frozen=True)
+class _Msg:
+    topic: str
+    sequence: int
+    log_time: int
+    data: bytes
+
+
+def _messages(path: Path, topics=None, data: bytes | None = None, summary=None) -> Iterator[_Msg]:
+    """The messages of ``topics`` (all when None) in file order (the writer's order; its log times never
+    decrease), each chunk read with the caps of this module and its CRC checked.
+
+    mcap's own reader is used for the summary and metadata only: it sizes a chunk's output buffer from
+    the chunk's declared uncompressed size, or the zstd frame's, before it decompresses."""
+    import struct
+    from zlib import crc32
+
+    if data is None:
+        data = _file_bytes(path)
+    try:
+        if summary is None:
+            summary = _summary_reader(data).get_summary()
     except ArchiveError:
         raise
-    except Exception as exc:  # mcap raises many types for corrupt data
+    except Exception as exc:  # noqa: BLE001  (mcap raises many types for corrupt data)
         raise ArchiveError(f"{path}: corrupt archive ({type(exc).__name__}: {exc})") from None
+    if summary is None:
+        raise ArchiveError(f"{path}: truncated archive (no summary section; the job did not finish)")
+    channels = {cid: ch.topic for cid, ch in summary.channels.items()}
+    want = {cid for cid, t in channels.items() if topics is None or t in topics}
+    total = 0
+    for ci in sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset):
+        o = ci.chunk_start_offset
+        where = f"{path}: chunk at byte {o}"
+        if not 8 <= o <= len(data) - 9 - 40 or data[o] != _CHUNK:
+            raise ArchiveError(f"{where}: the summary's chunk index points at no chunk record")
+        (length,) = struct.unpack_from("<Q", data, o + 1)
+        end = o + 9 + length
+        if length < 40 or end > len(data):
+            raise ArchiveError(f"{where}: record length {length} runs past the file")
+        _, _, size, crc, clen = struct.unpack_from("<QQQII", data, o + 9)
+        if size > MAX_CHUNK_BYTES:
+            raise ArchiveError(f"{where}: declares {size} bytes uncompressed, past the {_mib(MAX_CHUNK_BYTES)} "
+                               f"chunk cap (MAX_CHUNK_BYTES); not read")
+        total += size
+        if total > MAX_UNCOMPRESSED_BYTES:
+            raise ArchiveError(f"{path}: chunks declare more than {_mib(MAX_UNCOMPRESSED_BYTES)} uncompressed, "
+                               f"past the archive cap (MAX_UNCOMPRESSED_BYTES); not read")
+        p = o + 9 + 32
+        if p + clen + 8 > end:
+            raise ArchiveError(f"{where}: record fields run past its length")
+        compression = bytes(data[p:p + clen])
+        p += clen
+        (dlen,) = struct.unpack_from("<Q", data, p)
+        p += 8
+        if p + dlen > end:
+            raise ArchiveError(f"{where}: compressed data runs past the record")
+        payload = memoryview(data)[p:p + dlen]
+        if compression == b"zstd":
+            raw = _unzstd(payload, size, where)
+        elif compression == b"":
+            raw = bytes(payload)
+        else:
+            raise ArchiveError(f"{where}: compression {compression[:20]!r} (this package writes zstd)")
+        if len(raw) != size:
+            raise ArchiveError(f"{where}: decompresses to {len(raw)} bytes, its header declares {size}")
+        if crc and crc32(raw) != crc:
+            raise ArchiveError(f"{where}: CRC mismatch (the chunk's data changed after it was written)")
+        pos = 0
+        while pos < len(raw):
+            if pos + 9 > len(raw):
+                raise ArchiveError(f"{where}: a record header runs past the chunk")
+            op, n = raw[pos], struct.unpack_from("<Q", raw, pos + 1)[0]
+            body = pos + 9
+            if body + n > len(raw):
+                raise ArchiveError(f"{where}: a record of {n} bytes runs past the chunk")
+            if op == _MESSAGE:
+                if n < 22:
+                    raise ArchiveError(f"{where}: a message record of {n} bytes")
+                cid, seq, t, _ = struct.unpack_from("<HIQQ", raw, body)
+                if cid not in channels:
+                    raise ArchiveError(f"{where}: message {seq} on channel {cid}, which the summary does not name")
+                if cid in want:
+                    yield _Msg(channels[cid], seq, t, raw[body + 22:body + n])
+            pos = body + n
 
 
-def _expand(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[dict]:
-    """One ``SolveBatch`` message -> per-solve records."""
+def _iter_messages(path: Path, topics):
+    """``(None, None, message)`` of ``topics``, as :func:`_messages` reads them (message: ``.sequence``, ``.data``)."""
+    for m in _messages(path, topics):
+        yield None, None, m
+
+
+def _expand(data: bytes, meta: dict, path: Path, seq: int, problems, room: int = MAX_SOLVES,
+            want: int | None = None, keys: list | None = None) -> list[dict]:
+    """One ``SolveBatch`` message -> per-solve records; ``room``: how many more records the archive may
+    hold (refused before a record is built past it); ``want``: the count the metadata promises, if any;
+    ``keys``: a list given to be filled with the records' problem ids, repetitions, label tuples and
+    numbers of solutions (None without ``n_solutions``), for :class:`_Structure`."""
     import orjson
 
     where = f"{path}: message {seq} on {SOLVE_TOPIC}"
@@ -842,6 +1008,11 @@ def _expand(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[dic
     except ValueError as exc:
         raise ArchiveError(f"{where}: not a SolveBatch ({exc})") from None
     n = len(b["problem_id"])
+    if n > BATCH:
+        raise ArchiveError(f"{where}: field 'problem_id' holds {n} solves, a message holds at most {BATCH}")
+    if n > room:
+        raise ArchiveError(f"{where}: more solve records than metadata field 'problems' promises ({want})" if want
+                           is not None else f"{where}: more than {MAX_SOLVES} solve records (MAX_SOLVES); not read")
     for k in ("repetition", "chain", "stop_reason", "iterations", "flags", "solve_time_ns", "ik_time_ns",
               "call_time_ns", *_ABSENT):
         if len(b[k]) != n:
@@ -900,8 +1071,8 @@ def _expand(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[dic
         except ValueError as exc:
             raise ArchiveError(f"{where}: field 'labels_json' is not JSON ({exc})") from None
         if not isinstance(labels, dict) or any(k not in _LABELS or not isinstance(v, list) or len(v) != n
-                                               for k, v in labels.items()):
-            raise ArchiveError(f"{where}: field 'labels_json' is not an object of {n}-value label columns")
+                                               or not all(isinstance(x, str) for x in v) for k, v in labels.items()):
+            raise ArchiveError(f"{where}: field 'labels_json' is not an object of {n}-value label columns (strings)")
     sv = (b["solve_time_ns"] * 1e-9).tolist()
     ik = (b["ik_time_ns"] * 1e-9).tolist()
     ct = (b["call_time_ns"] * 1e-9).tolist()
@@ -912,6 +1083,13 @@ def _expand(data: bytes, meta: dict, path: Path, seq: int, problems) -> list[dic
     fl = flags.tolist()
     ql = q.tolist()
     nsl = ns.tolist() if len(ns) else None
+    if keys is not None:
+        fixed_key = tuple(fixed[k] for k in _LABELS)
+        if labels:
+            cols = [labels.get(k) or [fixed[k]] * n for k in _LABELS]
+            keys += [pid, rep, list(zip(*cols)), nsl]
+        else:
+            keys += [pid, rep, [fixed_key] * n, nsl]
     out = []
     for i in range(n):
         f = fl[i]
@@ -945,8 +1123,7 @@ def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
     rel = meta.get("problem_path")
     if not rel:
         return None
-    from pipeline.io.problems import ProblemFileError, read_problems
-    from pipeline.provenance import file_sha256
+    from pipeline.io.problems import load_problems
     from pipeline.robots import LENGTH_UNITS
 
     pf = Path(given).resolve() if given else (path.parent / rel).resolve()
@@ -959,10 +1136,9 @@ def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
     key = (str(pf), st.st_mtime_ns, st.st_size)
     hit = _PROBLEM_CACHE.get(key)
     if hit is None:
-        try:
-            sha = file_sha256(pf)
-            ps, _ = read_problems(pf)
-        except ValueError as exc:  # ProblemFileError, DamagedFileError: one line naming the problem file
+        try:  # within the problem-file caps (pipeline.io.problems): a gzip bomb is refused, never inflated
+            ps, _, sha = load_problems(pf)
+        except ValueError as exc:  # ProblemFileError: one line naming the problem file
             raise ArchiveError(f"{str(exc).splitlines()[0]} (the problem set of archive {path})") from None
         except (OSError, EOFError) as exc:
             raise ArchiveError(f"{pf}: unreadable problem file ({type(exc).__name__}: {exc}) (the problem set of "
@@ -987,12 +1163,13 @@ def problems_of(arch: "Archive", given: str | Path | None = None):
 _MAGIC = b"\x89MCAP0\r\n"
 
 
-def check_file_crcs(path: Path) -> bool:
+def check_file_crcs(path: Path, data: bytes | None = None) -> bool:
     """Check the whole file against the CRCs the writer stored: the data section's (DataEnd record:
     every byte from the start to the summary, metadata included) and the summary's (Footer).
 
-    The mcap reader checks each chunk's CRC; these two cover the rest, so a changed byte anywhere
-    (an edited metadata value, a flipped bit in a record header) is caught.
+    Each chunk's own CRC is checked when it is read (:func:`_messages`); these two cover the rest, so a
+    changed byte anywhere (an edited metadata value, a flipped bit in a record header) is caught.
+    ``data``: the file's bytes when the caller holds them (else read within :data:`MAX_ARCHIVE_BYTES`).
 
     Returns
     -------
@@ -1006,36 +1183,197 @@ def check_file_crcs(path: Path) -> bool:
     import struct
     import zlib
 
-    data = path.read_bytes()
+    data = _file_bytes(path) if data is None else data
     if len(data) < 2 * len(_MAGIC) + 29 or data[:8] != _MAGIC or data[-8:] != _MAGIC:
         raise ArchiveError(f"{path}: not a complete MCAP file (magic bytes missing at the start or end)")
     foot = len(data) - 8 - 29
     op, length, summary_start, offset_start, summary_crc = struct.unpack_from("<BQQQI", data, foot)
     if op != 0x02 or length != 20 or not (0 < summary_start <= foot) or offset_start > foot:
         raise ArchiveError(f"{path}: damaged footer (no summary section where the footer points)")
+    view = memoryview(data)
     if summary_crc:
-        crc = zlib.crc32(data[foot:foot + 25], zlib.crc32(data[summary_start:foot]))
+        crc = zlib.crc32(view[foot:foot + 25], zlib.crc32(view[summary_start:foot]))
         if crc != summary_crc:
             raise ArchiveError(f"{path}: summary section CRC mismatch (the file was changed after it was written)")
     end = summary_start - 13
-    if end < 8 or data[end] != 0x0F:
+    if end < 8 or data[end] != _DATA_END:
         raise ArchiveError(f"{path}: damaged file (no DataEnd record before the summary)")
     (data_crc,) = struct.unpack_from("<I", data, end + 9)
-    if data_crc and zlib.crc32(data[:end]) != data_crc:
+    if data_crc and zlib.crc32(view[:end]) != data_crc:
         raise ArchiveError(f"{path}: data section CRC mismatch (the file was changed after it was written)")
     return data_crc != 0
 
 
 def archive_metadata(path: str | Path) -> dict[str, str]:
     """The ``run`` metadata record of an MCAP file, unchecked ({} when there is none or the file
-    cannot be read): for naming what a file is after :func:`read_archive` refused it."""
-    from mcap.reader import make_reader
+    cannot be read): for naming what a file is after :func:`read_archive` refused it.
+
+    Read within :data:`MAX_ARCHIVE_BYTES`, by a linear pass over the file's records that never
+    decompresses a chunk (a truncated file's metadata is still found)."""
+    import io
+
+    from mcap.records import Metadata
+    from mcap.stream_reader import StreamReader
 
     try:
-        with open(path, "rb") as fh:
-            return next((dict(r.metadata) for r in make_reader(fh).iter_metadata() if r.name == "run"), {})
+        data = _file_bytes(Path(path))
+        for r in StreamReader(io.BytesIO(data), emit_chunks=True, record_size_limit=MAX_ARCHIVE_BYTES).records:
+            if isinstance(r, Metadata) and r.name == "run":
+                return dict(r.metadata)
     except Exception:  # noqa: BLE001  (any damage: nothing to name)
-        return {}
+        pass
+    return {}
+
+
+def _json_object(meta: dict, key: str, path: Path) -> None:
+    import orjson
+
+    if key in meta:
+        try:
+            ok = isinstance(orjson.loads(meta[key]), dict)
+        except ValueError:
+            ok = False
+        if not ok:
+            raise ArchiveError(f"{path}: metadata field '{key}' is not a JSON object")
+
+
+def _check_metadata(path: Path, meta: dict, traces: dict, timing: dict) -> int | None:
+    """The types of the metadata fields a reader relies on; returns the solve records the ``run``
+    record promises (``problems`` x ``repetitions``), or None for an archive without a count
+    (a measurement archive: ``problems`` is ``-`` or absent).
+
+    Raises
+    ------
+    ArchiveError
+        One line naming the file and the field.
+    """
+    for key in ("settings", "environment"):
+        _json_object(meta, key, path)
+    if "trace_policy" in meta:
+        try:
+            TracePolicy.from_json(meta["trace_policy"])
+        except (ValueError, TypeError, KeyError):
+            raise ArchiveError(f"{path}: metadata field 'trace_policy' is not a trace policy (JSON object of "
+                               f"mode, sample and failed_rows)") from None
+    seed = str(meta.get("seed", "-"))
+    if seed != "-" and not (seed.lstrip("-").isdigit() and len(seed) <= 20):
+        raise ArchiveError(f"{path}: metadata field 'seed' is {seed[:40]!r}, not an integer or '-'")
+    sha = meta.get("problem_sha256", "")
+    if meta.get("problem_path") and not (0 < len(sha) <= 64 and all(c in "0123456789abcdef" for c in sha)):
+        raise ArchiveError(f"{path}: metadata field 'problem_sha256' is {sha[:40]!r}, not a hexadecimal SHA-256 prefix")
+    for k, v in traces.items():
+        if k != "policy" and not (v.isdigit() and len(v) <= 15):
+            raise ArchiveError(f"{path}: metadata record 'traces': field '{k}' is {v[:40]!r}, not a count")
+    for k, v in timing.items():
+        try:
+            float(v)
+        except ValueError:
+            raise ArchiveError(f"{path}: metadata record 'job_timing': field '{k}' is {v[:40]!r}, "
+                               "not a number") from None
+    probs, reps = str(meta.get("problems", "-")), str(meta.get("repetitions", "1") or "1")
+    if probs != "-" and not probs.isdigit():
+        raise ArchiveError(f"{path}: metadata field 'problems' is {probs[:40]!r}, not a count (or '-')")
+    if not reps.isdigit() or int(reps) < 1:
+        raise ArchiveError(f"{path}: metadata field 'repetitions' is {reps[:40]!r}, not a positive count")
+    if probs == "-":
+        return None
+    want = int(probs) * int(reps)
+    if want > MAX_SOLVES:
+        raise ArchiveError(f"{path}: metadata fields 'problems' x 'repetitions' promise {want} solve records, past "
+                           f"the {MAX_SOLVES} an archive may hold (MAX_SOLVES); not read")
+    return want
+
+
+class _Structure:
+    """The cross-channel checks of :func:`read_archive`, fed message by message in file order.
+
+    The writer emits per batch one ``/ik/solve`` message, then (analytic methods) one
+    ``/ik/solutions`` message for the same solves and (with traces) one ``/ik/trace`` message for
+    some of them. So: a solve is one (labels, problem id, repetition) of the archive, at most once
+    (the labels -- robot, solver, method, length unit -- are the metadata's unless ``labels_json``
+    gives a solve its own); a solutions message lists exactly the solves of the solve message before
+    it, in its order, with the counts its ``n_solutions`` field gives, and a solve message with
+    ``n_solutions`` has one; a trace message lists each of its traces once, each a solve of the solve
+    message before it; no solve has two traces or two solution lists.
+    """
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.solved: dict = {}   # labels -> {(problem id, repetition)} of every solve so far
+        self.traced: dict = {}   # idem, with a trace
+        self.listed: dict = {}   # idem, with solutions
+        self.batch: dict | None = None  # (problem id, repetition) -> labels, of the last solve message
+        self.batch_ids = None
+        self.pending_solutions = False
+
+    def _fail(self, msg, text: str):
+        raise ArchiveError(f"{self.path}: message {msg.sequence} on {msg.topic}: {text}")
+
+    def _end_batch(self, msg=None) -> None:
+        if self.pending_solutions:
+            where = f"message {msg.sequence} on {msg.topic}" if msg is not None else "the end of the file"
+            raise ArchiveError(f"{self.path}: the {SOLVE_TOPIC} message before {where} has field 'n_solutions' but "
+                               f"no {SOLUTIONS_TOPIC} message: counts differ across channels")
+
+    def _add(self, msg, seen: dict, pairs: list, labels: list, what: str) -> None:
+        """Record ``pairs`` (with their ``labels``) in ``seen``; a pair met twice is one line."""
+        if len(set(labels)) == 1:  # every solve of the message has the same labels: set operations
+            have = seen.setdefault(labels[0], set())
+            new = set(pairs)
+            if len(new) == len(pairs) and have.isdisjoint(new):
+                have |= new
+                return
+        for pair, lab in zip(pairs, labels):
+            have = seen.setdefault(lab, set())
+            if pair in have:
+                self._fail(msg, f"field 'problem_id': problem {pair[0]} (repetition {pair[1]}) has {what} twice")
+            have.add(pair)
+
+    def solves(self, msg, pid: list, rep: list, labels: list, n_solutions: list | None) -> None:
+        self._end_batch(msg)
+        pairs = list(zip(pid, rep))
+        self._add(msg, self.solved, pairs, labels, "a solve record")
+        self.batch = dict(zip(pairs, labels))
+        self.batch_ids = (pid, rep, n_solutions)
+        self.pending_solutions = n_solutions is not None
+
+    def _of_batch(self, msg, pid: list, rep: list, what: str) -> tuple[list, list]:
+        if self.batch is None:
+            self._fail(msg, f"{what} before any {SOLVE_TOPIC} message")
+        pairs = list(zip(pid, rep))
+        labels = [self.batch.get(pair) for pair in pairs]
+        if None in labels:
+            p, r = pairs[labels.index(None)]
+            self._fail(msg, f"field 'problem_id': problem {p} (repetition {r}) has {what} but no solve record in the "
+                            f"{SOLVE_TOPIC} message before it")
+        return pairs, labels
+
+    def traces(self, msg, b: dict) -> None:
+        n = len(b["problem_id"])
+        if n > BATCH:
+            self._fail(msg, f"field 'problem_id' holds {n} traces, a message holds at most {BATCH}")
+        pairs, labels = self._of_batch(msg, b["problem_id"].tolist(), b["repetition"].tolist(), "a trace")
+        self._add(msg, self.traced, pairs, labels, "a trace")
+
+    def solutions(self, msg, b: dict) -> None:
+        pid, rep, cnt = b["problem_id"].tolist(), b["repetition"].tolist(), b["count"].tolist()
+        if not self.pending_solutions:
+            self._fail(msg, f"solutions for a {SOLVE_TOPIC} message without field 'n_solutions' (or a second "
+                            f"solutions message for it)")
+        want_pid, want_rep, want_n = self.batch_ids
+        if pid != want_pid or rep != want_rep:
+            self._fail(msg, f"field 'problem_id': {len(pid)} solves, not the {len(want_pid)} solves of the "
+                            f"{SOLVE_TOPIC} message before it: counts differ across channels")
+        if cnt != want_n:
+            k = next(i for i, (c, w) in enumerate(zip(cnt, want_n)) if c != w)
+            self._fail(msg, f"field 'count': problem {pid[k]} has {cnt[k]} solutions, its solve record's "
+                            f"'n_solutions' says {want_n[k]}: counts differ across channels")
+        pairs, labels = self._of_batch(msg, pid, rep, "solutions")
+        self._add(msg, self.listed, pairs, labels, "solutions")
+        self.pending_solutions = False
+
+    def finish(self) -> None:
+        self._end_batch()
 
 
 def read_archive(path: str | Path, problems: str | Path | None = None) -> Archive:
@@ -1044,63 +1382,78 @@ def read_archive(path: str | Path, problems: str | Path | None = None) -> Archiv
     ``problems``: the archive's problem set when it is not where the metadata's ``problem_path``
     says (an archive copied out of its results tree); its SHA-256 is checked all the same.
 
-    Checks: the MCAP magic, the data-section and summary CRCs (:func:`check_file_crcs`), chunk
-    CRCs, a summary section (the writer finished), the ``run`` metadata and its required fields,
-    the format version, every ``/ik/solve`` message against its schema, and the number of solve
-    records against the metadata's problem count (``problems`` x ``repetitions``), so that a
-    damaged file never reads as fewer solves. Traces and solutions are checked when first read.
+    Checks: the caps of this module (file size, each chunk's declared and actual uncompressed size,
+    all chunks together, solve records), the MCAP magic, the data-section and summary CRCs
+    (:func:`check_file_crcs`), chunk CRCs, a summary section (the writer finished), the ``run``
+    metadata, its required fields and the types of the fields readers use (:func:`_check_metadata`),
+    the format version, every message of the three channels against its schema, and the structure
+    across them (:class:`_Structure`): each solve (labels, problem id, repetition) once, every problem
+    id in the problem set, traces and solutions only of the solves of their batch, at most one each,
+    solution counts equal to the solves' ``n_solutions``; then the number of solve records against the
+    metadata's problem count (``problems`` x ``repetitions``), so that a damaged file never reads as
+    fewer solves. Stored trace rows and solutions are read (and their own fields checked) on demand.
 
     Raises
     ------
     ArchiveError
         One line naming the file and what is wrong.
     """
-    from mcap.reader import make_reader
-
     path = Path(path)
     if not path.is_file():
         raise ArchiveError(f"{path}: no such archive")
+    data = _file_bytes(path)
+    if data[:8] != _MAGIC:
+        raise ArchiveError(f"{path}: not an MCAP file (bad magic)")
+    has_data_crc = check_file_crcs(path, data)
     try:
-        with open(path, "rb") as fh:
-            if fh.read(8) != _MAGIC:
-                raise ArchiveError(f"{path}: not an MCAP file (bad magic)")
-        has_data_crc = check_file_crcs(path)
-        with open(path, "rb") as fh:
-            reader = make_reader(fh, validate_crcs=True)  # chunk CRCs checked on every read
-            summary = reader.get_summary()
-            if summary is None:
-                raise ArchiveError(f"{path}: truncated archive (no summary section; the job did not finish)")
-            meta, traces, timing = None, {}, {}
-            for rec in reader.iter_metadata():
-                if rec.name == "run":
-                    meta = dict(rec.metadata)
-                elif rec.name == "traces":
-                    traces = dict(rec.metadata)
-                elif rec.name == "job_timing":
-                    timing = dict(rec.metadata)
+        reader = _summary_reader(data)
+        summary = reader.get_summary()
+        if summary is None:
+            raise ArchiveError(f"{path}: truncated archive (no summary section; the job did not finish)")
+        meta, traces, timing = None, {}, {}
+        for rec in reader.iter_metadata():
+            if rec.name == "run":
+                meta = dict(rec.metadata)
+            elif rec.name == "traces":
+                traces = dict(rec.metadata)
+            elif rec.name == "job_timing":
+                timing = dict(rec.metadata)
     except ArchiveError:
         raise
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001  (mcap raises many types for corrupt data)
         raise ArchiveError(f"{path}: corrupt or truncated archive ({type(exc).__name__}: {exc})") from None
     if meta is None:
         raise ArchiveError(f"{path}: not an ik-pipeline archive (no 'run' metadata record)")
     version = meta.get("format_version")
     if version is not None and version != FORMAT_VERSION:
-        raise ArchiveError(f"{path}: metadata field 'format_version' is {version!r} (written by ik-pipeline "
-                           f"{meta.get('package_version', '?')}, commit {meta.get('git_commit', '?')[:12]}); this version "
-                           f"reads format {FORMAT_VERSION} only: rebuild it (snakemake) or read it with that version")
+        raise ArchiveError(f"{path}: metadata field 'format_version' is {version[:40]!r} (written by ik-pipeline "
+                           f"{meta.get('package_version', '?')[:40]}, commit {meta.get('git_commit', '?')[:12]}); this "
+                           f"version reads format {FORMAT_VERSION} only: rebuild it (snakemake) or read it with that "
+                           "version")
     for key in REQUIRED_META:
         if key not in meta:
             raise ArchiveError(f"{path}: metadata field '{key}' missing")
     if not has_data_crc:
         raise ArchiveError(f"{path}: no data-section CRC (every format-{FORMAT_VERSION} archive has one): "
                            f"not written by this package")
+    want = _check_metadata(path, meta, traces, timing)
+    room = MAX_SOLVES if want is None else want
     solves: list[dict] = []
     problem_set = _problems_of(path, meta, problems)
-    for _, _, msg in _iter_messages(path, [SOLVE_TOPIC]):
-        solves.extend(_expand(msg.data, meta, path, msg.sequence, problem_set))
-    probs, reps = str(meta.get("problems", "")), str(meta.get("repetitions", "1") or "1")
-    if probs.isdigit() and reps.isdigit() and len(solves) != int(probs) * int(reps):
-        raise ArchiveError(f"{path}: {len(solves)} solve records, metadata field 'problems' promises "
-                           f"{int(probs) * int(reps)}")
+    st = _Structure(path)
+    for msg in _messages(path, (SOLVE_TOPIC, TRACE_TOPIC, SOLUTIONS_TOPIC), data, summary):
+        if msg.topic == SOLVE_TOPIC:
+            keys: list = []
+            recs = _expand(msg.data, meta, path, msg.sequence, problem_set, room - len(solves), want, keys)
+            st.solves(msg, *keys)
+            solves.extend(recs)
+            continue
+        try:
+            b = _trace_batch(msg.data) if msg.topic == TRACE_TOPIC else _solution_batch(msg.data, rows=False)
+        except ValueError as exc:
+            raise ArchiveError(f"{path}: message {msg.sequence} on {msg.topic}: {exc}") from None
+        (st.traces if msg.topic == TRACE_TOPIC else st.solutions)(msg, b)
+    st.finish()
+    if want is not None and len(solves) != want:
+        raise ArchiveError(f"{path}: {len(solves)} solve records, metadata field 'problems' promises {want}")
     return Archive(path, meta, solves, traces, timing)

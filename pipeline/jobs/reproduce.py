@@ -4,17 +4,22 @@ Reading an archive never re-runs anything; this is the one place that does, on p
 archive (one file, or every ``runs/**/*.mcap`` under a results folder) it re-runs a deterministic
 sample of its solves exactly as the job ran them — the registered method and settings from the
 metadata, the robot file (checked against ``robot_sha256``), the problem file's goal, the archived
-start, the problem's seed — and compares field by field: ``q_solution`` bit for bit (and max
-|Δq|), iterations and stop reason, the trace's CRC-32 (``digest`` on ``/ik/trace``) and the
-analytic solutions. A difference is a finding printed in the table, never an error: a solver that
-is deterministic on one machine may round differently on another CPU or BLAS kernel, and the
-table says which environment wrote the archive and which re-ran it.
+start, the problem's seed — and compares every stored field but the times (:data:`COMPARED`), bit for
+bit: ``q_solution`` (and max |Δq|), iterations and stop reason, the success, claimed-success and
+within-limits flags, the four errors (position and orientation by the FK check, initial and final
+from the trace), the method's ``info`` counters (its time-valued entries left out), the number of
+analytic solutions and the solutions themselves, and the trace's row count and CRC-32 (``digest``
+on ``/ik/trace``). A solve is bit-identical only when every one of them is; each differing field is
+counted by name. A difference is a finding printed in the table, never an error: a solver that is
+deterministic on one machine may round differently on another CPU or BLAS kernel, and the table
+says which environment wrote the archive and which re-ran it.
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, replace
+import math
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -38,8 +43,39 @@ class Finding:
     max_diterations: int = 0
     traces_differ: int = 0
     solutions_differ: int = 0
+    fields_differ: dict = field(default_factory=dict)  # field name -> solves in which it differs
     environment: str = ""
     note: str = ""
+
+    def differs(self, name: str) -> None:
+        self.fields_differ[name] = self.fields_differ.get(name, 0) + 1
+
+
+# every stored field of a solve record a re-run is compared on (times left out: they are measurements);
+# the trace is compared by its row count and digest, the solutions row by row
+COMPARED = ("q_solution", "iterations", "stop_reason", "success", "claimed_success", "within_limits",
+            "position_error", "orientation_error", "initial_error", "final_error", "info", "n_solutions",
+            "solutions", "trace")
+
+
+def _num(x) -> float:
+    """A stored error as the archive gives it back: non-finite -> NaN (written absent)."""
+    x = float(x)
+    return x if math.isfinite(x) else math.nan
+
+
+def _same_float(a, b) -> bool:
+    a, b = _num(a), _num(b)
+    return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1.0, a) == math.copysign(1.0, b))
+
+
+def _info(d) -> dict:
+    """``info`` as the archive stores it (strict JSON: NaN -> null, numpy -> Python), time-valued entries
+    (``*time*``: measurements, not results) left out."""
+    import orjson
+
+    d = orjson.loads(orjson.dumps(dict(d), option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS))
+    return {k: v for k, v in d.items() if "time" not in str(k)}
 
 
 def _robot_file(path: Path, meta: dict, robot: str | None, data: str | Path):
@@ -114,32 +150,55 @@ def reproduce_archive(path, *, sample: int | None = None, problem: int | None = 
         for k in range(len(res)):
             key, rec = keys[i], recs[keys[i]]
             i += 1
-            same = True
+            before = dict(f.fields_differ)
             qa, qb = np.asarray(rec["q_solution"], dtype=float), np.asarray(res.q[k], dtype=float)
-            if not np.array_equal(qa, qb, equal_nan=True):
-                same = False
+            if not np.array_equal(qa, np.where(np.isfinite(qb).all(), qb, np.nan), equal_nan=True):
+                f.differs("q_solution")
                 f.q_differ += 1
                 d = np.abs(qa - qb)
                 f.max_dq = max(f.max_dq, float(np.nanmax(d)) if np.isfinite(d).any() else float("inf"))
             dit = abs(int(rec["iterations"]) - int(res.iterations[k]))
+            if dit:
+                f.differs("iterations")
+            if int(rec["stop_reason"]) != int(res.stop_reason[k]):
+                f.differs("stop_reason")
             if dit or int(rec["stop_reason"]) != int(res.stop_reason[k]):
-                same = False
                 f.iterations_differ += 1
                 f.max_diterations = max(f.max_diterations, dit)
+            for name, got in (("success", res.success), ("claimed_success", res.claimed_success),
+                              ("within_limits", res.within_limits)):
+                if bool(rec[name]) != bool(got[k]):
+                    f.differs(name)
+            for name, got in (("position_error", res.position_error[k]),
+                              ("orientation_error", res.orientation_error[k])):
+                if not _same_float(rec[name], got):
+                    f.differs(name)
+            if res.trace_rows is not None:  # the archive's initial and final errors are its trace's first and last
+                tr = res.trace(k)
+                for name, got in (("initial_error", tr[0, 0]), ("final_error", tr[-1, 0])):
+                    if not _same_float(rec[name], got):
+                        f.differs(name)
+            if res.info is not None and _info(rec.get("info") or {}) != _info(res.info[k]):
+                f.differs("info")
             if key in idx and res.trace_rows is not None:
                 tr = res.trace(k)[:, :8]
                 if len(tr) != idx[key][0] or digest(tr) != idx[key][1]:
-                    same = False
+                    f.differs("trace")
                     f.traces_differ += 1
-            if rec.get("_n_solutions") is not None and res.solutions is not None:
+            stored_n = rec.get("_n_solutions")
+            if (stored_n is None) != (res.solutions is None) or (
+                    stored_n is not None and int(stored_n) != int(res.n_solutions[k])):
+                f.differs("n_solutions")
+            if stored_n is not None and res.solutions is not None:
                 want = arch.solutions(*key)
                 got = res.solutions[k, : int(res.n_solutions[k])]
-                if want is None or not np.array_equal(np.asarray(want, dtype=float).reshape(got.shape), got,
-                                                      equal_nan=True):
-                    same = False
+                got = np.where(np.isfinite(got), got, np.nan)
+                if want is None or np.asarray(want, dtype=float).size != got.size or not np.array_equal(
+                        np.asarray(want, dtype=float).reshape(got.shape), got, equal_nan=True):
+                    f.differs("solutions")
                     f.solutions_differ += 1
             f.rerun += 1
-            f.identical += same
+            f.identical += f.fields_differ == before
     return f
 
 
@@ -178,16 +237,18 @@ def reproduce(target, *, sample: int | None = None, problem: int | None = None, 
         rows.append(reproduce_archive(p, sample=sample, problem=problem, problems=problems, robot=robot, data=data))
     base = Path(target) if Path(target).is_dir() else Path(target).parent
     head = ("archive", "label", "deterministic", "re-run", "bit-identical", "q differs", "max |Δq| [rad | length]",
-            "iterations or stop differ", "max |Δiterations|", "trace digest differs", "solutions differ")
+            "iterations or stop differ", "max |Δiterations|", "trace digest differs", "solutions differ",
+            "fields that differ (solves)")
     table = [head]
     for f in rows:
         rel = Path(f.archive).relative_to(base).as_posix() if Path(f.archive).is_relative_to(base) else f.archive
         if f.note:
-            table.append((rel, f.label, "-", "0", "-", "-", "-", "-", "-", "-", f.note))
+            table.append((rel, f.label, "-", "0", "-", "-", "-", "-", "-", "-", "-", f.note))
             continue
+        named = ",".join(f"{k}:{f.fields_differ[k]}" for k in COMPARED if k in f.fields_differ) or "-"
         table.append((rel, f.label, "yes" if f.deterministic else "no", str(f.rerun), str(f.identical),
                       str(f.q_differ), f"{f.max_dq:.3g}", str(f.iterations_differ), str(f.max_diterations),
-                      str(f.traces_differ), str(f.solutions_differ)))
+                      str(f.traces_differ), str(f.solutions_differ), named))
     width = [max(len(r[c]) for r in table) for c in range(len(head))]
     out = ["  ".join(c.ljust(w) for c, w in zip(r, width)).rstrip() for r in table]
     det = [f for f in rows if not f.note and f.deterministic]
