@@ -97,25 +97,52 @@ class DamagedFileError(ValueError):
     """A file cannot be hashed: a damaged gzip stream (one line naming the file)."""
 
 
+# the most a ``.gz`` file may decompress to when it is hashed (the problem-file cap of
+# pipeline.io.problems, MAX_PROBLEM_TEXT_BYTES: a gzip bomb is refused, not hashed for minutes)
+MAX_HASHED_TEXT_BYTES = 64 << 20
+
+
 def file_sha256(path: str | Path) -> str:
     """SHA-256 of a file's content: of the decompressed text for a ``.gz`` file (a problem set), so
-    the hash does not depend on the compressor's version.
+    the hash does not depend on the compressor's version. Read in 1 MiB blocks: memory stays flat.
 
     Raises
     ------
     DamagedFileError
-        A ``.gz`` file that does not decompress (CRC mismatch, truncated stream, not gzip).
+        A ``.gz`` file that does not decompress (CRC mismatch, truncated stream, not gzip), or that
+        decompresses past ``MAX_HASHED_TEXT_BYTES``.
     """
-    data = Path(path).read_bytes()
-    if str(path).endswith(".gz"):
-        import gzip
-        import zlib
+    import zlib
 
-        try:
-            data = gzip.decompress(data)
-        except (OSError, EOFError, zlib.error) as exc:  # gzip.BadGzipFile is an OSError
-            raise DamagedFileError(f"{path}: damaged gzip file ({str(exc) or type(exc).__name__})") from None
-    return hashlib.sha256(data).hexdigest()
+    h = hashlib.sha256()
+    gz = str(path).endswith(".gz")
+    d = zlib.decompressobj(16 + zlib.MAX_WBITS) if gz else None
+    total = 0
+    try:
+        with open(path, "rb") as fh:
+            while True:
+                block = fh.read(1 << 20)
+                if not block:
+                    break
+                if d is None:
+                    h.update(block)
+                    continue
+                while block:
+                    if d.eof:  # another gzip member follows: hashed on, as gzip.decompress would read it
+                        d = zlib.decompressobj(16 + zlib.MAX_WBITS)
+                    out = d.decompress(block, 1 << 20)
+                    total += len(out)
+                    if total > MAX_HASHED_TEXT_BYTES:
+                        raise DamagedFileError(f"{path}: decompresses past {MAX_HASHED_TEXT_BYTES >> 20} MiB (the "
+                                               "problem-file cap); not read")
+                    h.update(out)
+                    block = d.unused_data if d.eof else d.unconsumed_tail
+        if d is not None and not d.eof:
+            raise DamagedFileError(f"{path}: damaged gzip file (Compressed file ended before the end-of-stream "
+                                   "marker was reached)")
+    except zlib.error as exc:
+        raise DamagedFileError(f"{path}: damaged gzip file ({exc})") from None
+    return h.hexdigest()
 
 
 def bytes_sha256(path: str | Path) -> str:

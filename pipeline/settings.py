@@ -19,6 +19,7 @@ import math
 
 import jsonschema
 
+from pipeline.names import PATH_RULE
 from pipeline.provenance import file_sha256, git_commit  # noqa: F401  (re-exported)
 from pipeline.robots import load_robot
 from pipeline.solvers import Settings
@@ -93,7 +94,10 @@ def _raise_first_error(doc, schema: dict, path: str) -> None:
     if errors:
         err = errors[0]
         where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
-        raise ConfigError(f"{path}: field '{where}': {err.message}")
+        message = err.message
+        if err.validator == "pattern" and where in ("data_dir", "results_dir"):  # the rules' shell commands get it
+            message = f"{err.instance!r}: not allowed in a path the workflow passes to Snakemake (use {PATH_RULE})"
+        raise ConfigError(f"{path}: field '{where}': {message}")
 
 
 def validate_against(doc, schema: dict, path: str) -> None:

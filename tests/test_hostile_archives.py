@@ -19,6 +19,7 @@ from __future__ import annotations
 import gzip
 import io
 import json
+import sys
 import shutil
 import struct
 import time
@@ -460,6 +461,11 @@ def _no_run_metadata(p):
 
 GiB = 1 << 30
 ARCHIVE_CASES = {  # name -> (bytes from parts, expected fragment)
+    # metadata naming a file that is no problem set: never opened (an archive is read from anywhere)
+    **{f"problem_path_{k}": (_meta(problem_path=v), "is not a .csv or .csv.gz file in a 'problems' folder; not read")
+       for k, v in [("etc_passwd", "/etc/passwd"), ("proc_environ", "../../../../../../../../proc/self/environ"),
+                    ("ssh_key", "/root/.ssh/id_rsa"), ("csv_elsewhere", "/tmp/x.csv"),
+                    ("yaml_in_problems", "../../problems/random/kuka_lwr.yaml")]},
     "chunk_declares_2_40": (lambda p: _mcap(p, _chunk(p, size=1 << 40)),
                             "declares 1099511627776 bytes uncompressed, past the 64 MiB chunk cap (MAX_CHUNK_BYTES)"),
     "chunk_frame_declares_2_40": (lambda p: _mcap(p, _chunk(p, payload=_frame_declaring(1 << 40), size=1 << 16)),
@@ -752,3 +758,36 @@ def test_verify_names_a_bombed_problem_set_within_a_gibibyte(base, bombs, tmp_pa
 
 def test_the_corpus_is_large_enough():
     assert len(PROBLEM_CASES) + len(ARCHIVE_CASES) + len(FORGERIES) + 4 >= 40
+
+
+_OPENED: list | None = None
+
+
+def _opened() -> list:
+    """Paths under /etc or /proc/self/environ this process opened since the list was last cleared (one audit
+    hook for the whole session: hooks cannot be removed, so it is installed once and only records)."""
+    global _OPENED
+    if _OPENED is None:
+        _OPENED = []
+
+        def hook(event, args):
+            if event == "open" and isinstance(args[0], str) and args[0].startswith(("/etc/", "/proc/self/environ")):
+                _OPENED.append(args[0])
+
+        sys.addaudithook(hook)
+    return _OPENED
+
+
+@pytest.mark.parametrize("field,value", [("robot_file", "/etc/passwd"), ("robot_path", "../../../../../etc/passwd"),
+                                         ("robot_file", "/proc/self/environ"), ("robot", "../../../etc/x")])
+def test_reproduce_and_verify_never_open_a_file_the_metadata_names_outside_robots(base, parts, field, value, capsys):
+    """A forged ``robot_file``/``robot_path``/``robot`` field: reproduce refuses the archive, or finds the
+    robot file in the data folder by the archive's robot name, and never opens the named file."""
+    p = _put(base, f"forged_{field}.mcap", _meta(**{field: value})(parts.copy()))
+    opened = _opened()
+    opened.clear()
+    rc, out, err = _cli(["reproduce", str(p), "--sample", "2", "--data", str(DATA)], capsys)
+    assert not [f for f in opened if "passwd" in f or "environ" in f], opened
+    assert "Traceback" not in err
+    if rc != 0:
+        assert len(err.strip().splitlines()) == 1 and field.split("_")[0] in err, err

@@ -1114,6 +1114,34 @@ def _expand(data: bytes, meta: dict, path: Path, seq: int, problems, room: int =
 _PROBLEM_CACHE: dict = {}
 
 
+# What a file named by an archive's metadata may be: the archive is read from anywhere, so its
+# metadata must not make a verb read any other file (``/proc/self/environ``, ``~/.ssh/id_rsa``):
+# a problem set is a ``.csv``/``.csv.gz`` file in a ``problems`` folder, a robot file a ``.yaml``
+# file in a ``robots`` folder.
+NAMED_FILES = {"problem_path": ("problems", (".csv", ".csv.gz")), "robot_path": ("robots", (".yaml", ".yml")),
+               "robot_file": ("robots", (".yaml", ".yml"))}
+
+
+def named_file(path: Path, meta: dict, field: str) -> Path | None:
+    """The file the metadata ``field`` of archive ``path`` names (relative to the archive's folder, or as
+    written for ``robot_file``), resolved; None when the field is empty. Raises :class:`ArchiveError` when
+    it names anything but what :data:`NAMED_FILES` allows (a problem set in a ``problems`` folder, a robot
+    file in a ``robots`` folder): such a file is never opened."""
+    value = meta.get(field)
+    if not value or value == "-":
+        return None
+    folder, suffixes = NAMED_FILES[field]
+    text = str(value)
+    if "\0" in text or len(text) > 4096:
+        raise ArchiveError(f"{path}: metadata field '{field}': not a file path")
+    rel = Path(text)
+    target = (rel if field == "robot_file" else Path(path).parent / rel).resolve()
+    if not target.name.endswith(suffixes) or folder not in target.parent.parts:
+        raise ArchiveError(f"{path}: metadata field '{field}': {text[:120]!r} is not a {' or '.join(suffixes)} file in "
+                           f"a '{folder}' folder; not read (give the file with --{'problems' if folder == 'problems' else 'robot'})")
+    return target
+
+
 def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
     """The problem file an archive names (or ``given``): (problem id -> row, ProblemSet, goal length
     scale), or None for an archive that stores its goals.
@@ -1126,7 +1154,7 @@ def _problems_of(path: Path, meta: dict, given: str | Path | None = None):
     from pipeline.io.problems import load_problems
     from pipeline.robots import LENGTH_UNITS
 
-    pf = Path(given).resolve() if given else (path.parent / rel).resolve()
+    pf = Path(given).resolve() if given else named_file(path, meta, "problem_path")
     if not pf.is_file():
         where = f"--problems {given}: no such file" if given else f"problem file {rel} not found next to the archive"
         raise ArchiveError(f"{path}: metadata field 'problem_path': {where} (the archive stores no goals of its own: "

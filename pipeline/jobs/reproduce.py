@@ -82,9 +82,13 @@ def _robot_file(path: Path, meta: dict, robot: str | None, data: str | Path):
     """The archive's robot file: given, next to the archive as written, as named, or in the data folder."""
     from pipeline.provenance import file_sha256
 
-    tries = [Path(robot)] if robot else [path.parent / meta.get("robot_path", ""), Path(meta.get("robot_file", "")),
-                                         Path(data) / "robots" / f"{meta.get('robot', '')}.yaml"]
-    tries = [t for t in tries if t.suffix in (".yaml", ".yml")]
+    from pipeline.io.archive import named_file
+    from pipeline.names import is_name
+
+    tries = [Path(robot)] if robot else [named_file(path, meta, "robot_path"), named_file(path, meta, "robot_file"),
+                                         Path(data) / "robots" / f"{meta.get('robot')}.yaml"
+                                         if is_name(meta.get("robot")) else None]
+    tries = [t for t in tries if t is not None and t.suffix in (".yaml", ".yml")]
     rf = next((t for t in tries if t.is_file()), None)
     if rf is None:
         raise UsageError(f"{path}: metadata field 'robot_file': {meta.get('robot_file', '?')} not found "

@@ -83,15 +83,16 @@ def _dependency_problems(path: Path, meta: dict, data: Path, seen: dict) -> list
     from pipeline.io.problems import ProblemFileError, problem_file_sha256
     from pipeline.provenance import DamagedFileError, file_sha256
 
-    deps = []
-    if meta.get("problem_path") and meta.get("problem_sha256", "-") != "-":
-        deps.append(("problem set", (path.parent / meta["problem_path"]).resolve(), meta["problem_sha256"]))
-    if meta.get("robot_sha256", "-") != "-":
-        robot = data / "robots" / f"{meta.get('robot')}.yaml"
-        if not robot.is_file() and meta.get("robot_path"):
-            robot = (path.parent / meta["robot_path"]).resolve()
-        deps.append(("robot file", robot, meta["robot_sha256"]))
-    problems = []
+    from pipeline.io.archive import ArchiveError, named_file
+
+    deps, problems = [], []
+    try:
+        if meta.get("problem_path") and meta.get("problem_sha256", "-") != "-":
+            deps.append(("problem set", named_file(path, meta, "problem_path"), meta["problem_sha256"]))
+        if meta.get("robot_sha256", "-") != "-":
+            deps.append(("robot file", _robot_path(path, meta, data), meta["robot_sha256"]))
+    except ArchiveError as exc:  # metadata naming a file that is no problem set or robot file: never read
+        problems.append(str(exc))
     for what, f, want in deps:
         if (f, want) not in seen:
             if not f.is_file():
@@ -111,9 +112,16 @@ def _dependency_problems(path: Path, meta: dict, data: Path, seen: dict) -> list
 
 def _robot_path(path: Path, meta: dict, data: Path) -> Path:
     """The robot file an archive was solved with, found as :func:`_dependency_problems` finds it."""
-    robot = data / "robots" / f"{meta.get('robot')}.yaml"
-    if not robot.is_file() and meta.get("robot_path"):
-        robot = (path.parent / meta["robot_path"]).resolve()
+    from pipeline.io.archive import named_file
+    from pipeline.names import is_name
+
+    robot = data / "robots" / f"{meta.get('robot')}.yaml" if is_name(meta.get("robot")) else None
+    if (robot is None or not robot.is_file()) and meta.get("robot_path"):
+        robot = named_file(path, meta, "robot_path")
+    if robot is None:
+        from pipeline.io.archive import ArchiveError
+
+        raise ArchiveError(f"{path}: metadata field 'robot': {str(meta.get('robot'))[:80]!r} is not a robot name")
     return robot
 
 
