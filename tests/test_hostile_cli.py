@@ -357,3 +357,17 @@ def test_sample_as_real_processes(argv, ws, tmp_path):
     assert rss_mib < 1024
     assert not (ws / MARK).exists()
     assert _snapshot(ws) == before
+
+
+def test_a_csv_past_its_cap_is_not_read(tmp_path):
+    """Published and built tables go through one reader with a size cap, checked before pandas opens them."""
+    from pipeline.io.csvfiles import MAX_CSV_BYTES, OversizeFileError, read_csv
+
+    big = tmp_path / "published.csv"
+    with open(big, "wb") as fh:  # sparse: no disk spent
+        fh.truncate(MAX_CSV_BYTES + 1)
+    with pytest.raises(OversizeFileError, match=r"published.csv: 64 MiB, past the 64 MiB CSV cap"):
+        read_csv(big)
+    small = tmp_path / "t.csv"
+    small.write_text("a,b\n1,2\n")
+    assert read_csv(small).to_dict("records") == [{"a": 1, "b": 2}]

@@ -25,6 +25,7 @@ import pandas as pd
 import yaml
 
 import pipeline
+from pipeline.io.csvfiles import read_csv
 from pipeline.io.layout import SAMPLES_FILE
 from pipeline.provenance import environment
 from pipeline.settings import Study, git_commit
@@ -133,7 +134,7 @@ def _table_layout(df: pd.DataFrame, budget: float = TABLE_BUDGET_PX) -> list[pd.
 
 def _table_html(path: Path, text: bool = False) -> str:
     """A table CSV as HTML (``text``: every column left-aligned, for tables of prose)."""
-    parts = _table_layout(pd.read_csv(path))
+    parts = _table_layout(read_csv(path))
     html = [p.to_html(index=False, classes="data text" if text else "data", border=0, escape=True) for p in parts]
     if len(parts) == 1:
         return html[0]
@@ -143,7 +144,7 @@ def _table_html(path: Path, text: bool = False) -> str:
 def _benchmarks(folder: Path) -> list[dict]:
     rows = []
     for f in sorted(folder.glob("*.tsv")):
-        df = pd.read_csv(f, sep="\t")
+        df = read_csv(f, sep="\t")
         rows.append({"job": f.stem, "wall_s": float(df["s"].iloc[0]), "max_rss_mb": float(df["max_rss"].iloc[0])
                      if "max_rss" in df and pd.notna(df["max_rss"].iloc[0]) else float("nan")})
     return rows
@@ -165,7 +166,7 @@ def _answer(folder: Path, tables: list[dict], figures: list[dict]) -> dict | Non
     f = folder / "tables" / "answer.csv"
     if not f.is_file():
         return None
-    ans = pd.read_csv(f, keep_default_na=False)
+    ans = read_csv(f, keep_default_na=False)
     if ans.empty or "answer" not in ans:
         return None
     by_name = {t["name"]: t for t in tables}
@@ -192,7 +193,7 @@ HEAD_TABLES = ("claims", "not_reproduced")  # pipeline.studies.claims: shown fir
 
 def _interpretations(study: Study, folder: Path, tables: list[dict]) -> list[dict]:
     """The study's interpretations with their numbers filled in from the build's tables (prose.fill)."""
-    frames = {t["name"]: pd.read_csv(folder / t["file"]) for t in tables if (folder / t["file"]).is_file()}
+    frames = {t["name"]: read_csv(folder / t["file"]) for t in tables if (folder / t["file"]).is_file()}
     return [{k: fill(v, frames) if isinstance(v, str) else v for k, v in i.items()}
             for i in study.doc["interpretations"]]
 
@@ -245,7 +246,7 @@ def study_context(study: Study, results: Path) -> dict:
     claims_csv = folder / "tables" / "claims.csv"
     claim_count = ""
     if claims_csv.is_file():  # the one-line count the section opens with: the readings that count
-        c = pd.read_csv(claims_csv, keep_default_na=False)
+        c = read_csv(claims_csv, keep_default_na=False)
         claim_count = count_line(list(c.loc[c["counts"] == "yes", "verdict (ours)"]) if "counts" in c else
                                  list(c["verdict (ours)"]))
     head = [t for t in tables if t["name"] in HEAD_TABLES]  # claims and not-reproduced: top of the section

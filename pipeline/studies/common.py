@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.io.archive import Archive
+from pipeline.io.csvfiles import read_csv
 from pipeline.studies.specs import TableSpec
 
 
@@ -46,7 +47,7 @@ def cpu_time(df: pd.DataFrame) -> pd.Series:
 def published(published_dir: Path, study: str, name: str) -> pd.DataFrame | None:
     """A published table ``data/published/<study>/<name>.csv`` or None when absent."""
     path = Path(published_dir) / study / f"{name}.csv"
-    return pd.read_csv(path) if path.is_file() else None
+    return read_csv(path) if path.is_file() else None
 
 
 def describe(x, stats=("min", "max", "mean", "std")) -> dict:

@@ -24,6 +24,7 @@ import re
 import pandas as pd
 
 from pipeline.errors import UsageError
+from pipeline.io.csvfiles import read_csv
 
 PLACEHOLDER = re.compile(r"\{\{\s*([^|{}]+?)\s*\|\s*([^|{}]*?)\s*\|\s*([^|{}]+?)\s*(?:\|\s*([^|{}]*?)\s*)?\}\}")
 MISSING_VALUE = "n/a"
@@ -161,7 +162,7 @@ def prose_of(study, folder) -> list[tuple[str, str]]:
     pieces, frames = [], {}
     tindex = folder / "tables" / "index.json"
     for t in json.loads(tindex.read_text()) if tindex.is_file() else []:
-        frames[t["name"]] = pd.read_csv(folder / "tables" / t["file"], keep_default_na=False)
+        frames[t["name"]] = read_csv(folder / "tables" / t["file"], keep_default_na=False)
         pieces.append((f"table {t['name']} (note)", t.get("note") or ""))
         if t["name"] == "claims":
             for i, why in enumerate(frames["claims"].get("why", [])):
@@ -169,7 +170,7 @@ def prose_of(study, folder) -> list[tuple[str, str]]:
     findex = folder / "figures" / "index.json"
     for f in json.loads(findex.read_text()) if findex.is_file() else []:
         pieces.append((f"figure {f['files'][0]} (caption)", f.get("caption") or ""))
-    numeric = {k: pd.read_csv(folder / "tables" / f"{k}.csv") for k in frames}
+    numeric = {k: read_csv(folder / "tables" / f"{k}.csv") for k in frames}
     for i in study.doc.get("interpretations", []):
         for field in ("choice", "evidence"):
             pieces.append((f"interpretation {i['topic']!r} ({field})", fill(str(i.get(field, "")), numeric)))
@@ -182,13 +183,13 @@ def untabled_numbers(study, folder, published_dir) -> list[tuple[str, str, str]]
     from pathlib import Path
 
     folder = Path(folder)
-    frames = [pd.read_csv(p, keep_default_na=False) for p in sorted((folder / "tables").glob("*.csv"))
+    frames = [read_csv(p, keep_default_na=False) for p in sorted((folder / "tables").glob("*.csv"))
               if p.name != "claims.csv"]
     claims = folder / "tables" / "claims.csv"
     if claims.is_file():  # the values a verdict rests on, not the prose beside them (the reasons are checked)
-        frames.append(pd.read_csv(claims, keep_default_na=False)[["our values", "published values"]])
+        frames.append(read_csv(claims, keep_default_na=False)[["our values", "published values"]])
     pub = Path(published_dir) / study.id
-    frames += [pd.read_csv(p, keep_default_na=False) for p in sorted(pub.glob("*.csv"))] if pub.is_dir() else []
+    frames += [read_csv(p, keep_default_na=False) for p in sorted(pub.glob("*.csv"))] if pub.is_dir() else []
     values = _value_set(frames, _settings_numbers(study.doc))
     bad = []
     for where, text in prose_of(study, folder):
