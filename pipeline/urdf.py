@@ -161,7 +161,6 @@ def _parse_expanded(path: Path, text: str):
     import io
 
     from lxml import etree
-    import yourdfpy
 
     shown = f"{path} (expanded by xacro)"
     data = text.encode("utf-8")
@@ -170,23 +169,13 @@ def _parse_expanded(path: Path, text: str):
         root = etree.fromstring(data, parser)
     except etree.XMLSyntaxError as exc:
         raise _fail(shown, f"not valid XML ({str(exc).splitlines()[0]})") from None
-    if root.tag != "robot":
-        raise _fail(shown, f"not a URDF (root element <{root.tag}>, expected <robot>)")
-    _check_elements(root, shown)
-    try:
-        urdf = yourdfpy.URDF.load(io.BytesIO(data), build_scene_graph=False, build_collision_scene_graph=False,
-                                  load_meshes=False, load_collision_meshes=False, mesh_dir=str(Path(path).parent))
-    except Exception as exc:  # noqa: BLE001  the library raises many kinds; one line names the file
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise _fail(shown, f"yourdfpy cannot parse the URDF ({msg})") from None
-    return urdf.robot, _raw_origins(root)
+    return _model(root, shown, io.BytesIO(data), mesh_dir=str(Path(path).parent))
 
 
 def _load(path: Path, xacro_args: dict | None = None, xacro_paths=()):
     """Parse the URDF (lxml for the XML check and the written origins, yourdfpy for the model); a xacro
     file is expanded first (:func:`expand_xacro`) and its text parsed from memory."""
     from lxml import etree
-    import yourdfpy
 
     from pipeline.errors import not_regular
 
@@ -201,15 +190,23 @@ def _load(path: Path, xacro_args: dict | None = None, xacro_paths=()):
         raise _fail(path, f"cannot read URDF ({exc.strerror or exc})") from None
     except etree.XMLSyntaxError as exc:
         raise _fail(path, f"not valid XML ({str(exc).splitlines()[0]})") from None
+    return _model(root, path, str(path))
+
+
+def _model(root, shown, source, **load_kw):
+    """(yourdfpy robot, raw origins) of a parsed URDF ``root`` read from ``source`` (a path or a file
+    object); ``shown`` is the file errors name."""
+    import yourdfpy
+
     if root.tag != "robot":
-        raise _fail(path, f"not a URDF (root element <{root.tag}>, expected <robot>)")
-    _check_elements(root, path)
+        raise _fail(shown, f"not a URDF (root element <{root.tag}>, expected <robot>)")
+    _check_elements(root, shown)
     try:
-        urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, build_collision_scene_graph=False,
-                                  load_meshes=False, load_collision_meshes=False)
+        urdf = yourdfpy.URDF.load(source, build_scene_graph=False, build_collision_scene_graph=False,
+                                  load_meshes=False, load_collision_meshes=False, **load_kw)
     except Exception as exc:  # noqa: BLE001  the library raises many kinds; one line names the file
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise _fail(path, f"yourdfpy cannot parse the URDF ({msg})") from None
+        raise _fail(shown, f"yourdfpy cannot parse the URDF ({msg})") from None
     return urdf.robot, _raw_origins(root)
 
 
