@@ -420,15 +420,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _add_force_flags(sub) -> None:
-    """``--force`` on every verb that writes a named file (``--out``, ``-o``, ``--csv``, ``--write-robot``):
-    without it an existing file is not overwritten (:func:`pipeline.io.outputs.check_outputs`)."""
+    """``--force`` on every verb that writes a named file (``--out``, ``-o``, ``--csv``, ``--write-robot``,
+    ``--res``): without it an existing file is not overwritten (:func:`pipeline.io.outputs.check_outputs`)."""
+    from pipeline.io.outputs import OUTPUT_ARGS
+
     seen = set()
     for p in sub.choices.values():
         if id(p) in seen:
             continue
         seen.add(id(p))
         dests = {a.dest for a in p._actions}
-        if "force" not in dests and dests & {"out", "csv", "write_robot"}:
+        if "force" not in dests and dests & set(OUTPUT_ARGS):
             p.add_argument("--force", action="store_true",
                            help="overwrite an existing output file (never a file this command reads, nor an archive "
                                 "or problem set of a results tree)")

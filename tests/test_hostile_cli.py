@@ -195,6 +195,22 @@ CASES = [
     ("plot-out-dir-file", ["plot_figures", "--study", ARM, "--archives", "@W/a.mcap", "--out-dir", "@W/existing.txt"],
      "exists and is not a folder"),
     ("erthal-robot-out-self", ["robot", UR5E, "--out", UR5E], "is also an input of this command"),
+    ("erthal-write-robot-self", ["robot", "data/erthal1992/stanford_input.yaml", "--write-robot",
+                                 "data/erthal1992/stanford_input.yaml"], "is also an input of this command"),
+    ("erthal-res-over-archive", ["erthal_path_rows", "--study", "data/studies/erthal1992.yaml", "--problem-set", "p",
+                                 "--robot", "scara1", "--archive", "@W/a.mcap", "--out", "@W/rows.mcap", "--res",
+                                 "@W/a.mcap"], "is also an input of this command"),
+    ("erthal-out-over-archive", ["erthal_path_rows", "--study", "data/studies/erthal1992.yaml", "--problem-set", "p",
+                                 "--robot", "scara1", "--archive", "@W/a.mcap", "--out", "@W/a.mcap"],
+     "is also an input of this command"),
+    ("erthal-report-dir-file", ["erthal_catalogue", "--study", "data/studies/erthal1992.yaml", "--out", "@W/c.mcap",
+                                "--report-dir", "@W/existing.txt"], "exists and is not a folder"),
+    ("nepomuceno-motion-over-study", ["plan_motion_nepomuceno2024", "--study", "data/studies/nepomuceno2024.yaml",
+                                      "--motion", "m", "--out", "data/studies/nepomuceno2024.yaml"],
+     "is also an input of this command"),
+    ("mariano-build-dir-file", ["mariano_measure_mcu", "--study", "data/studies/mariano2019.yaml", "--robot",
+                                "data/robots/mariano_4dof.yaml", "--out", "@W/m.mcap", "--build-dir",
+                                "@W/existing.txt"], "exists and is not a folder"),
     ("mariano-out-robot", ["mariano_count_ops", "--study", "data/studies/mariano2019.yaml", "--robot",
                            "data/robots/mariano_4dof.yaml", "--out", "data/robots/mariano_4dof.yaml"],
      "is also an input of this command"),
@@ -252,7 +268,7 @@ def test_every_verb_that_writes_a_file_has_force():
     sub = next(a for a in build_parser()._actions if a.dest == "verb")
     for verb, p in sub.choices.items():
         dests = {a.dest for a in p._actions}
-        if dests & {"out", "csv", "write_robot"}:
+        if dests & {"out", "csv", "write_robot", "res"}:
             assert "force" in dests, verb
 
 

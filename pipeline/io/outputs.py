@@ -2,7 +2,8 @@
 over any other existing file only when asked (``--force``).
 
 :func:`check_outputs` runs before every verb (``pipeline/cli.py``), on the arguments that name files to
-write (``--out``, ``-o``, ``--csv``, ``--write-robot``, ``--out-dir``) against every other argument that
+write (``--out``, ``-o``, ``--csv``, ``--write-robot``, ``--res``; folders: ``--out-dir``, ``--report-dir``,
+``--build-dir``) against every other argument that
 names an existing file or folder. Snakemake removes a job's outputs before it runs the job, so the
 rules never need ``--force``; a user re-running a verb by hand over its last output does.
 """
@@ -16,8 +17,8 @@ from pathlib import Path
 from pipeline.errors import UsageError
 
 # argument names (argparse ``dest``) that name a file a verb writes; ``out_dir`` names a folder
-OUTPUT_ARGS = ("out", "csv", "write_robot")
-OUTPUT_DIR_ARGS = ("out_dir",)
+OUTPUT_ARGS = ("out", "csv", "write_robot", "res")
+OUTPUT_DIR_ARGS = ("out_dir", "report_dir", "build_dir")
 # folders of a results tree that hold a build's inputs to its tables: archives and problem sets
 RESULT_INPUT_DIRS = ("runs", "race", "problems")
 MCAP_MAGIC = b"\x89MCAP"
