@@ -639,7 +639,7 @@ def test_time_limit_in_a_process(world, tmp_path):
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     (line,) = proc.stderr.strip().split("\n")
     assert f"{src}: xacro expansion stopped after 8 s (time limit" in line, line
-    assert elapsed < 15, elapsed
+    assert elapsed < 30, elapsed  # 8 s of expansion plus the interpreter's start-up (seconds on a loaded machine)
 
 
 def test_audit_hook_and_limits_in_the_child(world):
