@@ -1,25 +1,102 @@
-"""numba's on-disk cache, keyed on the whole package's source.
+"""numba's on-disk cache, each kernel keyed on the source it can reach.
 
-numba checks a cached function against its own source file only. A kernel that inlines a function of
-another module (the solvers inline the FK check of :mod:`pipeline.kinematics.fkcheck`, for example)
-keeps its old machine code after that other module changes: a checkout or an edit could then run stale
-code and give other numbers without any error. So the cache lives in a directory named after a digest
-of every ``.py`` file of the package (``pipeline/__pycache__/numba/<digest>``, or the user's cache
-directory where the package is not writable); a changed source starts an empty cache, and the caches
-of earlier sources are removed. Hashing the sources takes about 6 ms per process.
+numba checks a cached function against its own source file only (modification time and size). A kernel
+that inlines a function of another module (the solvers inline the FK check of
+:mod:`pipeline.kinematics.fkcheck`, for example) would keep its old machine code after that other module
+changed: a checkout or an edit could then run stale code and give other numbers without any error.
 
-A ``NUMBA_CACHE_DIR`` the user set is left alone.
+So, for the package's own modules, the "source stamp" numba stores beside each cached kernel (and
+compares on every load) is a digest of the kernel's module **and every package module it imports**,
+directly or through others, at module level or inside a function (:func:`closure_digest`; the import
+statements are read with :mod:`ast`, nothing is executed). A changed module recompiles exactly the
+kernels that can reach it: editing ``pipeline/studies/``, ``pipeline/report/``, ``pipeline/jobs/`` or the
+README recompiles no solver kernel.
+
+The cache lives in ``pipeline/__pycache__/numba/`` (or the user's cache directory where the package is
+not writable). A ``NUMBA_CACHE_DIR`` the user set is used as the directory; the stamps are ours either way.
+The stamp is installed as a numba cache locator the moment numba is imported (a one-shot import hook),
+so that ``import pipeline`` itself does not import numba.
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
+import importlib.abc
+import importlib.util
 import os
 import shutil
 import sys
+from functools import lru_cache
 from pathlib import Path
 
 _OURS = "PIPELINE_NUMBA_CACHE_DIR"  # the directory we chose (a NUMBA_CACHE_DIR equal to it is ours, not the user's)
+PKG = Path(__file__).resolve().parent
+LAYOUT = "v2"  # the cache layout (v1: one directory per digest of the whole package)
+
+
+def _module_file(name: str) -> Path | None:
+    """The source file of package module ``name`` (``pipeline.x.y``), or None."""
+    parts = name.split(".")[1:]
+    base = PKG.joinpath(*parts) if parts else PKG
+    for f in (base.with_suffix(".py"), base / "__init__.py"):
+        if f.is_file():
+            return f
+    return None
+
+
+@lru_cache(maxsize=None)
+def _imports(path: Path) -> tuple[Path, ...]:
+    """Package source files ``path`` imports (every ``import`` statement, at any depth of the module)."""
+    try:
+        tree = ast.parse(path.read_bytes(), str(path))
+    except (OSError, SyntaxError, ValueError):
+        return ()
+    pkg = path.relative_to(PKG.parent).with_suffix("").parts[:-1]  # the package the module sits in
+    out = set()
+    for node in ast.walk(tree):
+        names = []
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = list(pkg[: len(pkg) - node.level + 1])
+                base = ".".join(up + ([base] if base else []))
+            names = [base] + [f"{base}.{a.name}" for a in node.names]
+        for n in names:
+            if n == "pipeline" or n.startswith("pipeline."):
+                parts = n.split(".")
+                for k in range(len(parts), 0, -1):  # the module itself and each package above it
+                    f = _module_file(".".join(parts[:k]))
+                    if f is not None:
+                        out.add(f)
+    out.discard(path)
+    return tuple(sorted(out))
+
+
+def closure(path: Path) -> list[Path]:
+    """``path`` and every package source file it can reach through imports, sorted."""
+    seen, todo = set(), [Path(path).resolve()]
+    while todo:
+        f = todo.pop()
+        if f in seen:
+            continue
+        seen.add(f)
+        todo.extend(_imports(f))
+    return sorted(seen)
+
+
+@lru_cache(maxsize=None)
+def closure_digest(path: Path) -> str:
+    """16 hex digits of SHA-1 over the files of :func:`closure` (relative path and bytes); once per file
+    and process (numba asks for it at every cached function's decoration)."""
+    h = hashlib.sha1()
+    for f in closure(path):
+        h.update(f.relative_to(PKG).as_posix().encode())
+        h.update(b"\0")
+        h.update(f.read_bytes())
+    return h.hexdigest()[:16]
 
 
 def source_digest(root: Path) -> str:
@@ -32,24 +109,70 @@ def source_digest(root: Path) -> str:
     return h.hexdigest()[:16]
 
 
-def use_source_keyed_cache() -> None:
-    """Point numba's cache at the directory of this source (see the module docstring)."""
-    given = os.environ.get("NUMBA_CACHE_DIR")
-    if given and given != os.environ.get(_OURS):
-        return  # the user's own choice
-    root = Path(__file__).resolve().parent
-    try:
-        digest = source_digest(root)
-    except OSError:  # an unreadable source file: leave numba's default
+def _install_locator() -> None:
+    """Put the closure-stamped locator first among numba's cache locators (once)."""
+    from numba.core import caching
+
+    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # the name of numba >= 0.58 / before
+    user = getattr(caching, "UserProvidedCacheLocator", None) or caching._UserProvidedCacheLocator
+    if any(getattr(c, "_pipeline_closure", False) for c in impl._locator_classes):
         return
-    base = root / "__pycache__" / "numba"
-    if not os.access(root, os.W_OK):
-        base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "ik-pipeline" / "numba"
-    here = base / digest
-    os.environ["NUMBA_CACHE_DIR"] = os.environ[_OURS] = str(here)
+
+    class ClosureStampedLocator(user):
+        """numba's locator for a user-given cache directory, with the closure digest as source stamp."""
+
+        _pipeline_closure = True
+
+        def get_source_stamp(self):
+            return ("pipeline-closure", closure_digest(Path(self._py_file)))
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            try:
+                inside = Path(py_file).resolve().is_relative_to(PKG)
+            except (OSError, ValueError):
+                inside = False
+            return super().from_function(py_func, py_file) if inside else None
+
+    impl._locator_classes.insert(0, ClosureStampedLocator)
+
+
+class _AfterNumba(importlib.abc.MetaPathFinder):
+    """Runs :func:`_install_locator` right after ``numba`` is first imported, whoever imports it."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "numba":
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec("numba")
+        if spec is None or spec.loader is None:
+            return spec
+        run = spec.loader.exec_module
+
+        def exec_module(module):
+            run(module)
+            _install_locator()
+
+        spec.loader.exec_module = exec_module
+        return spec
+
+
+def use_source_keyed_cache() -> None:
+    """Point numba's cache at the package's cache directory and stamp its kernels by their closure
+    (see the module docstring)."""
+    given = os.environ.get("NUMBA_CACHE_DIR")
+    if not given or given == os.environ.get(_OURS):
+        base = PKG / "__pycache__" / "numba"
+        if not os.access(PKG, os.W_OK):
+            base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "ik-pipeline" / "numba"
+        here = base / LAYOUT
+        os.environ["NUMBA_CACHE_DIR"] = os.environ[_OURS] = str(here)
+        if base.is_dir():  # caches of an earlier layout (one directory per digest of the whole package)
+            for old in base.iterdir():
+                if old.name != LAYOUT and old.is_dir():
+                    shutil.rmtree(old, ignore_errors=True)
     if "numba" in sys.modules:  # imported before us: its configuration is read already
-        sys.modules["numba"].config.CACHE_DIR = str(here)
-    if base.is_dir():
-        for old in base.iterdir():
-            if old.name != digest and old.is_dir():
-                shutil.rmtree(old, ignore_errors=True)
+        sys.modules["numba"].config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
+        _install_locator()
+    elif not any(isinstance(f, _AfterNumba) for f in sys.meta_path):
+        sys.meta_path.insert(0, _AfterNumba())

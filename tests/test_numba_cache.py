@@ -1,5 +1,6 @@
-"""numba's cache keyed on the package's whole source (``pipeline._numba_cache``): a kernel that inlines a
-function of another module must not keep stale machine code after that module changes."""
+"""numba's cache with each kernel stamped by the source it can reach (``pipeline._numba_cache``): a kernel
+that inlines a function of another module must not keep stale machine code after that module changes,
+and an edit that no kernel can reach (a study, the report, a job) recompiles nothing."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from pipeline._numba_cache import source_digest
+from pipeline._numba_cache import LAYOUT, PKG, closure, closure_digest, source_digest
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -27,17 +28,45 @@ def test_digest_follows_every_source_file(tmp_path):
     assert source_digest(tmp_path) == first
 
 
-def _cache_dir(env: dict) -> str:
-    code = "import pipeline, numba; print(numba.config.CACHE_DIR)"
-    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, check=True)
-    return out.stdout.strip()
+def _rel(files) -> set[str]:
+    return {f.relative_to(PKG).as_posix() for f in files}
 
 
-def test_cache_directory_is_named_after_the_source_and_a_users_choice_is_kept(tmp_path):
+def test_a_kernels_stamp_covers_what_it_imports_and_nothing_above():
+    """The solvers reach the kinematics (whose FK check they inline) but no study, report, job or CLI
+    module: editing those recompiles no solver kernel."""
+    kin = _rel(closure(PKG / "kinematics" / "fkcheck.py"))
+    for method in ("analytic.py", "dls.py", "lm.py", "optimizers.py"):
+        if not (PKG / "solvers" / method).is_file():
+            continue
+        reach = _rel(closure(PKG / "solvers" / method))
+        assert f"solvers/{method}" in reach and "kinematics/fkcheck.py" in reach and kin <= reach
+        assert not {f for f in reach if f.startswith(("studies/", "report/", "jobs/")) or f == "cli.py"}, reach
+    assert len(closure_digest(PKG / "solvers" / "analytic.py")) == 16
+
+
+def _run(code: str, env: dict) -> str:
+    return subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
+                          check=True).stdout.strip()
+
+
+def test_cache_directory_and_a_users_choice(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "PIPELINE_NUMBA_CACHE_DIR")}
-    ours = _cache_dir(env)
-    assert Path(ours).name == source_digest(ROOT / "pipeline") and Path(ours).parent.name == "numba"
-    # a child of a process that chose it recomputes it (and gets the same for the same source)
-    assert _cache_dir({**env, "NUMBA_CACHE_DIR": "/elsewhere", "PIPELINE_NUMBA_CACHE_DIR": "/elsewhere"}) == ours
+    code = "import pipeline, numba, sys; print(numba.config.CACHE_DIR)"
+    ours = _run(code, env)
+    assert Path(ours).name == LAYOUT and Path(ours).parent.name == "numba"
+    # a child of a process that chose it recomputes it (and gets the same)
+    assert _run(code, {**env, "NUMBA_CACHE_DIR": "/elsewhere", "PIPELINE_NUMBA_CACHE_DIR": "/elsewhere"}) == ours
     # the user's own setting is left alone
-    assert _cache_dir({**env, "NUMBA_CACHE_DIR": str(tmp_path)}) == str(tmp_path)
+    assert _run(code, {**env, "NUMBA_CACHE_DIR": str(tmp_path)}) == str(tmp_path)
+    # importing the package does not import numba (``--help`` stays fast); numba's import installs the stamp
+    assert _run("import pipeline, sys; print('numba' in sys.modules)", env) == "False"
+
+
+def test_a_second_process_loads_the_kernel_stamped_by_its_closure(tmp_path):
+    env = {**{k: v for k, v in os.environ.items() if k != "PIPELINE_NUMBA_CACHE_DIR"}, "NUMBA_CACHE_DIR": str(tmp_path)}
+    code = ("import pipeline\nfrom pipeline.kinematics.fkcheck import meets\nmeets(0, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5)\n"
+            "from numba.core import caching\n"
+            "print(sum(meets.stats.cache_hits.values()), type(meets._cache._impl.locator).__name__)")
+    assert _run(code, env) == "0 ClosureStampedLocator"
+    assert _run(code, env) == "1 ClosureStampedLocator"
