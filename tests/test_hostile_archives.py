@@ -462,10 +462,14 @@ def _no_run_metadata(p):
 GiB = 1 << 30
 ARCHIVE_CASES = {  # name -> (bytes from parts, expected fragment)
     # metadata naming a file that is no problem set: never opened (an archive is read from anywhere)
-    **{f"problem_path_{k}": (_meta(problem_path=v), "is not a .csv or .csv.gz file in a 'problems' folder; not read")
-       for k, v in [("etc_passwd", "/etc/passwd"), ("proc_environ", "../../../../../../../../proc/self/environ"),
-                    ("ssh_key", "/root/.ssh/id_rsa"), ("csv_elsewhere", "/tmp/x.csv"),
-                    ("yaml_in_problems", "../../problems/random/kuka_lwr.yaml")]},
+    **{f"problem_path_{k}": (_meta(problem_path=v), why)
+       for k, v, why in [("etc_passwd", "/etc/passwd", "is not a path relative to the archive; not read"),
+                         ("proc_environ", "../../../../../../../../proc/self/environ",
+                          "is not a .csv or .csv.gz file; not read"),
+                         ("ssh_key", "/root/.ssh/id_rsa", "is not a path relative to the archive; not read"),
+                         ("csv_absolute", "/tmp/x.csv", "is not a path relative to the archive; not read"),
+                         ("yaml_in_problems", "../../problems/random/kuka_lwr.yaml",
+                          "is not a .csv or .csv.gz file; not read")]},
     "chunk_declares_2_40": (lambda p: _mcap(p, _chunk(p, size=1 << 40)),
                             "declares 1099511627776 bytes uncompressed, past the 64 MiB chunk cap (MAX_CHUNK_BYTES)"),
     "chunk_frame_declares_2_40": (lambda p: _mcap(p, _chunk(p, payload=_frame_declaring(1 << 40), size=1 << 16)),

@@ -1115,30 +1115,33 @@ _PROBLEM_CACHE: dict = {}
 
 
 # What a file named by an archive's metadata may be: the archive is read from anywhere, so its
-# metadata must not make a verb read any other file (``/proc/self/environ``, ``~/.ssh/id_rsa``):
-# a problem set is a ``.csv``/``.csv.gz`` file in a ``problems`` folder, a robot file a ``.yaml``
-# file in a ``robots`` folder.
-NAMED_FILES = {"problem_path": ("problems", (".csv", ".csv.gz")), "robot_path": ("robots", (".yaml", ".yml")),
+# metadata must not make a verb read any other file (``/proc/self/environ``, ``~/.ssh/id_rsa``): a
+# problem set is a ``.csv``/``.csv.gz`` file named relative to the archive (as the writer records it),
+# a robot file a ``.yaml`` file in a ``robots`` folder (``data/robots/<name>.yaml``).
+NAMED_FILES = {"problem_path": (None, (".csv", ".csv.gz")), "robot_path": ("robots", (".yaml", ".yml")),
                "robot_file": ("robots", (".yaml", ".yml"))}
 
 
 def named_file(path: Path, meta: dict, field: str) -> Path | None:
     """The file the metadata ``field`` of archive ``path`` names (relative to the archive's folder, or as
     written for ``robot_file``), resolved; None when the field is empty. Raises :class:`ArchiveError` when
-    it names anything but what :data:`NAMED_FILES` allows (a problem set in a ``problems`` folder, a robot
-    file in a ``robots`` folder): such a file is never opened."""
+    it names anything but what :data:`NAMED_FILES` allows (a problem set: a ``.csv``/``.csv.gz`` path
+    relative to the archive; a robot file: a ``.yaml`` file in a ``robots`` folder): such a file is never
+    opened."""
     value = meta.get(field)
     if not value or value == "-":
         return None
     folder, suffixes = NAMED_FILES[field]
     text = str(value)
-    if "\0" in text or len(text) > 4096:
-        raise ArchiveError(f"{path}: metadata field '{field}': not a file path")
     rel = Path(text)
+    if "\0" in text or len(text) > 4096 or (rel.is_absolute() and field != "robot_file"):
+        raise ArchiveError(f"{path}: metadata field '{field}': {text[:120]!r} is not a path relative to the archive; "
+                           f"not read (give the file with --{'problems' if field == 'problem_path' else 'robot'})")
     target = (rel if field == "robot_file" else Path(path).parent / rel).resolve()
-    if not target.name.endswith(suffixes) or folder not in target.parent.parts:
-        raise ArchiveError(f"{path}: metadata field '{field}': {text[:120]!r} is not a {' or '.join(suffixes)} file in "
-                           f"a '{folder}' folder; not read (give the file with --{'problems' if folder == 'problems' else 'robot'})")
+    if not target.name.endswith(suffixes) or (folder and folder not in target.parent.parts):
+        where = f" in a '{folder}' folder" if folder else ""
+        raise ArchiveError(f"{path}: metadata field '{field}': {text[:120]!r} is not a {' or '.join(suffixes)} file"
+                           f"{where}; not read (give the file with --{'problems' if field == 'problem_path' else 'robot'})")
     return target
 
 
