@@ -135,6 +135,37 @@ def _install_locator() -> None:
             return super().from_function(py_func, py_file) if inside else None
 
     impl._locator_classes.insert(0, ClosureStampedLocator)
+    _install_notice()
+
+
+NOTICE_ENV = "PIPELINE_COMPILE_NOTICE"  # "0": no line when a kernel compiles (the test suite sets it)
+
+
+def _install_notice() -> None:
+    """One line on stderr the first time this process compiles a package kernel (a cache miss): what it
+    compiles and roughly how long that takes. Nothing when every kernel loads from the cache."""
+    from numba.core import event
+
+    class FirstCompile(event.Listener):
+        done = False
+
+        def on_start(self, ev):
+            if FirstCompile.done or os.environ.get(NOTICE_ENV, "1") == "0":
+                return
+            fn = getattr(ev.data.get("dispatcher"), "py_func", None)
+            module = getattr(fn, "__module__", "") or ""
+            if not module.startswith("pipeline."):
+                return
+            FirstCompile.done = True
+            sys.stderr.write(f"ik-pipeline: compiling {module}.{fn.__qualname__} and the kernels it calls (first use "
+                             "since an install or a change of their source; from seconds up to a few minutes on 2 "
+                             f"cores, then loaded from the cache in {os.environ.get('NUMBA_CACHE_DIR', '?')})\n")
+            sys.stderr.flush()
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", FirstCompile())
 
 
 class _AfterNumba(importlib.abc.MetaPathFinder):

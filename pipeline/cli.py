@@ -20,6 +20,7 @@ manifest          write results/MANIFEST.sha256: the SHA-256 of every file the b
 import_urdf       write a robot file (general joint form) from a URDF or xacro chain (also: import-urdf)
 benchmark_arm     benchmark one arm alone (arm_benchmark on that robot only) and its report (also: benchmark-arm)
 export_urdf       write a robot file as a URDF, base_link ... tool0, metres (also: export-urdf)
+compile           warm the numba cache: build or load the kernels of methods ahead of their first call
 """
 
 from __future__ import annotations
@@ -142,6 +143,14 @@ def cmd_benchmark_arm(args) -> None:
 
     print(benchmark_arm(args.robot, scale=args.scale, cores=args.cores, results=args.results, data=args.data,
                         dry_run=args.dry_run))
+
+
+def cmd_compile(args) -> None:
+    from pipeline.jobs.compile import compile_methods
+
+    if not args.all and not args.methods:
+        raise CLIError("name the methods to compile, or --all")
+    print(compile_methods(None if args.all else args.methods, args.robots, batch=args.batch))
 
 
 def cmd_export_urdf(args) -> None:
@@ -404,6 +413,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--data", default="data", help="data folder holding studies/arm_benchmark.yaml and published/")
     p.add_argument("--dry-run", action="store_true", help="write the study and print the Snakemake command only")
     p.set_defaults(func=cmd_benchmark_arm)
+
+    p = sub.add_parser("compile", help="warm the numba cache: build or load the kernels of methods ahead of their first call")
+    p.add_argument("methods", nargs="*", metavar="METHOD", help="registered methods of ours (`solvers` lists them)")
+    p.add_argument("--all", action="store_true", help="every registered method of ours (the peers' are not numba)")
+    p.add_argument("--robots", nargs="+", metavar="ROBOT", help="shipped robot names or robot files (default: every "
+                   "shipped robot the method applies to)")
+    p.add_argument("--batch", action="store_true", help="also compile the batch kernels (solve_batch)")
+    p.set_defaults(func=cmd_compile)
 
     p = sub.add_parser("export_urdf", aliases=["export-urdf"],
                        help="write a robot file as a URDF (links base_link ... tool0, metres)")

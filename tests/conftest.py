@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+
+os.environ.setdefault("PIPELINE_COMPILE_NOTICE", "0")  # no compile line in the outputs the tests compare
 
 import numpy as np
 import pytest

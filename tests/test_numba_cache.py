@@ -70,3 +70,19 @@ def test_a_second_process_loads_the_kernel_stamped_by_its_closure(tmp_path):
             "print(sum(meets.stats.cache_hits.values()), type(meets._cache._impl.locator).__name__)")
     assert _run(code, env) == "0 ClosureStampedLocator"
     assert _run(code, env) == "1 ClosureStampedLocator"
+
+
+def test_the_first_compile_says_so_once_and_a_warm_cache_says_nothing(tmp_path):
+    env = {**{k: v for k, v in os.environ.items() if k != "PIPELINE_NUMBA_CACHE_DIR"}, "NUMBA_CACHE_DIR": str(tmp_path),
+           "PIPELINE_COMPILE_NOTICE": "1"}
+    code = ("import pipeline\nfrom pipeline.kinematics.fkcheck import meets, pose_check\n"
+            "meets(0, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5)\nmeets(0, 1, 1, 1, 1, 1, 1)\n")
+    cold = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, check=True)
+    lines = cold.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("ik-pipeline: compiling pipeline.kinematics.fkcheck.meets"), lines
+    warm = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, check=True)
+    assert warm.stderr == ""
+    quiet = subprocess.run([sys.executable, "-c", code.replace("0.5, 0.5, 0.5", "0.5, 0.5, 7")], cwd=ROOT,
+                           env={**env, "NUMBA_CACHE_DIR": str(tmp_path / "other"), "PIPELINE_COMPILE_NOTICE": "0"},
+                           capture_output=True, text=True, check=True)
+    assert quiet.stderr == ""
