@@ -148,8 +148,15 @@ def cmd_benchmark_arm(args) -> None:
 def cmd_compile(args) -> None:
     from pipeline.jobs.compile import compile_methods
 
+    if args.studies:
+        if args.all or args.methods or args.robots:
+            raise CLIError("--studies compiles what the studies' solve jobs call; give no methods, --all or --robots")
+        from pipeline.jobs.compile import compile_studies
+
+        print(compile_studies(args.studies, args.data))
+        return
     if not args.all and not args.methods:
-        raise CLIError("name the methods to compile, or --all")
+        raise CLIError("name the methods to compile, or --all, or --studies")
     print(compile_methods(None if args.all else args.methods, args.robots, batch=args.batch))
 
 
@@ -420,6 +427,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robots", nargs="+", metavar="ROBOT", help="shipped robot names or robot files (default: every "
                    "shipped robot the method applies to)")
     p.add_argument("--batch", action="store_true", help="also compile the batch kernels (solve_batch)")
+    p.add_argument("--studies", nargs="+", metavar="STUDY", help="study files: compile what their solve jobs call "
+                   "(each robot and solver label with its settings; the workflow's first rule)")
+    p.add_argument("--data", default="data", help="with --studies: the data folder (robots/)")
     p.set_defaults(func=cmd_compile)
 
     p = sub.add_parser("export_urdf", aliases=["export-urdf"],

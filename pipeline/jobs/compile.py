@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+from pathlib import Path
 
 from pipeline.errors import UsageError
 
@@ -70,3 +71,48 @@ def compile_methods(methods: list[str] | None = None, robots: list[str] | None =
         print(line, file=progress, flush=True)
     return (f"compiled or loaded the kernels of {len(wanted)} method(s) in {time.perf_counter() - t_all:.1f} s "
             f"(cache: {os.environ.get('NUMBA_CACHE_DIR', 'numba default')})")
+
+
+def compile_studies(study_paths: list, data="data", *, progress=sys.stderr) -> str:
+    """Build or load, once, the kernels every solve job of these studies will call: each (robot, solver
+    label) pair of the studies' jobs is warmed up with the label's own settings, as a solve job warms
+    up (:func:`pipeline.solvers.warm_up`), and a method with a batch kernel also solves
+    ``BATCH_GOALS`` goals in one batch (the path a solve job takes). The workflow runs this as its
+    first rule, so that no solve job compiles and no two jobs compile the same kernel."""
+    import numpy as np
+
+    from pipeline.robots import load_robot
+    from pipeline.settings import load_study
+    from pipeline.solvers import NotApplicableError, get, prepare, solve_batch, warm_up
+
+    t_all, done = time.perf_counter(), 0
+    studies = [load_study(Path(p)) for p in study_paths]
+    for k, st in enumerate(studies, 1):
+        t0, pairs = time.perf_counter(), {}
+        for _pset, robot, label in st.jobs():
+            pairs.setdefault((robot, label), None)
+        models, used = {}, 0
+        for robot, label in pairs:
+            entry = st.solvers[label]
+            spec = get(entry.method)
+            if spec.peer:
+                continue
+            model = models.get(robot) or models.setdefault(robot, load_robot(Path(data) / "robots" / f"{robot}.yaml"))
+            try:
+                prep = prepare(entry.method, model, entry.settings)
+            except NotApplicableError:
+                continue
+            warm_up(entry.method, prep, entry.settings)
+            if spec.batch is not None:
+                T, q0 = _goal(model)
+                T = T.copy()
+                T[:3, 3] /= prep.goal_scale
+                goals = np.repeat(T[None], BATCH_GOALS, axis=0)
+                solve_batch(entry.method, prep, goals, np.repeat(q0[None], BATCH_GOALS, axis=0), entry.settings,
+                            seeds=np.arange(BATCH_GOALS, dtype=np.int64), threads=1)
+            used += 1
+        done += used
+        print(f"[{k}/{len(studies)}] {st.id}: {used} (robot, solver) pair(s), {time.perf_counter() - t0:.1f} s",
+              file=progress, flush=True)
+    return (f"compiled or loaded the kernels of {done} (robot, solver) pair(s) of {len(studies)} study(ies) in "
+            f"{time.perf_counter() - t_all:.1f} s (cache: {os.environ.get('NUMBA_CACHE_DIR', 'numba default')})")
