@@ -20,7 +20,7 @@ manifest          write results/MANIFEST.sha256: the SHA-256 of every file the b
 import_urdf       write a robot file (general joint form) from a URDF or xacro chain (also: import-urdf)
 benchmark_arm     benchmark one arm alone (arm_benchmark on that robot only) and its report (also: benchmark-arm)
 export_urdf       write a robot file as a URDF, base_link ... tool0, metres (also: export-urdf)
-compile           warm the numba cache: build or load the kernels of methods ahead of their first call
+compile           warm the numba cache: build or load kernels ahead of their first call (rule: compile_kernels)
 """
 
 from __future__ import annotations
