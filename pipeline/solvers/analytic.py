@@ -223,18 +223,42 @@ def check_rows(H, P, m, g, Cz, Sz, k, tolp2, f_max):
     return ok
 
 
+# ---- compiled: one family's closed form ---------------------------------------------------------------
+# The three families behind one signature (case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
+# each kernel below (core6, solve_pose, call_pose, solve_batch_kernel) is compiled per family, with the
+# name FAMILY bound to one of these (:func:`kernels`), so that a robot's first call compiles its own
+# family's closed form only.
+
+
 @numba.njit(cache=True, error_model="numpy")
-def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr):
-    """Candidates of a 6R chain of family ``fam`` into Q (complex (16, 6): rows of e^{iθ} of THIS
+def family_sph(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
+    """Spherical wrist (:func:`pipeline.solvers.subproblems.solve_sph`)."""
+    return sp.solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim6)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def family_3p(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
+    """Three parallel axes (:func:`pipeline.solvers.subproblems.solve_3p`)."""
+    return sp.solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def family_search(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
+    """Two meeting axes and a one-dimensional search (:func:`pipeline.solvers.subproblems.solve_search`)."""
+    return sp.solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q)
+
+
+# the names the templates below call, bound per family by :func:`kernels` (never called as they are here)
+FAMILY = CORE6 = SOLVE_POSE = LANES8 = None
+
+
+def core6(case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr):
+    """Candidates of a 6R chain of this copy's family into Q (complex (16, 6): rows of e^{iθ} of THIS
     chain's joints); ``pref`` (6,) the angles [rad] taken where one is free; ``lim6`` (6, 2) the
     limits a spherical-wrist branch must fit (±inf: every solution). ``Wr`` (75,) and ``Qr`` (16, 6):
-    scratch for a chain read from the tool back."""
+    scratch for a chain read from the tool back. A template: :func:`kernels` compiles it per family."""
     if rev == 0:
-        if fam == sp.FAM_SPH:
-            return sp.solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim6)
-        if fam == sp.FAM_3P:
-            return sp.solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q)
-        return sp.solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q)
+        return FAMILY(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6)
     # read from the tool back: lines moved by M⁻¹ in reverse order, home M⁻¹, goal T⁻¹, angles −θ
     Hr, Pr, RMr = grid(Wr, 6, 3), grid(Wr[18:], 6, 3), grid(Wr[36:], 3, 3)
     pMr, Rgr, prefr, limr = Wr[45:48], grid(Wr[48:], 3, 3), Wr[57:63], grid(Wr[63:], 6, 2)
@@ -254,12 +278,7 @@ def core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, li
     for i in range(6):
         prefr[i] = -pref[5 - i]
         limr[i, 0], limr[i, 1] = -lim6[5 - i, 1], -lim6[5 - i, 0]
-    if fam == sp.FAM_SPH:
-        k = sp.solve_sph(case, Hr, Pr, RMr, pMr, Rgr, pgr, clip, prefr, Qr, limr)
-    elif fam == sp.FAM_3P:
-        k = sp.solve_3p(Hr, Pr, RMr, pMr, Rgr, pgr, clip, prefr, Qr)
-    else:
-        k = sp.solve_search(mode, case, Hr, Pr, RMr, pMr, Rgr, pgr, clip, prefr, samples, Qr)
+    k = FAMILY(case, mode, Hr, Pr, RMr, pMr, Rgr, pgr, clip, prefr, samples, Qr, limr)
     for r in range(min(k, Q.shape[0])):
         for i in range(6):
             Q[r, i] = Qr[r, 5 - i].conjugate()
@@ -301,7 +320,6 @@ def unpack(ints, G):
             grid(G[o + 15:], n, 2))
 
 
-@numba.njit(cache=True, error_model="numpy")
 def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, given=-1, given_ns=0):
     """The FK-valid solutions of one pose, nearest to ``q_start`` first (wrapped joint distance, sum of
     squares), at most ``max_solutions`` into ``S``; ``q`` the chosen one. ``Sc`` (:func:`scratch`
@@ -367,7 +385,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
             if given >= 0:
                 k = given
             else:
-                k = min(core6(fam, case, rev, mode, H, P, RM, pM, Rg, pg, clip, q_start, samples, Q, nolim, Wr, Qr),
+                k = min(CORE6(case, rev, mode, H, P, RM, pM, Rg, pg, clip, q_start, samples, Q, nolim, Wr, Qr),
                         sp.MAX_SOL)
             tried += k
             search = fam == sp.FAM_SEARCH  # only a search refines when nothing lies within the limits
@@ -420,7 +438,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
                 else:
                     v = lo + (hi - lo) * (it - N_NEAR - 0.5) / nfree
                 _fix(H, P, RM, pM, free, v, H6, P6, RM6, pM6)
-                k = min(core6(fam, case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr),
+                k = min(CORE6(case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr),
                         sp.MAX_SOL)
                 tried += k
                 Cz, Sz, Ang, kv = _joint_major(Q, k, Wa)
@@ -510,7 +528,6 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
     return m, tried, ns
 
 
-@numba.njit(cache=True, error_model="numpy", parallel=True)
 def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, doc, nsol, tried, ns, use_lanes):
     """:func:`solve_pose` for every row, on every core: work items of 32 poses, one scratch each;
     every pose writes only its own rows (results independent of the thread count). ``doc`` (N,):
@@ -525,7 +542,7 @@ def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, doc, nsol, tried, 
     keep = traces.shape[0] == N
     gb, sb, Sb, Qb, tb = borrowed(goals), borrowed(starts), borrowed(S), borrowed(Qo), borrowed(traces)
     ib, Gb = borrowed(ints), borrowed(G)  # shared by the threads: no count updates on one cache line
-    fam, case = ints[1], ints[2]
+    case = ints[2]
     H, P, RM, pM, par, _ = unpack(ib, Gb)
     clip = par[0]
     for c in numba.prange((N + chunk - 1) // chunk):
@@ -539,7 +556,7 @@ def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, doc, nsol, tried, 
             share = 0
             if block:
                 t0 = now_ns(Ib)
-                lanes.candidates8(fam, case, H, P, RM, pM, clip, gb, i8, Lb)
+                LANES8(case, H, P, RM, pM, clip, gb, i8, Lb)
                 share = (now_ns(Ib) - t0) // lanes.LANES
             for i in range(i8, min(hi, i8 + lanes.LANES)):
                 given = -1
@@ -548,7 +565,7 @@ def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, doc, nsol, tried, 
                     if not free:
                         given = k
                 tr = tb[i] if keep else ob
-                m, t, dt = solve_pose(ib, Gb, gb[i], sb[i], Scb, Wb, Zb, Ib, Sb[i], Qb[i], tr, keep, given,
+                m, t, dt = SOLVE_POSE(ib, Gb, gb[i], sb[i], Scb, Wb, Zb, Ib, Sb[i], Qb[i], tr, keep, given,
                                       share if given >= 0 else 0)
                 doc[i] = tr[1, 0]
                 nsol[i] = m
@@ -642,6 +659,7 @@ def bind(prep: Prepared, s: AnalyticSettings):
     k = packed(prep, s)
     n, fam = int(k.ints[0]), _family(prep, s)
     args = (k.ints, k.G)
+    solve_pose = kernels(int(k.ints[1])).solve_pose
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
         S = np.empty((min(s.max_solutions, most_solutions(k.ints)), n))
@@ -673,8 +691,8 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     nsol = np.zeros(N, np.int64)
     tried = np.zeros(N, np.int64)
     ns = np.zeros(N, np.int64)
-    solve_batch_kernel(k.ints, k.G, goals, starts, S, Q, traces, doc, nsol, tried, ns,
-                       lanes.applies(n, int(k.ints[1]), int(k.ints[3])))
+    kernels(int(k.ints[1])).batch(k.ints, k.G, goals, starts, S, Q, traces, doc, nsol, tried, ns,
+                                  lanes.applies(n, int(k.ints[1]), int(k.ints[3])))
     rows = traces.reshape(2 * N, TRACE_COLS) if keep_traces else None
     offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces else None
     info = InfoRows(N, lambda i: _info(int(nsol[i]), int(tried[i]), float(doc[i]), fam))
@@ -683,7 +701,6 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
                     trace_rows=rows, trace_offsets=offsets, solutions=S, n_solutions=nsol, info=info)
 
 
-@numba.njit(cache=True, error_model="numpy")
 def call_pose(ints, GC, Tg, q_start, S, q, trace):
     """The whole public single call in one compiled call: :func:`solve_pose`, then the result rule of
     every finish (:func:`pipeline.solvers.base.finish_packed`: the independent FK check of the chosen
@@ -704,7 +721,7 @@ def call_pose(ints, GC, Tg, q_start, S, q, trace):
             for c in range(4):
                 Tw[r, c] = Tg[r, c] * scale if c == 3 and r < 3 else Tg[r, c]
         Tg = Tw
-    m, tried, ns = solve_pose(ints, GC[:ng], Tg, q_start, Sc, W, Z, I, S, q, trace)
+    m, tried, ns = SOLVE_POSE(ints, GC[:ng], Tg, q_start, Sc, W, Z, I, S, q, trace)
     # the check on borrowed views (no atomic reference counting in its calls); Tg itself, which may be a
     # view of this function's scratch (a borrowed view of it would outlive the scratch's last use)
     code, claimed, success, dp, ang, inside = finish_packed(borrowed(GC)[ng:], borrowed(q), Tg,
@@ -717,15 +734,52 @@ _CALL_SIGNATURE = (numba.types.int64[::1], numba.types.float64[::1], numba.types
                    numba.types.float64[:, ::1])
 
 
-def _one_signature():
-    """:func:`call_pose` compiled for its one signature (C-contiguous float64 arrays) and closed to any
-    other: the fused call hands it the caller's arrays without checking them in Python (about 0.2 µs
-    a call), and any other array (another dtype or layout, read-only, a list) is a TypeError on
-    which the call converts its inputs first."""
-    if _CALL_SIGNATURE not in call_pose.overloads:
-        call_pose.compile(_CALL_SIGNATURE)
-        call_pose.disable_compile()
-    return call_pose
+FAMILY_NAMES = {sp.FAM_SPH: "spherical_wrist", sp.FAM_3P: "three_parallel", sp.FAM_SEARCH: "search"}
+_OPTIONS = {"cache": True, "error_model": "numpy"}
+
+
+class Kernels:
+    """One family's compiled kernels (:func:`kernels`): ``core6``, ``solve_pose``, ``batch``
+    (:func:`solve_batch_kernel`) and ``call`` (:func:`call_pose` for its one signature), each compiled at
+    its first use."""
+
+    def __init__(self, code: int):
+        from pipeline.solvers._specialise import specialise
+
+        tag = FAMILY_NAMES[code]
+        fam = {sp.FAM_SPH: family_sph, sp.FAM_3P: family_3p, sp.FAM_SEARCH: family_search}[code]
+        lanes8 = {sp.FAM_SPH: lanes.candidates8_sph, sp.FAM_3P: lanes.candidates8_3p}.get(code, lanes.no_lanes)
+        self.core6 = specialise(core6, tag, _OPTIONS, FAMILY=fam)
+        self.solve_pose = specialise(solve_pose, tag, _OPTIONS, CORE6=self.core6)
+        self.batch = specialise(solve_batch_kernel, tag, {**_OPTIONS, "parallel": True}, SOLVE_POSE=self.solve_pose,
+                                LANES8=lanes8)
+        self._call = specialise(call_pose, tag, _OPTIONS, SOLVE_POSE=self.solve_pose)
+
+    @property
+    def call(self):
+        """:func:`call_pose` compiled for its one signature (C-contiguous float64 arrays) and closed to any
+        other: the fused call hands it the caller's arrays without checking them in Python (about 0.2 µs
+        a call), and any other array (another dtype or layout, read-only, a list) is a TypeError on
+        which the call converts its inputs first."""
+        if _CALL_SIGNATURE not in self._call.overloads:
+            self._call.compile(_CALL_SIGNATURE)
+            self._call.disable_compile()
+        return self._call
+
+
+_KERNELS: dict[int, Kernels] = {}
+
+
+def kernels(code: int) -> Kernels:
+    """The compiled kernels of family ``code`` (:data:`FAMILY_CODE`), made once per process: each
+    template above (:func:`core6`, :func:`solve_pose`, :func:`solve_batch_kernel`, :func:`call_pose`)
+    with the family's closed form bound in (:func:`pipeline.solvers._specialise.specialise`), so that
+    a robot's first call compiles its family only (a UR arm's first call: its closed form, not the
+    spherical wrist's nor the search's)."""
+    k = _KERNELS.get(code)
+    if k is None:
+        k = _KERNELS[code] = Kernels(code)
+    return k
 
 
 def bind_call(prep: Prepared, s: AnalyticSettings):
@@ -743,7 +797,7 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
     inputs, unit, pos_only = fused_inputs(prep, scaled=False), prep.unit, s.criterion == "position"
     nan, empty = math.nan, np.empty
 
-    kernel, messages, shape_S, shape_trace = _one_signature(), _MESSAGES, (ms, n), (2, TRACE_COLS)
+    kernel, messages, shape_S, shape_trace = kernels(int(k.ints[1])).call, _MESSAGES, (ms, n), (2, TRACE_COLS)
 
     def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
         S = empty(shape_S)

@@ -19,7 +19,7 @@ Why the code looks as it does (each was needed for the compiler to vectorize; ch
 at a constant offset from its lane, indexed unsigned (a short loop gets no run-time overlap checks);
 the arm is read into tuples before the passes; a pass holds no call into libm and no switch (the
 position case is chosen outside the pass). And for the compiler's own time: numba inlines each stage
-at the numba level once per pass, so the branches are lanes too, not passes of their own: the first
+at the numba level (:func:`~pipeline.solvers._specialise.inlined_twin`: the single call does not) once per pass, so the branches are lanes too, not passes of their own: the first
 stage runs once over 16 lanes (8 goals × sa), the rest once over 32 (× sb), both candidates of the
 last branch in the same pass. Written as one pass per branch, the spherical-wrist passes took numba
 120 s to compile, against 38 s now, with the same speed.
@@ -37,7 +37,12 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from pipeline.solvers import subproblems as sp
+from pipeline.solvers import subproblems
+from pipeline.solvers._specialise import inlined_twin
+
+# the stage functions inlined into each pass at numba's level (a pass with a call left in it is not
+# vectorized); the single call uses the same functions uninlined (far less for numba to compile)
+sp = inlined_twin(subproblems)
 
 LANES = 8
 W = 4 * LANES  # a row of L: the 8 goals × (first-stage branch sa) × (second-stage branch sb)
@@ -219,11 +224,9 @@ def applies(n: int, fam: int, rev: int) -> bool:
     return n == 6 and rev == 0 and fam in (sp.FAM_SPH, sp.FAM_3P)
 
 
-@numba.njit(cache=True, error_model="numpy")
-def candidates8(fam, case, H, P, RM, pM, clip, goals, i0, L):
-    """The closed form's candidates of goals ``i0 .. i0 + 7`` (``goals`` (N, 4, 4)) into ``L`` (:data:`SIZE`),
-    for a 6R arm of family ``fam`` (:data:`~pipeline.solvers.subproblems.FAM_SPH` with position case
-    ``case``, or ``FAM_3P``); read them with :func:`take`."""
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _load(goals, i0, L):
+    """Goals ``i0 .. i0 + 7`` of ``goals`` (N, 4, 4) into the lanes of ``L``."""
     for lane in range(LANES):
         T = goals[i0 + lane]
         for r in range(3):
@@ -232,10 +235,33 @@ def candidates8(fam, case, H, P, RM, pM, clip, goals, i0, L):
                     L[W * (3 * r + c) + LANES * k + lane] = T[r, c]
             for k in range(4):
                 L[W * (9 + r) + LANES * k + lane] = T[r, 3]
-    if fam == sp.FAM_3P:
-        _three_parallel(H, P, RM, pM, clip, L)
-    else:
-        _spherical(case, H, P, RM, pM, clip, L)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def candidates8_sph(case, H, P, RM, pM, clip, goals, i0, L):
+    """The closed form's candidates of goals ``i0 .. i0 + 7`` (``goals`` (N, 4, 4)) into ``L`` (:data:`SIZE`),
+    for a 6R arm with a spherical wrist and position case ``case``; read them with :func:`take`."""
+    _load(goals, i0, L)
+    _spherical(case, H, P, RM, pM, clip, L)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def candidates8_3p(case, H, P, RM, pM, clip, goals, i0, L):
+    """:func:`candidates8_sph` for a 6R arm with three parallel axes (``case`` unused)."""
+    _load(goals, i0, L)
+    _three_parallel(H, P, RM, pM, clip, L)
+
+
+def candidates8(fam, case, H, P, RM, pM, clip, goals, i0, L):
+    """:func:`candidates8_sph` or :func:`candidates8_3p` by family code ``fam`` (a Python call: the batch
+    kernel of each family calls its own, :func:`pipeline.solvers.analytic.kernels`)."""
+    (candidates8_3p if fam == sp.FAM_3P else candidates8_sph)(case, H, P, RM, pM, clip, goals, i0, L)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def no_lanes(case, H, P, RM, pM, clip, goals, i0, L):
+    """A family without lanes (:func:`applies` is False for it): never called."""
+    return
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -59,39 +59,39 @@ MAX_SOL = 16
 
 
 # ---- 3-vectors as tuples ------------------------------------------------------------------------
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def scl(s, a):
     return (s * a[0], s * a[1], s * a[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def perp(k, a):
     """``a`` minus its component along the unit vector ``k``."""
     t = dot(k, a)
     return (a[0] - t * k[0], a[1] - t * k[1], a[2] - t * k[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def rot(k, c, s, v):
     """``rot(k, θ) v`` at cos θ = c, sin θ = s (Rodrigues)."""
     kv = cross(k, v)
@@ -99,24 +99,24 @@ def rot(k, c, s, v):
     return (c * v[0] + s * kv[0] + t * k[0], c * v[1] + s * kv[1] + t * k[1], c * v[2] + s * kv[2] + t * k[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def rotz(k, z, v):
     """``rot(k, θ) v`` for the unit complex ``z = e^{iθ}``."""
     return rot(k, z.real, z.imag, v)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def cis(t):
     """``e^{it}`` (an angle as the unit complex the subproblems compute with)."""
     return complex(math.cos(t), math.sin(t))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def row(A, i):
     return (A[i, 0], A[i, 1], A[i, 2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def matTvec(R, v):
     """``Rᵀ v`` for the rotation block of a 3 × 3 or 4 × 4 array."""
     return (R[0, 0] * v[0] + R[1, 0] * v[1] + R[2, 0] * v[2],
@@ -124,7 +124,7 @@ def matTvec(R, v):
             R[0, 2] * v[0] + R[1, 2] * v[1] + R[2, 2] * v[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def any_perp(k):
     """A unit vector ⟂ the unit vector ``k``."""
     if abs(k[0]) < 0.9:
@@ -136,7 +136,7 @@ def any_perp(k):
 
 
 # ---- angles -------------------------------------------------------------------------------------
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def angles_of(Y, X, A, m):
     """``A[i] = atan2(Y[i], X[i])`` [rad] for i < m, within a few units in the last place of libm's:
     one branch-free pass of :func:`_atan2_core` the compiler vectorizes (a closed form turns up to 96
@@ -157,7 +157,7 @@ def angles_of(Y, X, A, m):
 ONE = complex(1.0, 0.0)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sp1d(k, p, q, dz):
     """(e^{iθ} with rot(k, θ) p = q in the plane ⟂ k, or ``dz`` when p or q lies on the axis; whether it
     did). Branch-free: the same floats in a vector lane as in a scalar call."""
@@ -172,7 +172,7 @@ def sp1d(k, p, q, dz):
     return (dz if deg else z), deg
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sp1(k, p, q, default):
     """e^{iθ} with rot(k, θ) p = q in the plane ⟂ k; e^{i default} (``default`` an angle [rad]) when p
     or q lies on the axis (its sine and cosine taken only then)."""
@@ -182,7 +182,7 @@ def sp1(k, p, q, default):
     return z
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def acos_branch(x, y, D, s, clip):
     """e^{iθ} with x cos θ + y sin θ = D, branch s = ±1 (θ = atan2(y, x) ± acos(D / ρ)), and validity
     (the cosine clipped within ``clip`` of ±1); (1, False) when invalid. Branch-free (selects), so it
@@ -197,13 +197,13 @@ def acos_branch(x, y, D, s, clip):
     return (ONE if bad else z), not bad
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sp4(h, k, p, d, s, clip):
     """e^{iθ} with h · rot(k, θ) p = d (branch s = ±1)."""
     return acos_branch(dot(h, perp(k, p)), dot(h, cross(k, p)), d - dot(h, k) * dot(k, p), s, clip)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sp3(k, p, q, d, s, clip, planar):
     """e^{iθ} with |rot(k, θ) p − q| = d (in the plane ⟂ k when ``planar``), branch s = ±1."""
     pp = perp(k, p)
@@ -214,7 +214,7 @@ def sp3(k, p, q, d, s, clip, planar):
     return acos_branch(dot(pp, qp), dot(cross(k, pp), qp), D, s, clip)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sp2paird(ka, kb, u, v, clip, dza):
     """(za+, zb+, za−, zb−, ok, free) = both branches of e^{iθa}, e^{iθb} with u = rot(ka, θa) rot(kb, θb) v
     (|u| = |v|); where θa is free (u on ka) ``za = dza.conjugate()`` and ``free`` is set (θb free: 0).
@@ -243,7 +243,7 @@ def sp2paird(ka, kb, u, v, clip, dza):
     return ap.conjugate(), bp, am.conjugate(), bm, True, fp | fm
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sp2pair(ka, kb, u, v, clip, def_a):
     """(za, zb) = (e^{iθa}, e^{iθb}) with u = rot(ka, θa) rot(kb, θb) v (|u| = |v|), both branches:
     (za+, zb+, za−, zb−, ok); ``def_a`` [rad] for θa when it is free (its sine and cosine taken only then)."""
@@ -254,7 +254,7 @@ def sp2pair(ka, kb, u, v, clip, def_a):
 
 
 # ---- lines ------------------------------------------------------------------------------------------
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def meet_point(h1, p1, h2, p2):
     """Midpoint of the common normal of two non-parallel lines."""
     r = sub(p2, p1)
@@ -273,20 +273,20 @@ def meet_point(h1, p1, h2, p2):
 # (:mod:`pipeline.solvers.lanes`), so both give the same floats. A stage takes the e^{iθ} an angle
 # gets where it is free (``dz``) and reports whether that was used (``free``): the scalar callers call
 # it with ``ONE`` and again with the true default only then (its sine and cosine only then).
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def lines(H, P):
     """The 6 joint lines as tuples: ((h_1 .. h_6), (p_1 .. p_6))."""
     return ((row(H, 0), row(H, 1), row(H, 2), row(H, 3), row(H, 4), row(H, 5)),
             (row(P, 0), row(P, 1), row(P, 2), row(P, 3), row(P, 4), row(P, 5)))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def about(h, p, z, x):
     """``p + rot(h, θ) (x − p)``: x turned by e^{iθ} = ``z`` about the line (h, p)."""
     return add(p, rotz(h, z, sub(x, p)))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def pos_case1(hs, ps, o, x, w, sa, clip, dz):
     """Position case 1 (axes 1-2 meet at ``o``) as one branch-free stage: see :func:`pos3d`."""
     h1, h2, h3, p3 = hs[0], hs[1], hs[2], ps[2]
@@ -298,7 +298,7 @@ def pos_case1(hs, ps, o, x, w, sa, clip, dz):
     return a1, a2, t3, ok, b1, b2, t3, ok, f & ok
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def pos_case2(hs, ps, o, x, w, sa, clip, dz):
     """Position case 2 (axes 2-3 meet at ``o``): see :func:`pos3d`."""
     h1, h2, h3, p1 = hs[0], hs[1], hs[2], ps[0]
@@ -311,7 +311,7 @@ def pos_case2(hs, ps, o, x, w, sa, clip, dz):
     return t1, a2, a3, ok, t1, b2, b3, ok, f & ok
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def planar2(ha, pa, hb, pb, x, tgt, ok, clip, dz):
     """The 2R of two parallel joints a, b (lines (ha, pa), (hb, pb)) turning x onto tgt: θb by sp3 (the
     distance of x from axis a), both branches, then θa by sp1: (za, zb, ok) for branch +1, the same for
@@ -326,7 +326,7 @@ def planar2(ha, pa, hb, pb, x, tgt, ok, clip, dz):
     return taa, tba, oka, tab, tbb, okb, (fa & oka) | (fb & okb)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def pos_case3(hs, ps, o, x, w, sa, clip, dz):
     """Position case 3 (axes 1 ∥ 2): see :func:`pos3d`."""
     h1, h2, h3 = hs[0], hs[1], hs[2]
@@ -336,7 +336,7 @@ def pos_case3(hs, ps, o, x, w, sa, clip, dz):
     return t1a, t2a, t3, oka, t1b, t2b, t3, okb, f
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def pos_case4(hs, ps, o, x, w, sa, clip, dz):
     """Position case 4 (axes 2 ∥ 3): see :func:`pos3d`."""
     h1, h2, h3 = hs[0], hs[1], hs[2]
@@ -347,7 +347,7 @@ def pos_case4(hs, ps, o, x, w, sa, clip, dz):
     return t1, t2a, t3a, oka, t1, t2b, t3b, okb, f
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def pos3d(case, hs, ps, o, x, w, sa, clip, dz):
     """Joints 1-3 placing x at w, for position case ``case``, as one branch-free stage
     (:func:`pos_case1` .. :func:`pos_case4`): (z1, z2, z3, ok) for the second-stage branch +1, the same
@@ -368,7 +368,7 @@ def pos3d_call(case, hs, ps, o, x, w, sa, clip, dz):
     return pos3d(case, hs, ps, o, x, w, sa, clip, dz)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def pos_default(case, pref):
     """e^{iθ} of the angle :func:`pos3d` takes where one is free: −θ1 (case 1, conjugated inside sp2),
     −θ2 (2), θ1 (3), θ2 (4), θ from ``pref`` [rad]."""
@@ -445,13 +445,13 @@ def case_point(case, H, P):
     return (0.0, 0.0, 0.0)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def t9(R):
     """The rotation block of a 3 × 3 or 4 × 4 array as 9 floats, row-major."""
     return (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def mv9(m, v):
     """``R v`` for R as 9 floats (:func:`t9`)."""
     return (m[0] * v[0] + m[1] * v[1] + m[2] * v[2],
@@ -459,7 +459,7 @@ def mv9(m, v):
             m[6] * v[0] + m[7] * v[1] + m[8] * v[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def mtv9(m, v):
     """``Rᵀ v`` for R as 9 floats (:func:`t9`)."""
     return (m[0] * v[0] + m[3] * v[1] + m[6] * v[2],
@@ -467,19 +467,19 @@ def mtv9(m, v):
             m[2] * v[0] + m[5] * v[1] + m[8] * v[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def gm9(g, m, v):
     """``R_goal R_Mᵀ v`` with both rotations as 9 floats (:func:`t9`)."""
     return mv9(g, mtv9(m, v))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def gm(Rg, RM, v):
     """``R_goal R_Mᵀ v`` (``Rg`` may be the 4 × 4 goal: only its rotation block is read)."""
     return gm9(t9(Rg), t9(RM), v)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def back3t(hs, z1, z2, z3, v):
     """``(R_1 R_2 R_3)ᵀ v`` (``hs`` the joint directions as tuples)."""
     v = rotz(hs[0], z1.conjugate(), v)
@@ -487,13 +487,13 @@ def back3t(hs, z1, z2, z3, v):
     return rotz(hs[2], z3.conjugate(), v)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def back3(H, z1, z2, z3, v):
     """``(R_1 R_2 R_3)ᵀ v``."""
     return back3t((row(H, 0), row(H, 1), row(H, 2)), z1, z2, z3, v)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def wrist9(g, pg, m, pM, c):
     """w = T M⁻¹ c with the rotations as 9 floats (:func:`t9`), ``pg`` and ``pM`` 3-tuples."""
     local = mtv9(m, sub(c, pM))
@@ -502,7 +502,7 @@ def wrist9(g, pg, m, pM, c):
             g[6] * local[0] + g[7] * local[1] + g[8] * local[2] + pg[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def wrist_target(Rg, pg, RM, pM, c):
     """w = T M⁻¹ c."""
     return wrist9(t9(Rg), (pg[0], pg[1], pg[2]), t9(RM), (pM[0], pM[1], pM[2]), c)
@@ -520,7 +520,7 @@ def wrap(x):
     return y
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def into_limits(x, lo, hi):
     """(x moved by 2π multiples into [lo, hi] where that fits, else x; whether the result lies within
     the limits up to the one joint-limit tolerance ``LIMIT_TOL``). Unbounded limits keep x."""
@@ -532,7 +532,7 @@ def into_limits(x, lo, hi):
     return x, lo - LIMIT_TOL <= x <= hi + LIMIT_TOL
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def near_limits(x, ref, lo, hi):
     """(x moved by 2π multiples to lie nearest ``ref`` within [lo, hi] where one such value exists,
     else :func:`into_limits`'s answer; whether the result lies within the limits). A tracking user
@@ -547,7 +547,7 @@ def near_limits(x, ref, lo, hi):
     return into_limits(x, lo, hi)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def fits(z, lim, j):
     """The angle of ``z``, moved by 2π multiples, lies within ``lim[j]`` (±inf: always, no atan2)."""
     lo, hi = lim[j, 0], lim[j, 1]
@@ -556,7 +556,7 @@ def fits(z, lim, j):
     return into_limits(math.atan2(z.imag, z.real), lo, hi)[1]
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sph_fixed(case, H, P, RM, pM):
     """What a spherical-wrist solve needs of the arm alone, as tuples: (hs, ps, wrist centre c, the
     position case's point o, e6 ⟂ h6, R_M (:func:`t9`), p_M)."""
@@ -565,7 +565,7 @@ def sph_fixed(case, H, P, RM, pM):
             (pM[0], pM[1], pM[2]))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sph_goal(fx, g, pg):
     """What it needs of the goal (rotation ``g`` as :func:`t9`, position ``pg``): (w, R_goal R_Mᵀ h6,
     R_goal R_Mᵀ e6)."""
@@ -573,7 +573,7 @@ def sph_goal(fx, g, pg):
     return wrist9(g, pg, m, fx[6], c), gm9(g, m, hs[5]), gm9(g, m, e6)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, d4, d6):
     """Joints 4-6 of one arm branch (θ1-θ3): (z4, z5, z6) on the sp2 branch +1, then −1, ok, free
     (a free angle took ``d4`` = e^{−iθ4} or ``d6`` = e^{iθ6}). Branch-free."""
@@ -623,7 +623,7 @@ def solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
     return n
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def p3_fixed(H, P, RM, pM):
     """What a three-parallel solve needs of the arm alone, as tuples: (hs, ps, s3, s4 (the signs of
     h3 · h2 and h4 · h2), c (axes 5-6 meet), e2 ⟂ h2, R_M (:func:`t9`), p_M)."""
@@ -635,7 +635,7 @@ def p3_fixed(H, P, RM, pM):
             (pM[0], pM[1], pM[2]))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def p3_first(fx, g, pg, sa, clip, d5):
     """θ1 on branch ``sa`` by sp4, then (θ5, θ6) on both sp2 branches from ``h2ᵀ N = h2ᵀ R_5 R_6``:
     (e^{−iθ1}, w1 = E_1⁻¹ w, z5+, z6+, z5−, z6−, ok, free) (``d5`` = e^{−iθ5} where θ5 is free)."""
@@ -651,7 +651,7 @@ def p3_first(fx, g, pg, sa, clip, d5):
     return tm, w1, a5, a6, b5, b6, ok, f & ok
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def p3_mid(fx, g, tm, w1, t5, t6):
     """θ2 + θ3 + θ4 by sp1 and the planar 2R's target: (e^{i(θ2+θ3+θ4)}, target of E2 E3 p4, its
     distance from axis 2)."""
@@ -668,7 +668,7 @@ def p3_mid(fx, g, tm, w1, t5, t6):
     return t234, tgt, math.sqrt(dot(dw, dw))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def p3_last(fx, t234, tgt, dd, s, clip, d2):
     """The planar 2R on elbow branch ``s`` and θ4: (z2, z3, z4, ok, free) (``d2`` = e^{iθ2} where free)."""
     hs, ps, s3, s4 = fx[0], fx[1], fx[2], fx[3]
