@@ -136,6 +136,7 @@ def _install_locator() -> None:
 
     impl._locator_classes.insert(0, ClosureStampedLocator)
     _install_notice()
+    _install_compile_clock()
 
 
 NOTICE_ENV = "PIPELINE_COMPILE_NOTICE"  # "0": no line when a kernel compiles (the test suite sets it)
@@ -166,6 +167,39 @@ def _install_notice() -> None:
             pass
 
     event.register("numba:compile", FirstCompile())
+
+
+# [ns spent so far in numba's compiler (compiling kernels or loading them from the cache), nesting depth,
+# start of the outermost entry]: read by the solvers (:func:`compile_ns`) to leave that time out of a call's times
+COMPILE_CLOCK = [0, 0, 0]
+
+
+def compile_ns() -> int:
+    """Nanoseconds this process has spent so far in numba's compiler, compiling kernels or loading them
+    from the cache (0 until numba is imported). A call that changed it compiled or loaded something, so
+    its measured times are not its own (:meth:`pipeline.solvers.driver.Bound.solve`)."""
+    return COMPILE_CLOCK[0]
+
+
+def _install_compile_clock() -> None:
+    """Count the time spent holding numba's compiler lock (every compile and every cache load takes it)."""
+    from numba.core import event
+    import time
+
+    clock = COMPILE_CLOCK
+
+    class CompileClock(event.Listener):
+        def on_start(self, ev):
+            if clock[1] == 0:
+                clock[2] = time.perf_counter_ns()
+            clock[1] += 1
+
+        def on_end(self, ev):
+            clock[1] -= 1
+            if clock[1] == 0:
+                clock[0] += time.perf_counter_ns() - clock[2]
+
+    event.register("numba:compiler_lock", CompileClock())
 
 
 class _AfterNumba(importlib.abc.MetaPathFinder):

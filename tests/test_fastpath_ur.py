@@ -19,7 +19,7 @@ from pipeline.solvers import Bound, SettingsError, bind, get, make_settings, pre
 from pipeline.solvers.base import IKResult, check
 from tests.test_analytic_fast import CASES, _problems
 
-TIMINGS = ("solve_time_s", "ik_time_s", "call_time_s", "cpu_time_s")
+TIMINGS = ("solve_time_s", "ik_time_s", "call_time_s", "cpu_time_s", "compiled")  # compiled: a first call in a process
 CRITERIA = ({}, {"criterion": "position"}, {"criterion": "dq_norm", "tol_dq": 1 + 1e-9},
             {"criterion": "dq_norm_body"}, {"tol_pos": 1e-15, "tol_rot": 1e-15})
 
@@ -56,20 +56,23 @@ def test_fused_call_equals_the_generic_path_bit_for_bit(name, extra):
     s = make_settings(meth, {**sd, **extra})
     prep = prepare(meth, model, s)
     fast, ref = bind(meth, prep, s), _generic(meth, prep, s)
-    assert fast.fused is not None and fast.call is fast.fused and ref.fused is None
+    assert fast.fused is not None and ref.fused is None
     G, S = _inputs(model, 120)
     codes = set()
     for T, q0 in zip(G, S):
         a, b = solve(meth, prep, T, q0, s), ref.solve(T, q0)
         assert type(a) is IKResult
         for f in fields(IKResult):
-            if f.name not in TIMINGS:
+            if f.name == "info":  # the time a first call spent compiling is not the method's
+                assert _same(*({k: v for k, v in r.info.items() if k != "compile_time_s"} for r in (a, b))), name
+            elif f.name not in TIMINGS:
                 assert _same(getattr(a, f.name), getattr(b, f.name)), (name, f.name)
         assert type(a.solve_time_s) is float and type(a.ik_time_s) is float and type(a.call_time_s) is float
         assert a.call_time_s >= a.solve_time_s > 0.0
         assert (a.ik_time_s == 0.0) == (meth == "analytic_ur")
         codes.add(a.stop_reason)
     assert {1, 5, 7} <= codes  # success, non-finite and no-solution outcomes all exercised
+    assert fast.call is fast.fused  # once a call compiled nothing, the fused call is called straight
 
 
 @pytest.mark.parametrize("name", ["ur5", "ur_variant", "puma560_mm"])

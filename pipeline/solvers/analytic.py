@@ -248,8 +248,10 @@ def family_search(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6
     return sp.solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q)
 
 
-# the names the templates below call, bound per family by :func:`kernels` (never called as they are here)
+# the names the templates below call, bound per family by :func:`kernels` (never called as they are here),
+# and the constants of each copy: its family code and joint count
 FAMILY = CORE6 = SOLVE_POSE = LANES8 = None
+FAM, NJ = 0, 0
 
 
 def core6(case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr):
@@ -341,7 +343,9 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
     clk = I[0:2]
     t0 = now_ns(clk)
     H, P, RM, pM, par, lim = unpack(ints, G)
-    n, fam, case, rev, free, samples, nfree, mode = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5], ints[6], ints[7]
+    n = NJ  # this copy's constants (:func:`kernels`): the other arm's and family's branches are not compiled
+    fam = FAM
+    case, rev, free, samples, nfree, mode = ints[2], ints[3], ints[4], ints[5], ints[6], ints[7]
     max_sol = min(ints[8], S.shape[0])
     clip, tolp, tolr = par[0], par[1], par[2]
     tolp2, f_max = tolp * tolp, 8.0 * math.sin(0.5 * tolr) ** 2
@@ -659,7 +663,7 @@ def bind(prep: Prepared, s: AnalyticSettings):
     k = packed(prep, s)
     n, fam = int(k.ints[0]), _family(prep, s)
     args = (k.ints, k.G)
-    solve_pose = kernels(int(k.ints[1])).solve_pose
+    solve_pose = kernels(k.ints).solve_pose
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
         S = np.empty((min(s.max_solutions, most_solutions(k.ints)), n))
@@ -691,8 +695,8 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     nsol = np.zeros(N, np.int64)
     tried = np.zeros(N, np.int64)
     ns = np.zeros(N, np.int64)
-    kernels(int(k.ints[1])).batch(k.ints, k.G, goals, starts, S, Q, traces, doc, nsol, tried, ns,
-                                  lanes.applies(n, int(k.ints[1]), int(k.ints[3])))
+    kernels(k.ints).batch(k.ints, k.G, goals, starts, S, Q, traces, doc, nsol, tried, ns,
+                          lanes.applies(n, int(k.ints[1]), int(k.ints[3])))
     rows = traces.reshape(2 * N, TRACE_COLS) if keep_traces else None
     offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces else None
     info = InfoRows(N, lambda i: _info(int(nsol[i]), int(tried[i]), float(doc[i]), fam))
@@ -739,18 +743,18 @@ _OPTIONS = {"cache": True, "error_model": "numpy"}
 
 
 class Kernels:
-    """One family's compiled kernels (:func:`kernels`): ``core6``, ``solve_pose``, ``batch``
-    (:func:`solve_batch_kernel`) and ``call`` (:func:`call_pose` for its one signature), each compiled at
-    its first use."""
+    """One family's compiled kernels for arms of ``n`` joints (:func:`kernels`): ``core6``, ``solve_pose``,
+    ``batch`` (:func:`solve_batch_kernel`) and ``call`` (:func:`call_pose` for its one signature), each
+    compiled at its first use."""
 
-    def __init__(self, code: int):
+    def __init__(self, code: int, n: int):
         from pipeline.solvers._specialise import specialise
 
-        tag = FAMILY_NAMES[code]
+        tag = f"{FAMILY_NAMES[code]}_{n}r"
         fam = {sp.FAM_SPH: family_sph, sp.FAM_3P: family_3p, sp.FAM_SEARCH: family_search}[code]
         lanes8 = {sp.FAM_SPH: lanes.candidates8_sph, sp.FAM_3P: lanes.candidates8_3p}.get(code, lanes.no_lanes)
-        self.core6 = specialise(core6, tag, _OPTIONS, FAMILY=fam)
-        self.solve_pose = specialise(solve_pose, tag, _OPTIONS, CORE6=self.core6)
+        self.core6 = specialise(core6, FAMILY_NAMES[code], _OPTIONS, FAMILY=fam)
+        self.solve_pose = specialise(solve_pose, tag, _OPTIONS, CORE6=self.core6, FAM=code, NJ=n)
         self.batch = specialise(solve_batch_kernel, tag, {**_OPTIONS, "parallel": True}, SOLVE_POSE=self.solve_pose,
                                 LANES8=lanes8)
         self._call = specialise(call_pose, tag, _OPTIONS, SOLVE_POSE=self.solve_pose)
@@ -767,18 +771,20 @@ class Kernels:
         return self._call
 
 
-_KERNELS: dict[int, Kernels] = {}
+_KERNELS: dict[tuple[int, int], Kernels] = {}
 
 
-def kernels(code: int) -> Kernels:
-    """The compiled kernels of family ``code`` (:data:`FAMILY_CODE`), made once per process: each
-    template above (:func:`core6`, :func:`solve_pose`, :func:`solve_batch_kernel`, :func:`call_pose`)
-    with the family's closed form bound in (:func:`pipeline.solvers._specialise.specialise`), so that
-    a robot's first call compiles its family only (a UR arm's first call: its closed form, not the
-    spherical wrist's nor the search's)."""
-    k = _KERNELS.get(code)
+def kernels(ints: np.ndarray) -> Kernels:
+    """The compiled kernels of a packed arm's family and joint count (:func:`packed`'s ``ints``), made once
+    per process: each template above (:func:`core6`, :func:`solve_pose`, :func:`solve_batch_kernel`,
+    :func:`call_pose`) with the family's closed form and the joint count bound in
+    (:func:`pipeline.solvers._specialise.specialise`), so that a robot's first call compiles what its
+    arm needs only (a UR arm's first call: its closed form, not the spherical wrist's nor the search's,
+    and not the 7R sweep)."""
+    key = (int(ints[1]), int(ints[0]))
+    k = _KERNELS.get(key)
     if k is None:
-        k = _KERNELS[code] = Kernels(code)
+        k = _KERNELS[key] = Kernels(*key)
     return k
 
 
@@ -797,7 +803,7 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
     inputs, unit, pos_only = fused_inputs(prep, scaled=False), prep.unit, s.criterion == "position"
     nan, empty = math.nan, np.empty
 
-    kernel, messages, shape_S, shape_trace = kernels(int(k.ints[1])).call, _MESSAGES, (ms, n), (2, TRACE_COLS)
+    kernel, messages, shape_S, shape_trace = kernels(k.ints).call, _MESSAGES, (ms, n), (2, TRACE_COLS)
 
     def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
         S = empty(shape_S)

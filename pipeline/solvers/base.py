@@ -410,6 +410,11 @@ class IKResult:
     length_unit : str
     solutions : ndarray, shape (m, n) or None   analytic methods: all solutions
     info : dict                                 method-specific counters
+    compiled : bool                             this call compiled kernels or loaded them from numba's
+                                                cache (the first call of a method in a process): it was
+                                                run again once they were ready, and its times are those
+                                                of that run; ``info["compile_time_s"]`` [s] is the time
+                                                spent compiling or loading
     """
 
     q: np.ndarray
@@ -427,6 +432,7 @@ class IKResult:
     length_unit: str = "m"
     solutions: np.ndarray | None = None
     info: dict = field(default_factory=dict)
+    compiled: bool = False
 
 
 @dataclass
@@ -508,6 +514,9 @@ class BatchResult:
                                                       kernel reads it (BatchRaw.cpu_ns), else of the
                                                       process (all threads) when the caller measured it
                                                       (the runner does)
+    compiled : bool, compile_time_s : float [s]       the call compiled or loaded kernels (then it was run
+                                                      again once they were ready, and its times are that
+                                                      run's) and the time that took
     """
 
     q: np.ndarray
@@ -529,6 +538,8 @@ class BatchResult:
     info: list | None = None
     call_times_s: np.ndarray | None = None
     cpu_times_s: np.ndarray | None = None
+    compiled: bool = False
+    compile_time_s: float = 0.0
 
     def __len__(self) -> int:
         return int(self.q.shape[0])

@@ -59,39 +59,39 @@ MAX_SOL = 16
 
 
 # ---- 3-vectors as tuples ------------------------------------------------------------------------
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def scl(s, a):
     return (s * a[0], s * a[1], s * a[2])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def perp(k, a):
     """``a`` minus its component along the unit vector ``k``."""
     t = dot(k, a)
     return (a[0] - t * k[0], a[1] - t * k[1], a[2] - t * k[2])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def rot(k, c, s, v):
     """``rot(k, θ) v`` at cos θ = c, sin θ = s (Rodrigues)."""
     kv = cross(k, v)
@@ -99,24 +99,24 @@ def rot(k, c, s, v):
     return (c * v[0] + s * kv[0] + t * k[0], c * v[1] + s * kv[1] + t * k[1], c * v[2] + s * kv[2] + t * k[2])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def rotz(k, z, v):
     """``rot(k, θ) v`` for the unit complex ``z = e^{iθ}``."""
     return rot(k, z.real, z.imag, v)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def cis(t):
     """``e^{it}`` (an angle as the unit complex the subproblems compute with)."""
     return complex(math.cos(t), math.sin(t))
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def row(A, i):
     return (A[i, 0], A[i, 1], A[i, 2])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def matTvec(R, v):
     """``Rᵀ v`` for the rotation block of a 3 × 3 or 4 × 4 array."""
     return (R[0, 0] * v[0] + R[1, 0] * v[1] + R[2, 0] * v[2],
@@ -273,14 +273,14 @@ def meet_point(h1, p1, h2, p2):
 # (:mod:`pipeline.solvers.lanes`), so both give the same floats. A stage takes the e^{iθ} an angle
 # gets where it is free (``dz``) and reports whether that was used (``free``): the scalar callers call
 # it with ``ONE`` and again with the true default only then (its sine and cosine only then).
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def lines(H, P):
     """The 6 joint lines as tuples: ((h_1 .. h_6), (p_1 .. p_6))."""
     return ((row(H, 0), row(H, 1), row(H, 2), row(H, 3), row(H, 4), row(H, 5)),
             (row(P, 0), row(P, 1), row(P, 2), row(P, 3), row(P, 4), row(P, 5)))
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def about(h, p, z, x):
     """``p + rot(h, θ) (x − p)``: x turned by e^{iθ} = ``z`` about the line (h, p)."""
     return add(p, rotz(h, z, sub(x, p)))
@@ -445,13 +445,13 @@ def case_point(case, H, P):
     return (0.0, 0.0, 0.0)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def t9(R):
     """The rotation block of a 3 × 3 or 4 × 4 array as 9 floats, row-major."""
     return (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def mv9(m, v):
     """``R v`` for R as 9 floats (:func:`t9`)."""
     return (m[0] * v[0] + m[1] * v[1] + m[2] * v[2],
@@ -459,7 +459,7 @@ def mv9(m, v):
             m[6] * v[0] + m[7] * v[1] + m[8] * v[2])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def mtv9(m, v):
     """``Rᵀ v`` for R as 9 floats (:func:`t9`)."""
     return (m[0] * v[0] + m[3] * v[1] + m[6] * v[2],
@@ -467,19 +467,19 @@ def mtv9(m, v):
             m[2] * v[0] + m[5] * v[1] + m[8] * v[2])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def gm9(g, m, v):
     """``R_goal R_Mᵀ v`` with both rotations as 9 floats (:func:`t9`)."""
     return mv9(g, mtv9(m, v))
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def gm(Rg, RM, v):
     """``R_goal R_Mᵀ v`` (``Rg`` may be the 4 × 4 goal: only its rotation block is read)."""
     return gm9(t9(Rg), t9(RM), v)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def back3t(hs, z1, z2, z3, v):
     """``(R_1 R_2 R_3)ᵀ v`` (``hs`` the joint directions as tuples)."""
     v = rotz(hs[0], z1.conjugate(), v)
@@ -520,7 +520,7 @@ def wrap(x):
     return y
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def into_limits(x, lo, hi):
     """(x moved by 2π multiples into [lo, hi] where that fits, else x; whether the result lies within
     the limits up to the one joint-limit tolerance ``LIMIT_TOL``). Unbounded limits keep x."""
@@ -547,7 +547,7 @@ def near_limits(x, ref, lo, hi):
     return into_limits(x, lo, hi)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def fits(z, lim, j):
     """The angle of ``z``, moved by 2π multiples, lies within ``lim[j]`` (±inf: always, no atan2)."""
     lo, hi = lim[j, 0], lim[j, 1]
