@@ -85,3 +85,21 @@ def test_each_family_has_its_own_kernels():
         assert k.batch.py_func.__globals__["SOLVE_POSE"] is k.solve_pose
         assert k.solve_pose.py_func.__qualname__ == f"solve_pose__{analytic.FAMILY_NAMES[c]}_{n}r"
     assert analytic.kernels(np.array([6, sp.FAM_3P])) is ks[(sp.FAM_3P, 6)]  # made once per process
+
+
+def test_batches_run_on_tbb_where_the_wheel_is_installed():
+    """numba's TBB layer (pipeline._numba_cache._find_tbb): a parallel region does not wait for a
+    descheduled thread on a busy machine."""
+    import importlib.metadata
+    import os
+    import sys
+
+    try:
+        importlib.metadata.distribution("tbb")
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("the tbb wheel is not installed here (it is a dependency on x86-64 Linux and Windows)")
+    if os.environ.get("NUMBA_THREADING_LAYER") or not sys.platform.startswith("linux"):
+        pytest.skip("a threading layer chosen by the user, or not Linux")
+    arm = robots.load_robot("ur5e")
+    solvers.solve_batch("analytic", arm, np.stack([_goal(arm)] * 16), np.zeros((16, 6)), threads=2)
+    assert numba.threading_layer() == "tbb"

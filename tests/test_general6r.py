@@ -199,12 +199,16 @@ def test_batch_equals_one_by_one_on_a_general_arm():
     Q = rng.uniform(-np.pi, np.pi, (12, 6))
     goals = np.array([fk_htm(m.chain, q) for q in Q])
     starts = rng.uniform(-np.pi, np.pi, (12, 6))
-    b = solve_batch("analytic", m, goals, starts, {})
+    b = solve_batch("analytic", m, goals, starts, {})  # the general elimination's batch kernel, every core
+    lean = solve_batch("analytic", m, goals, starts, {}, threads=1, traces=False)
     for i in range(12):
         r = solve("analytic", m, goals[i], starts[i], {})
         assert r.success == b.success[i] and np.array_equal(r.q, b.q[i])
         assert np.array_equal(r.solutions, b.solutions[i, :b.n_solutions[i]])
         assert r.trace.shape == (2, 8) and np.isfinite(r.trace).all()
+        assert np.array_equal(r.trace, b.trace_rows[b.trace_offsets[i]:b.trace_offsets[i + 1]])
+        assert {k: v for k, v in r.info.items() if k != "compile_time_s"} == b.info[i]
+        assert np.array_equal(lean.q[i], b.q[i]) and lean.info[i] == b.info[i]
 
 
 def test_solutions_nearest_first_and_capped():

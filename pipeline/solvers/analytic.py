@@ -27,8 +27,8 @@ rows, the document's error ``[‖e‖, e, |Δp|]`` at ``q_start`` and at ``q``.
 A robot whose geometry fits no family (and, for a 6R arm, whose elimination degenerates) is refused
 in one line naming the geometry (e.g. "axes 4, 5 and 6 do not meet (closest common point 12.3 mm
 off) ..."). The general path is one compiled call per pose (:func:`pipeline.solvers.general6r.general_pose`;
-the public call fused with the independent check, :func:`pipeline.solvers.general6r.general_call`);
-it has no batch kernel, so a batch solves it pose by pose.
+the public call fused with the independent check, :func:`pipeline.solvers.general6r.general_call`;
+a batch on every core, :func:`pipeline.solvers.general6r.general_batch`).
 """
 
 from __future__ import annotations
@@ -132,6 +132,22 @@ def _bind_general(prep: Prepared, s: AnalyticSettings):
                    info=_info(m, k, float(trace[1, 0]), GENERAL))
 
     return run1
+
+
+def _batch_general(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, keep_traces: bool):
+    """:func:`batch` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.general_batch`, the
+    poses of ``run1`` (:func:`_bind_general`) on every core."""
+    from pipeline.solvers import general6r
+
+    S, Q, traces, doc, out = general6r.batch_arrays(prep, _general_settings(s), goals, starts, keep_traces)
+    N = len(Q)
+    nsol = np.ascontiguousarray(out[:, 0])
+    rows = traces.reshape(2 * N, TRACE_COLS) if keep_traces else None
+    offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces else None
+    info = InfoRows(N, lambda i: _info(int(out[i, 0]), int(out[i, 1]), float(doc[i]), GENERAL))
+    return BatchRaw(q=Q, code=np.ascontiguousarray(out[:, 3]), iterations=np.ones(N, np.int64),
+                    solve_ns=np.ascontiguousarray(out[:, 5]), ik_ns=np.zeros(N, np.int64), trace_rows=rows,
+                    trace_offsets=offsets, solutions=S, n_solutions=nsol, info=info)
 
 
 def _bind_call_general(prep: Prepared, s: AnalyticSettings):
@@ -679,10 +695,11 @@ def bind(prep: Prepared, s: AnalyticSettings):
 
 
 def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
-    """N poses in one compiled call on every core (each pose writes only its own rows); None for an arm
-    that fits no family (the general elimination has no batch kernel: the driver solves pose by pose)."""
+    """N poses in one compiled call on every core (each pose writes only its own rows): the family's batch
+    kernel (:func:`kernels`), or for an arm that fits no family the general elimination's
+    (:func:`_batch_general`)."""
     if _general(prep, s):
-        return None
+        return _batch_general(prep, s, goals, starts, keep_traces)
     k = packed(prep, s)
     n, fam = int(k.ints[0]), _family(prep, s)
     goals = np.ascontiguousarray(goals, dtype=float)

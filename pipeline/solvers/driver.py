@@ -218,14 +218,14 @@ class Bound:
             if self.scaled:
                 Sk = S.copy()
                 Sk[:, prep.prismatic] *= prep.goal_scale
-            with numba_threads(threads):
+            with numba_threads(threads):  # the kernel and the check both on ``threads`` threads
                 raw = self.spec.batch(prep, sc, Gk, Sk, seeds, traces)  # None: no batch kernel for this robot
+                if raw is not None:
+                    res = finish_batch(prep, Gk, raw, sc)
+            if raw is not None and self.scaled:
+                res.q[:, prep.prismatic] /= prep.goal_scale
         if raw is None:
             res = stack([self.solve(G[i], S[i], int(seeds[i])) for i in range(len(G))], prep.unit, traces)
-        else:
-            res = finish_batch(prep, Gk, raw, sc)
-            if self.scaled:
-                res.q[:, prep.prismatic] /= prep.goal_scale
         spent = COMPILE_CLOCK[0] - c0  # compiling or loading kernels: not the call's own time (per-problem
         res.call_time_s = (clock_ns() - t0 - spent) * 1e-9  # times are the kernel's own, or of calls run again)
         res.compiled, res.compile_time_s = spent > 0, spent * 1e-9

@@ -1101,6 +1101,37 @@ def general_call(E, L, CK, GC, scale, Tg, q_start, S, q, trace):
     return m, k, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
 
 
+@numba.njit(cache=True, error_model="numpy", parallel=True)
+def general_batch(E, to_m, L, CK, goals, starts, S, Qo, traces, doc, out):
+    """:func:`general_pose` (without limits) for every row i of ``goals`` (N, 4, 4, working unit) and
+    ``starts`` (N, 6), on every core; each pose writes only its own rows (results independent of the
+    thread count): ``S[i]`` (m, 6) its solutions, ``Qo[i]`` (6,) ``q``, ``traces[i]`` (2, 8) its trace
+    (``traces`` (0, 2, 8): none kept, the row at the start unwritten), ``doc[i]`` the document's error at
+    ``q``, ``out[i]`` (solutions, roots, kept roots, code, chosen, solve time [ns])."""
+    N = goals.shape[0]
+    keep = traces.shape[0] == N
+    for i in numba.prange(N):
+        tr = traces[i] if keep else np.empty((2, TRACE_COLS))
+        m, k, nk, code, best, ns = general_pose(E, goals[i], to_m, L, CK, False, starts[i], S[i], Qo[i], tr, keep)
+        doc[i] = tr[1, 0]
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = m, k, nk, code, best, ns
+
+
+def batch_arrays(prep: Prepared, s: General6RSettings, goals: np.ndarray, starts: np.ndarray, keep_traces: bool):
+    """:func:`general_batch` of N goals with its arrays: (S (N, max_solutions, 6), q (N, 6), traces
+    (N or 0, 2, 8), doc (N,), out (N, 6) int)."""
+    E, to_m, lines, CK = pose_args(prep, s)
+    N = goals.shape[0]
+    S = np.empty((N, s.max_solutions, 6))
+    Q = np.empty((N, 6))
+    traces = np.empty((N if keep_traces else 0, 2, TRACE_COLS))
+    doc = np.empty(N)
+    out = np.zeros((N, 6), np.int64)
+    general_batch(E, to_m, lines, CK, np.ascontiguousarray(goals, dtype=float),
+                  np.ascontiguousarray(starts, dtype=float), S, Q, traces, doc, out)
+    return S, Q, traces, doc, out
+
+
 def lines_of(prep: Prepared) -> tuple:
     """The arm's joint lines in the working unit for :func:`general_pose`'s trace: (H, P, RM, pM)."""
     def make():

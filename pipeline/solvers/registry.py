@@ -212,9 +212,15 @@ def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: 
         hit = robot._bound.get((name, id(settings)))
         if hit is not None and hit.settings is settings:
             return hit.call(T_goal, q_start, seed, t0)
+    return _bound(name, robot, settings).call(T_goal, q_start, seed, t0)
+
+
+def _bound(name: str, robot: RobotModel | Prepared, settings: Settings | dict | None) -> Bound:
+    """The binding :func:`solve` and :func:`solve_batch` use: cached for a Prepared robot with a Settings
+    object (:func:`bind`) and for a robot object with a settings mapping or None (:func:`_bound_by_value`)."""
     if settings is None or type(settings) is dict:
-        return _bound_by_value(name, robot, settings).call(T_goal, q_start, seed, t0)
-    return bind(name, robot, settings).call(T_goal, q_start, seed, t0)
+        return _bound_by_value(name, robot, settings)
+    return bind(name, robot, settings)
 
 
 def solve_batch(name: str, robot: RobotModel | Prepared, goals: np.ndarray, starts: np.ndarray,
@@ -243,9 +249,12 @@ def solve_batch(name: str, robot: RobotModel | Prepared, goals: np.ndarray, star
     -------
     BatchResult
         ``call_time_s`` is the whole call; per-problem ``solve_time_s`` is measured inside the kernel.
+
+    The binding is kept as :func:`solve` keeps it (a Prepared robot with a Settings object, or a robot
+    object with a settings mapping), so a repeated batch does not pack the solver again.
     """
     t0 = clock_ns()
-    return bind(name, robot, settings).solve_many(goals, starts, seeds, threads, traces, t0)
+    return _bound(name, robot, settings).solve_many(goals, starts, seeds, threads, traces, t0)
 
 
 def warm_up(name: str, prep: Prepared, settings: Settings) -> None:
