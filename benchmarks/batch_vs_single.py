@@ -3,11 +3,13 @@
 Usage::
 
     python benchmarks/batch_vs_single.py [--goals 500] [--rounds 9] [--method analytic]
-                                         [--robots kuka_kr6_r700_sixx,ur5e,fanuc_crx10ia,kinova_gen3]
+                                         [--robots kuka_kr6_r700_sixx,ur5e,fanuc_crx10ia,kinova_gen3,general_100]
                                          [--json out.json]
 
 For each arm (by default one per closed-form family: a spherical wrist, three parallel axes (UR), an
-offset wrist solved by a one-dimensional search, a 7R arm through its swept joint), ``--goals`` goals
+offset wrist solved by a one-dimensional search, a 7R arm through its swept joint, and ``general_N``: the
+random 6R arm of seed N of ``benchmarks/closed_form.py``, which no family fits, solved by the general
+elimination), ``--goals`` goals
 (FK of joint angles uniform within the limits, seed 11) and starts (likewise) are solved
 
 * ``single``: one bound call per goal (``ik = pipeline.solvers.bind(method, arm)``, ``ik.solve``), the
@@ -38,7 +40,7 @@ import numpy as np
 
 from pipeline import kinematics, robots, solvers
 
-DEFAULT_ROBOTS = ["kuka_kr6_r700_sixx", "ur5e", "fanuc_crx10ia", "kinova_gen3"]
+DEFAULT_ROBOTS = ["kuka_kr6_r700_sixx", "ur5e", "fanuc_crx10ia", "kinova_gen3", "general_100"]
 
 
 def problems(arm, n: int, seed: int = 11):
@@ -51,7 +53,12 @@ def problems(arm, n: int, seed: int = 11):
 
 
 def run(robot: str, method: str, goals: int, rounds: int) -> dict:
-    arm = robots.load_robot(robot)
+    if robot.startswith("general_"):  # a random 6R arm no family fits (benchmarks/closed_form.py, seed N)
+        from closed_form import general_arm
+
+        arm = general_arm(int(robot.split("_")[1]), "standard", "m")
+    else:
+        arm = robots.load_robot(robot)
     G, S = problems(arm, goals)
     ik = solvers.bind(method, arm)
 

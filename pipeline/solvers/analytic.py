@@ -28,7 +28,7 @@ A robot whose geometry fits no family (and, for a 6R arm, whose elimination dege
 in one line naming the geometry (e.g. "axes 4, 5 and 6 do not meet (closest common point 12.3 mm
 off) ..."). The general path is one compiled call per pose (:func:`pipeline.solvers.general6r.general_pose`;
 the public call fused with the independent check, :func:`pipeline.solvers.general6r.general_call`;
-a batch on every core, :func:`pipeline.solvers.general6r.general_batch`).
+a batch on every core, :func:`pipeline.solvers.general6r.batch_arrays`).
 """
 
 from __future__ import annotations
@@ -135,8 +135,8 @@ def _bind_general(prep: Prepared, s: AnalyticSettings):
 
 
 def _batch_general(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, keep_traces: bool):
-    """:func:`batch` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.general_batch`, the
-    poses of ``run1`` (:func:`_bind_general`) on every core."""
+    """:func:`batch` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.batch_arrays`, the
+    poses of ``run1`` (:func:`_bind_general`) on ``threads`` threads."""
     from pipeline.solvers import general6r
 
     S, Q, traces, doc, out = general6r.batch_arrays(prep, _general_settings(s), goals, starts, keep_traces)

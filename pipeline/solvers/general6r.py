@@ -1101,25 +1101,28 @@ def general_call(E, L, CK, GC, scale, Tg, q_start, S, q, trace):
     return m, k, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
 
 
-@numba.njit(cache=True, error_model="numpy", parallel=True)
-def general_batch(E, to_m, L, CK, goals, starts, S, Qo, traces, doc, out):
-    """:func:`general_pose` (without limits) for every row i of ``goals`` (N, 4, 4, working unit) and
-    ``starts`` (N, 6), on every core; each pose writes only its own rows (results independent of the
-    thread count): ``S[i]`` (m, 6) its solutions, ``Qo[i]`` (6,) ``q``, ``traces[i]`` (2, 8) its trace
-    (``traces`` (0, 2, 8): none kept, the row at the start unwritten), ``doc[i]`` the document's error at
-    ``q``, ``out[i]`` (solutions, roots, kept roots, code, chosen, solve time [ns])."""
-    N = goals.shape[0]
-    keep = traces.shape[0] == N
-    for i in numba.prange(N):
-        tr = traces[i] if keep else np.empty((2, TRACE_COLS))
+@numba.njit(cache=True, error_model="numpy", nogil=True)
+def general_rows(E, to_m, L, CK, goals, starts, S, Qo, traces, doc, out, lo, hi):
+    """:func:`general_pose` (without limits) for rows ``lo .. hi - 1`` of ``goals`` (N, 4, 4, working unit)
+    and ``starts`` (N, 6), without the GIL (:func:`batch_arrays` runs row ranges on threads); each pose
+    writes only its own rows, so the results do not depend on the split: ``S[i]`` (m, 6) its solutions,
+    ``Qo[i]`` (6,) ``q``, ``traces[i]`` (2, 8) its trace (``traces`` (0, 2, 8): none kept, the row at the
+    start unwritten), ``doc[i]`` the document's error at ``q``, ``out[i]`` (solutions, roots, kept roots,
+    code, chosen, solve time [ns]). (Not a ``prange``: numba's parallel loops do not take the arm's
+    argument tuple ``E``.)"""
+    keep = traces.shape[0] == goals.shape[0]
+    scratch = np.empty((2, TRACE_COLS))
+    for i in range(lo, hi):
+        tr = traces[i] if keep else scratch
         m, k, nk, code, best, ns = general_pose(E, goals[i], to_m, L, CK, False, starts[i], S[i], Qo[i], tr, keep)
         doc[i] = tr[1, 0]
         out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = m, k, nk, code, best, ns
 
 
 def batch_arrays(prep: Prepared, s: General6RSettings, goals: np.ndarray, starts: np.ndarray, keep_traces: bool):
-    """:func:`general_batch` of N goals with its arrays: (S (N, max_solutions, 6), q (N, 6), traces
-    (N or 0, 2, 8), doc (N,), out (N, 6) int)."""
+    """N goals by :func:`general_rows`, in as many row ranges on as many threads as numba's thread count
+    (the ``threads`` of :func:`pipeline.solvers.solve_batch`; ranges of 16 rows at least): (S (N,
+    max_solutions, 6), q (N, 6), traces (N or 0, 2, 8), doc (N,), out (N, 6) int)."""
     E, to_m, lines, CK = pose_args(prep, s)
     N = goals.shape[0]
     S = np.empty((N, s.max_solutions, 6))
@@ -1127,8 +1130,18 @@ def batch_arrays(prep: Prepared, s: General6RSettings, goals: np.ndarray, starts
     traces = np.empty((N if keep_traces else 0, 2, TRACE_COLS))
     doc = np.empty(N)
     out = np.zeros((N, 6), np.int64)
-    general_batch(E, to_m, lines, CK, np.ascontiguousarray(goals, dtype=float),
-                  np.ascontiguousarray(starts, dtype=float), S, Q, traces, doc, out)
+    args = (E, to_m, lines, CK, np.ascontiguousarray(goals, dtype=float), np.ascontiguousarray(starts, dtype=float), S,
+            Q, traces, doc, out)
+    k = max(1, min(numba.get_num_threads(), N // 16))
+    cut = [N * j // k for j in range(k + 1)]
+    if k == 1:
+        general_rows(*args, 0, N)
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(k) as pool:
+            for f in [pool.submit(general_rows, *args, cut[j], cut[j + 1]) for j in range(k)]:
+                f.result()
     return S, Q, traces, doc, out
 
 
