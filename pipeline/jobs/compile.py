@@ -73,6 +73,35 @@ def compile_methods(methods: list[str] | None = None, robots: list[str] | None =
             f"(cache: {os.environ.get('NUMBA_CACHE_DIR', 'numba default')})")
 
 
+def _warm_helpers(prep, settings) -> bool:
+    """The kernels a job may call beside its solver's: the independent check of another solution than the
+    method's first (``require_limits``), the joint travel from a warm start (the race and the answer
+    tables) and, for a DH chain, the FK timing kernels of mariano2019. Each has one signature, so one call
+    each builds or loads it for every robot. Returns whether the FK timing kernels were reached."""
+    import numpy as np
+
+    from pipeline.solvers import _kin
+    from pipeline.solvers.base import LIMIT_TOL, check, nearest_rep
+    from pipeline.solvers.driver import converted
+
+    T, q0 = _goal(prep.model)
+    T = T.copy()
+    T[:3, 3] /= prep.goal_scale
+    check(prep, prep.working_goal(T), q0, converted(prep, settings))
+    lim, prism = np.ascontiguousarray(prep.limits, dtype=float), np.ascontiguousarray(prep.prismatic, dtype=np.bool_)
+    for flags in (prism, prism.copy()):  # the robot's own flags are read-only, a table's copy is not
+        nearest_rep(q0, q0, lim, flags, LIMIT_TOL, np.empty(prep.n))
+    c = prep.model.chain
+    if all(hasattr(c, f) for f in ("a", "alpha", "d", "theta_offset", "prismatic", "modified")):
+        Q, out = np.zeros((2, prep.n)), np.empty((2, 3))
+        args = (np.asarray(c.a, dtype=float), np.asarray(c.alpha, dtype=float), np.asarray(c.d, dtype=float),
+                np.asarray(c.theta_offset, dtype=float), np.asarray(c.prismatic), c.modified, Q, out)
+        _kin.fk_htm_batch(*args)
+        _kin.fk_dq_batch(*args)
+        return True
+    return False
+
+
 def compile_studies(study_paths: list, data="data", *, progress=sys.stderr) -> str:
     """Build or load, once, the kernels every solve job of these studies will call: each (robot, solver
     label) pair of the studies' jobs is warmed up with the label's own settings, as a solve job warms
@@ -85,7 +114,7 @@ def compile_studies(study_paths: list, data="data", *, progress=sys.stderr) -> s
     from pipeline.settings import load_study
     from pipeline.solvers import NotApplicableError, get, prepare, solve_batch, warm_up
 
-    t_all, done = time.perf_counter(), 0
+    t_all, done, helpers = time.perf_counter(), 0, False
     studies = [load_study(Path(p)) for p in study_paths]
     for k, st in enumerate(studies, 1):
         t0, pairs = time.perf_counter(), {}
@@ -103,6 +132,8 @@ def compile_studies(study_paths: list, data="data", *, progress=sys.stderr) -> s
             except NotApplicableError:
                 continue
             warm_up(entry.method, prep, entry.settings)
+            if not helpers:
+                helpers = _warm_helpers(prep, entry.settings)
             if spec.batch is not None:
                 T, q0 = _goal(model)
                 T = T.copy()

@@ -16,6 +16,8 @@ rule compile_kernels:
         KERNELS,
     log:
         f"{RESULTS}/.kernels/compile_kernels.log",
+    benchmark:
+        f"{RESULTS}/.kernels/compile_kernels.tsv"
     threads: 1
     resources:
         mem_mb=RES["solve_robot"]["mem_mb"],
