@@ -48,11 +48,11 @@ def test_a_call_that_compiles_is_run_again_and_says_so(method, settings):
     res = ik.solve(T, q0)
     spent = (compile_ns() - before) * 1e-9
     assert len(runs) == 2 and res.compiled and spent > 0
-    assert res.info["compile_time_s"] == pytest.approx(spent)
+    assert res.compile_time_s == pytest.approx(spent) and "compile_time_s" not in res.info
     assert res.call_time_s < spent  # the run again: its own time, not the compile's
     assert np.array_equal(res.q, warm.q) and res.success == warm.success
     again = ik.solve(T, q0)
-    assert not again.compiled and "compile_time_s" not in again.info and len(runs) <= 3
+    assert not again.compiled and again.compile_time_s == 0.0 and len(runs) <= 3
 
 
 def test_a_warm_call_is_not_marked():
@@ -60,7 +60,7 @@ def test_a_warm_call_is_not_marked():
     T = _goal(arm, 3)
     solvers.solve("analytic", arm, T, np.zeros(6))
     res = solvers.solve("analytic", arm, T, np.zeros(6))
-    assert not res.compiled and "compile_time_s" not in res.info
+    assert not res.compiled and res.compile_time_s == 0.0
     batch = solvers.solve_batch("analytic", arm, np.stack([T] * 9), np.zeros((9, 6)))
     batch = solvers.solve_batch("analytic", arm, np.stack([T] * 9), np.zeros((9, 6)))
     assert not batch.compiled and batch.compile_time_s == 0.0

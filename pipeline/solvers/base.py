@@ -413,8 +413,8 @@ class IKResult:
     compiled : bool                             this call compiled kernels or loaded them from numba's
                                                 cache (the first call of a method in a process): it was
                                                 run again once they were ready, and its times are those
-                                                of that run; ``info["compile_time_s"]`` [s] is the time
-                                                spent compiling or loading
+                                                of that run
+    compile_time_s : float [s]                  the time that compiling or loading took (0 otherwise)
     """
 
     q: np.ndarray
@@ -433,6 +433,7 @@ class IKResult:
     solutions: np.ndarray | None = None
     info: dict = field(default_factory=dict)
     compiled: bool = False
+    compile_time_s: float = 0.0
 
 
 @dataclass

@@ -94,9 +94,9 @@ class Bound:
 
     Compilation is never timed as a solve: a call during which numba compiled kernels or loaded them
     from its cache (:func:`pipeline._numba_cache.compile_ns`) is run again once they are ready, and
-    returns that run's result with ``compiled`` True and ``info["compile_time_s"]``. The fused call is
-    watched until its first call that compiles nothing (it compiles nothing later); the generic path
-    on every call (a restart or a rare branch may compile later).
+    returns that run's result with ``compiled`` True and ``compile_time_s`` the time it took. The fused
+    call is watched until its first call that compiles nothing (it compiles nothing later); the
+    generic path on every call (a restart or a rare branch may compile later).
     """
 
     __slots__ = ("spec", "prep", "settings", "sc", "run1", "scaled", "shape", "may_restart", "fused", "call", "_run")
@@ -135,8 +135,7 @@ class Bound:
             if clock[0] == c0:
                 break
             spent += clock[0] - c0
-        res.compiled = True
-        res.info = {**res.info, "compile_time_s": spent * 1e-9}
+        res.compiled, res.compile_time_s = True, spent * 1e-9
         return res
 
     def attempt(self, Tg: np.ndarray, q0: np.ndarray, seed: int) -> IKResult:
