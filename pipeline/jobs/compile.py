@@ -75,8 +75,8 @@ def compile_methods(methods: list[str] | None = None, robots: list[str] | None =
 
 def _warm_helpers(prep, settings) -> bool:
     """The kernels a job may call beside its solver's: the independent check of another solution than the
-    method's first (``require_limits``), the joint travel from a warm start (the race and the answer
-    tables) and, for a DH chain, the FK timing kernels of mariano2019. Each has one signature, so one call
+    method's first (``require_limits``; its choice, ``nearest_of``, is warmed up by the solver's own call),
+    the joint travel from a warm start (the race and the answer tables, on writable copies) and, for a DH chain, the FK timing kernels of mariano2019. Each has one signature, so one call
     each builds or loads it for every robot. Returns whether the FK timing kernels were reached."""
     import numpy as np
 
@@ -89,8 +89,7 @@ def _warm_helpers(prep, settings) -> bool:
     T[:3, 3] /= prep.goal_scale
     check(prep, prep.working_goal(T), q0, converted(prep, settings))
     lim, prism = np.ascontiguousarray(prep.limits, dtype=float), np.ascontiguousarray(prep.prismatic, dtype=np.bool_)
-    for flags in (prism, prism.copy()):  # the robot's own flags are read-only, a table's copy is not
-        nearest_rep(q0, q0, lim, flags, LIMIT_TOL, np.empty(prep.n))
+    nearest_rep(q0, q0, lim.copy(), prism.copy(), LIMIT_TOL, np.empty(prep.n))  # as the answer tables call it
     c = prep.model.chain
     if all(hasattr(c, f) for f in ("a", "alpha", "d", "theta_offset", "prismatic", "modified")):
         Q, out = np.zeros((2, prep.n)), np.empty((2, 3))

@@ -535,12 +535,12 @@ def travel(q, q0, limits: np.ndarray, prismatic: np.ndarray, turns: bool) -> flo
     Otherwise the moves are ``q - q0`` as given (the angles a method returned are what the arm is sent)."""
     from pipeline.solvers.base import LIMIT_TOL, nearest_rep
 
-    q, q0 = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(q0, dtype=float)
+    q, q0 = np.array(q, dtype=float), np.array(q0, dtype=float)  # writable copies: one kernel signature
     if not turns:
         d = q - q0
         return float(np.sqrt((d * d).sum()))
-    return float(nearest_rep(q, q0, np.ascontiguousarray(limits, dtype=float),
-                             np.ascontiguousarray(prismatic, dtype=np.bool_), LIMIT_TOL, np.empty_like(q)))
+    return float(nearest_rep(q, q0, np.array(limits, dtype=float), np.array(prismatic, dtype=np.bool_), LIMIT_TOL,
+                             np.empty_like(q)))
 
 
 def nearest_flags(df: pd.DataFrame, archives, warm: set, models: dict) -> np.ndarray:
