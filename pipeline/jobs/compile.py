@@ -32,6 +32,14 @@ def _goal(model):
     return fk_htm(model.chain, q), lo + (hi - lo) * 0.5
 
 
+def _goal_of(prep):
+    """:func:`_goal` of a prepared robot with the goal in the robot file's unit (as a job passes it)."""
+    T, q0 = _goal(prep.model)
+    T = T.copy()
+    T[:3, 3] /= prep.goal_scale
+    return T, q0
+
+
 def compile_methods(methods: list[str] | None = None, robots: list[str] | None = None, *, batch: bool = False,
                     progress=sys.stderr) -> str:
     """Call every method of ``methods`` (default: every registered method of ours) once on each robot of
@@ -76,17 +84,16 @@ def compile_methods(methods: list[str] | None = None, robots: list[str] | None =
 def _warm_helpers(prep, settings) -> bool:
     """The kernels a job may call beside its solver's: the independent check of another solution than the
     method's first (``require_limits``; its choice, ``nearest_of``, is warmed up by the solver's own call),
-    the joint travel from a warm start (the race and the answer tables, on writable copies) and, for a DH chain, the FK timing kernels of mariano2019. Each has one signature, so one call
-    each builds or loads it for every robot. Returns whether the FK timing kernels were reached."""
+    the joint travel from a warm start (the race and the answer tables, on writable copies) and, for a DH
+    chain, the FK timing kernels of mariano2019. Each has one signature, so one call each builds or loads
+    it for every robot. Returns whether the FK timing kernels were reached."""
     import numpy as np
 
     from pipeline.solvers import _kin
     from pipeline.solvers.base import LIMIT_TOL, check, nearest_rep
     from pipeline.solvers.driver import converted
 
-    T, q0 = _goal(prep.model)
-    T = T.copy()
-    T[:3, 3] /= prep.goal_scale
+    T, q0 = _goal_of(prep)
     check(prep, prep.working_goal(T), q0, converted(prep, settings))
     lim, prism = np.ascontiguousarray(prep.limits, dtype=float), np.ascontiguousarray(prep.prismatic, dtype=np.bool_)
     nearest_rep(q0, q0, lim.copy(), prism.copy(), LIMIT_TOL, np.empty(prep.n))  # as the answer tables call it
@@ -134,9 +141,7 @@ def compile_studies(study_paths: list, data="data", *, progress=sys.stderr) -> s
             if not helpers:
                 helpers = _warm_helpers(prep, entry.settings)
             if spec.batch is not None:
-                T, q0 = _goal(model)
-                T = T.copy()
-                T[:3, 3] /= prep.goal_scale
+                T, q0 = _goal_of(prep)
                 goals = np.repeat(T[None], BATCH_GOALS, axis=0)
                 solve_batch(entry.method, prep, goals, np.repeat(q0[None], BATCH_GOALS, axis=0), entry.settings,
                             seeds=np.arange(BATCH_GOALS, dtype=np.int64), threads=1)

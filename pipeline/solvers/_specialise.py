@@ -34,11 +34,15 @@ def specialise(template, tag: str, options: dict, **names):
     The copy sees the template module's globals as they are at this call, with ``names`` over them: build
     the copies after the module has finished loading (at the first call, for example).
     """
-    g = dict(template.__globals__)
-    g.update(names)
-    f = types.FunctionType(template.__code__, g, template.__name__, template.__defaults__, template.__closure__)
-    f.__qualname__ = f"{template.__qualname__}__{tag}"
-    f.__module__, f.__doc__, f.__kwdefaults__ = template.__module__, template.__doc__, template.__kwdefaults__
+    return _compiled_copy(template, {**template.__globals__, **names}, tag, options)
+
+
+def _compiled_copy(py, g: dict, tag: str, options: dict):
+    """A numba dispatcher of a copy of function ``py`` whose globals are ``g`` and whose qualified name ends
+    in ``__tag`` (its own cache file); ``options`` as numba.njit takes them (``nopython`` is implied)."""
+    f = types.FunctionType(py.__code__, g, py.__name__, py.__defaults__, py.__closure__)
+    f.__qualname__ = f"{py.__qualname__}__{tag}"
+    f.__module__, f.__doc__, f.__kwdefaults__ = py.__module__, py.__doc__, py.__kwdefaults__
     return numba.njit(**{k: v for k, v in options.items() if k != "nopython"})(f)
 
 
@@ -60,9 +64,6 @@ def inlined_twin(module, suffix: str = "inline"):
         py = getattr(obj, "py_func", None)
         if py is None or getattr(py, "__module__", None) != module.__name__ or not hasattr(obj, "targetoptions"):
             continue
-        f = types.FunctionType(py.__code__, g, py.__name__, py.__defaults__, py.__closure__)
-        f.__qualname__ = f"{py.__qualname__}__{suffix}"
-        f.__module__, f.__doc__, f.__kwdefaults__ = py.__module__, py.__doc__, py.__kwdefaults__
-        options = {k: v for k, v in obj.targetoptions.items() if k not in ("inline", "cache", "nopython")}
-        g[name] = numba.njit(inline="always", **options)(f)
+        options = {k: v for k, v in obj.targetoptions.items() if k not in ("inline", "cache")}
+        g[name] = _compiled_copy(py, g, suffix, {**options, "inline": "always"})
     return twin

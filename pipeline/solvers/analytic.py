@@ -134,6 +134,14 @@ def _bind_general(prep: Prepared, s: AnalyticSettings):
     return run1
 
 
+def _two_rows_each(traces: np.ndarray, keep: bool):
+    """A batch's kept traces (N, 2, 8) as ``BatchRaw``'s rows (2 N, 8) and offsets (N + 1,), or (None, None)."""
+    if not keep:
+        return None, None
+    N = traces.shape[0]
+    return traces.reshape(2 * N, TRACE_COLS), np.arange(0, 2 * N + 1, 2, dtype=np.int64)
+
+
 def _batch_general(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, keep_traces: bool):
     """:func:`batch` of a 6R arm that fits no family: :func:`pipeline.solvers.general6r.batch_arrays`, the
     poses of ``run1`` (:func:`_bind_general`) on ``threads`` threads."""
@@ -142,8 +150,7 @@ def _batch_general(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, start
     S, Q, traces, doc, out = general6r.batch_arrays(prep, _general_settings(s), goals, starts, keep_traces)
     N = len(Q)
     nsol = np.ascontiguousarray(out[:, 0])
-    rows = traces.reshape(2 * N, TRACE_COLS) if keep_traces else None
-    offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces else None
+    rows, offsets = _two_rows_each(traces, keep_traces)
     info = InfoRows(N, lambda i: _info(int(out[i, 0]), int(out[i, 1]), float(doc[i]), GENERAL))
     return BatchRaw(q=Q, code=np.ascontiguousarray(out[:, 3]), iterations=np.ones(N, np.int64),
                     solve_ns=np.ascontiguousarray(out[:, 5]), ik_ns=np.zeros(N, np.int64), trace_rows=rows,
@@ -714,8 +721,7 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     ns = np.zeros(N, np.int64)
     kernels(k.ints).batch(k.ints, k.G, goals, starts, S, Q, traces, doc, nsol, tried, ns,
                           lanes.applies(n, int(k.ints[1]), int(k.ints[3])))
-    rows = traces.reshape(2 * N, TRACE_COLS) if keep_traces else None
-    offsets = np.arange(0, 2 * N + 1, 2, dtype=np.int64) if keep_traces else None
+    rows, offsets = _two_rows_each(traces, keep_traces)
     info = InfoRows(N, lambda i: _info(int(nsol[i]), int(tried[i]), float(doc[i]), fam))
     code = np.where(nsol > 0, SUCCESS, NO_SOLUTION).astype(np.int64)
     return BatchRaw(q=Q, code=code, iterations=np.ones(N, np.int64), solve_ns=ns, ik_ns=np.zeros(N, np.int64),
