@@ -19,11 +19,11 @@ Sections (each prints medians and 95th percentiles; every time is per problem un
               machine; the other libraries evict our code and data from the caches.) Ours: the whole call
               (``call_time_s``: settings, conversion, kernel, independent FK check, result) and
               the kernel alone (``solve_time_s``); peers: the library call (``solve_time_s``,
-              pipeline/solvers/peers.py). Ratio = our public call / rtb ik_LM's call.
+              pipeline/solvers/peers/libraries.py). Ratio = our public call / rtb ik_LM's call.
 ``hotloop``   One iteration in the kernel's loop (Jacobian transpose, pseudoinverse, DLS): 2 000
               iterations per problem with the stop tests disabled (tolerances 0), time / iterations
               (the kernel's own clock, so the once-per-solve set-up is spread over 2 000
-              iterations); against the flop floor (:func:`pipeline.solvers._lean.flops_per_iteration`
+              iterations); against the flop floor (:func:`pipeline.solvers.iterative.lean.flops_per_iteration`
               at this machine's measured multiply-add rate, plus 7 sin/cos pairs at their measured cost);
               DLS also with the two clock reads per iteration that record ``ik_time_s``
               (``time_ik_block: true``, as cerbaro2019 runs it; off by default).
@@ -174,7 +174,7 @@ def _calibrate() -> tuple[float, float]:
 
 
 def hotloop(n: int) -> dict:
-    from pipeline.solvers._lean import flops_per_iteration
+    from pipeline.solvers.iterative.lean import flops_per_iteration
 
     lwr = load_robot(ROOT / "data" / "robots" / "kuka_lwr.yaml")
     mapping = {"tol_pos": 0.0, "tol_rot": 0.0, "disable_stall": True, "disable_grow": True, "max_iterations": 2000}
@@ -264,13 +264,13 @@ def analytic(n: int) -> dict:
 
 
 def paths(n: int, n_batch: int) -> dict:
-    """Each fast path of the solve driver (pipeline/solvers/driver.py) against the driver's generic path
+    """Each fast path of the solve driver (pipeline/solvers/core/driver.py) against the driver's generic path
     on the job it serves; a fast path stays only where it is at least 20 % faster (issue 24, item 5)."""
     from dataclasses import replace
 
     from pipeline.settings import load_study
     from pipeline.solvers import get
-    from pipeline.solvers.driver import Bound
+    from pipeline.solvers.core.driver import Bound
 
     out = {}
     study = load_study(ROOT / "data" / "studies" / "cerbaro2019.yaml")

@@ -4,7 +4,7 @@ Usage: python benchmarks/bench_solve.py [--robot data/robots/kuka_lwr.yaml] [--p
        [--kind warm_start|random_joint_pairs] [--seed 1] [--solvers dls sdls ...]
 
 Prints, per solver: FK-verified success, the median and 5th/95th/99th percentiles of the per-solve
-time (the method's own computation, pipeline/solvers/timing.py), the median time per iteration,
+time (the method's own computation, pipeline/solvers/core/timing.py), the median time per iteration,
 and the median time of the whole ``solve()`` call (Python overhead, conversion and FK check
 included). Registry defaults are used; a solver that does not apply to the robot is skipped with
 its one-line reason.

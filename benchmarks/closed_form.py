@@ -54,10 +54,10 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.geometry import classify
 from pipeline.robots import load_robot, parse_robot
 from pipeline.solvers import make_settings, solve
-from pipeline.solvers import general6r
-from pipeline.solvers.base import NotApplicableError, Prepared
-from pipeline.solvers.peers import _metric
-from pipeline.solvers.registry import get, solve_batch
+from pipeline.solvers.closed_form import general6r
+from pipeline.solvers.core import NotApplicableError, Prepared
+from pipeline.solvers.core.models import metric as _metric
+from pipeline.solvers.core.registry import get, solve_batch
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ROOT / "data" / "robots"

@@ -3,7 +3,7 @@
     python benchmarks/cpu_clock.py [--solves 20000] [--work 1500]
 
 Runs ``--solves`` calls of a fixed compiled loop (``--work`` sines, about 14 µs here), each timed
-inside compiled code with both clocks the solver kernels use (``pipeline.solvers._kin``: the
+inside compiled code with both clocks the solver kernels use (``pipeline.solvers.kernels.kin``: the
 monotonic clock of ``solve_time_s`` and the thread CPU clock of ``cpu_time_s``), and prints the load
 average and percentiles of both. Run it once on a quiet machine and once while a build loads it:
 the wall-clock mean and tail follow the load, the CPU-time ones should not.
@@ -17,7 +17,7 @@ import os
 import numba
 import numpy as np
 
-from pipeline.solvers._kin import CLOCK_MONOTONIC, CLOCK_THREAD_CPUTIME_ID, _clock_gettime, _data_ptr
+from pipeline.solvers.kernels.kin import CLOCK_MONOTONIC, CLOCK_THREAD_CPUTIME_ID, _clock_gettime, _data_ptr
 
 
 @numba.njit

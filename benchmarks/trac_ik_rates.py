@@ -41,7 +41,7 @@ def main() -> None:
     from pipeline.robots import load_robot
     from pipeline.runner import solve_set_batches
     from pipeline.settings import load_study
-    from pipeline.solvers.base import within_limits
+    from pipeline.solvers.core import within_limits
     from pipeline.studies.arm_benchmark import wilson
 
     study = load_study(ROOT / "data" / "studies" / "arm_benchmark.yaml")

@@ -16,9 +16,9 @@ import pytest
 from pipeline.kinematics import fk_htm
 from pipeline.robots import load_robot, parse_robot
 from pipeline.solvers import make_settings, prepare, solve, solve_batch
-from pipeline.solvers.analytic_puma import run as puma_run
-from pipeline.solvers.analytic_ur import run as ur_run
-from pipeline.solvers.base import StopReason, pose_errors
+from pipeline.solvers.closed_form.analytic_puma import run as puma_run
+from pipeline.solvers.closed_form.analytic_ur import run as ur_run
+from pipeline.solvers.core import StopReason, pose_errors
 from tests.conftest import DATA, random_transform
 
 ROBOTS = DATA / "robots"

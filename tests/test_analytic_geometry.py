@@ -161,7 +161,7 @@ def search_well_conditioned(model: RobotModel, q) -> bool:
     elbow is straight for the decomposition, the searched joint's branches end at the generating
     angle and the root lies on a branch's edge: a pose of measure zero the search may miss, which
     a well-conditioned full Jacobian does not exclude."""
-    from pipeline.solvers.subproblems import meet_point
+    from pipeline.solvers.closed_form.subproblems import meet_point
 
     d = geometry.classify(model.chain, unit=model.length_unit)
     assert not d.reversed, "read from the base: the test arms' search is"
@@ -571,7 +571,7 @@ REFUSALS = _refusal_cases()
 @given(seed=st.integers(0, 2**32 - 1), conv=st.sampled_from(["standard", "modified"]))
 def test_random_general_6r_fits_no_family_and_is_solved_by_elimination(seed, conv):
     """No subproblem family fits a random 6R arm; ``analytic`` solves it by the general elimination
-    (:mod:`pipeline.solvers.general6r`), and the configuration that made the goal is among the solutions."""
+    (:mod:`pipeline.solvers.closed_form.general6r`), and the configuration that made the goal is among the solutions."""
     rng = np.random.default_rng(seed)
     m = dh_model(conv, _lengths(rng, 6), _twists(rng, 6), _lengths(rng, 6), rng.uniform(-np.pi, np.pi, 6),
                  random_transform(rng, 0.5), random_transform(rng, 0.1))

@@ -220,8 +220,8 @@ def test_python_call_names_a_shipped_arm_or_the_file():
 def test_registry_refuses_a_setting_named_method():
     from dataclasses import dataclass
 
-    from pipeline.solvers import registry
-    from pipeline.solvers.base import Settings, setting
+    from pipeline.solvers.core import registry
+    from pipeline.solvers.core import Settings, setting
 
     @dataclass(frozen=True)
     class Bad(Settings):
@@ -233,7 +233,7 @@ def test_registry_refuses_a_setting_named_method():
 
 
 def test_every_peer_has_its_library_and_ours_say_ours():
-    from pipeline.solvers import registry
+    from pipeline.solvers.core import registry
 
     libs = {n: registry.get(n).library for n in registry.names()}
     assert libs["rtb_ik_lm"] == "roboticstoolbox-python" and libs["trac_ik"] == "pytracik"
@@ -243,7 +243,7 @@ def test_every_peer_has_its_library_and_ours_say_ours():
 
 
 def test_limit_tolerance_admits_float32_rounding_only():
-    from pipeline.solvers.base import within_limits
+    from pipeline.solvers.core import within_limits
 
     lim = np.array([[-1.0, 1.0]])
     prism = np.array([False])

@@ -8,8 +8,9 @@ import pytest
 from pipeline.kinematics import fk_htm, geometric_jacobian
 from pipeline.robots import parse_robot
 from pipeline.settings import load_study
-from pipeline.solvers import _jit, make_settings, solve
-from pipeline.solvers.jacobian import packed
+from pipeline.solvers import make_settings, solve
+from pipeline.solvers.kernels import pose as _jit
+from pipeline.solvers.iterative.jacobian import packed
 from tests.conftest import DATA
 
 STEP_TOL = 1e-12  # closed forms vs the compiled step, same arithmetic up to rounding

@@ -10,8 +10,8 @@ import pytest
 
 from pipeline import kinematics, robots, solvers
 from pipeline._numba_cache import compile_ns
-from pipeline.solvers import analytic
-from pipeline.solvers import subproblems as sp
+from pipeline.solvers.closed_form import analytic
+from pipeline.solvers.closed_form import subproblems as sp
 
 
 def _goal(arm, seed=0):

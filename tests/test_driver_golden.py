@@ -106,7 +106,7 @@ def _pack(key: str, rec: dict) -> dict:
     return {f"{key}/num": np.concatenate(num) if num else np.empty(0), f"{key}/str": np.array(strs)}
 
 
-def _unpack(num: np.ndarray, strs: np.ndarray) -> dict:
+def unpack_check(num: np.ndarray, strs: np.ndarray) -> dict:
     """Inverse of :func:`_pack` (for the failure message): field -> array."""
     out, i, k, strs = {}, 0, 0, list(strs)
     while k < len(strs):
@@ -231,8 +231,8 @@ def test_golden(golden, method):
                 and np.array_equal(got, v, equal_nan=v.dtype.kind == "f"))
         if not same:
             case = k.rsplit("/", 1)[0]
-            a = _unpack(now[case + "/num"], now[case + "/str"])
-            b = _unpack(want[case + "/num"], want[case + "/str"])
+            a = unpack_check(now[case + "/num"], now[case + "/str"])
+            b = unpack_check(want[case + "/num"], want[case + "/str"])
             fields_ = sorted(f for f in set(a) | set(b) if f not in a or f not in b or a[f].shape != b[f].shape
                              or not np.array_equal(a[f], b[f], equal_nan=a[f].dtype.kind == "f"))
             bad.append(f"{case}: {fields_}")

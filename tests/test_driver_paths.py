@@ -1,4 +1,4 @@
-"""The driver's fast paths equal its generic path field by field (pipeline/solvers/driver.py).
+"""The driver's fast paths equal its generic path field by field (pipeline/solvers/core/driver.py).
 
 A fast path stays only where it is measurably faster (see the driver's docstring) and equal to the
 path it replaces: the N-problem kernels (``Solver.batch`` + ``finish_batch``) against one
@@ -19,7 +19,7 @@ import pytest
 from pipeline.problems import random_joint_pairs
 from pipeline.robots import load_robot
 from pipeline.solvers import NotApplicableError, get, make_settings, names, prepare
-from pipeline.solvers.driver import Bound
+from pipeline.solvers.core.driver import Bound
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOTS = ("kuka_lwr", "ur5", "puma560", "mariano_4dof")

@@ -17,7 +17,7 @@ from pipeline.kinematics import fk_htm
 from pipeline.robots import load_robot
 from pipeline.settings import load_study
 from pipeline.solvers import solve
-from pipeline.solvers.zero_position import step_revolute, strategy_weights
+from pipeline.solvers.iterative.zero_position import step_revolute, strategy_weights
 from pipeline.studies.erthal1992 import model as M
 from pipeline.problems import ProblemSpecError, make_problem_set
 from pipeline.runner import solve_set

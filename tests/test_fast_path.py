@@ -20,9 +20,10 @@ from hypothesis import strategies as st
 from pipeline.kinematics import Chain, fk_htm, geometric_jacobian
 from pipeline.kinematics.fkcheck import check_model, pose_check
 from pipeline.problems import random_joint_pairs, warm_start
-from pipeline.solvers import _lean, bind, make_settings, prepare, solve, solve_batch
-from pipeline.solvers.base import pose_errors
-from pipeline.solvers.jacobian import packed
+from pipeline.solvers import bind, make_settings, prepare, solve, solve_batch
+from pipeline.solvers.iterative import lean as _lean
+from pipeline.solvers.core import pose_errors
+from pipeline.solvers.iterative.jacobian import packed
 from tests.conftest import random_chain, random_transform
 
 TOL = 1e-12
@@ -111,7 +112,7 @@ def _numpy_step(method: str, J: np.ndarray, e: np.ndarray, s) -> np.ndarray:
 
 
 def _numpy_loop(method: str, s, chain: Chain, Tg: np.ndarray, q0: np.ndarray):
-    """000's loop (pipeline.solvers.jacobian, pos_orient criterion) on the numpy kinematics:
+    """000's loop (pipeline.solvers.iterative.jacobian, pos_orient criterion) on the numpy kinematics:
     (stop code, iterations, q, trace)."""
     from pipeline.kinematics.errors import orientation_error_angle, orientation_error_axis_angle, \
         orientation_error_quat_vec
@@ -244,7 +245,8 @@ def test_binding_is_cached_per_settings_object(lwr):
 
 def test_a_replaced_run_without_bind_is_what_solve_calls(lwr):
     """``bind`` is only a faster ``run``: a solver registered without it runs ``run``."""
-    from pipeline.solvers import Raw, get, registry
+    from pipeline.solvers import Raw, get
+    from pipeline.solvers.core import registry
 
     calls = []
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from pipeline.solvers import Bound, SettingsError, bind, get, make_settings, prepare, solve
-from pipeline.solvers.base import IKResult, check
+from pipeline.solvers.core import IKResult, check
 from tests.test_analytic_fast import CASES, _problems
 
 TIMINGS = ("solve_time_s", "ik_time_s", "call_time_s", "cpu_time_s", "compiled", "compile_time_s")  # compiled: a first call
@@ -76,7 +76,7 @@ def test_fused_call_equals_the_generic_path_bit_for_bit(name, extra):
 @pytest.mark.parametrize("name", ["ur5", "ur_variant", "puma560_mm"])
 def test_fused_success_is_the_dual_quaternion_check(name):
     """position_error and success come from the independent compiled dual-quaternion FK
-    (:func:`pipeline.solvers.base.check`), never from the closed form's own kinematics."""
+    (:func:`pipeline.solvers.core.check`), never from the closed form's own kinematics."""
     meth, model, sd = CASES[name]
     s = make_settings(meth, sd)
     prep = prepare(meth, model, s)
@@ -112,7 +112,7 @@ def test_fused_call_rejects_a_bad_start_in_one_line(meth, robot):
 
 def test_fused_call_needs_bind():
     """A solver registered without ``bind`` runs ``run`` + ``finish`` even if it has a fused call."""
-    from pipeline.solvers import registry
+    from pipeline.solvers.core import registry
 
     meth, model, _ = CASES["ur5"]
     calls = []

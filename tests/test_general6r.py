@@ -17,10 +17,10 @@ from hypothesis import strategies as st
 
 from pipeline.kinematics import fk_htm
 from pipeline.solvers import NotApplicableError, SettingsError, StopReason, solve, solve_batch
-from pipeline.solvers import general6r
-from pipeline.solvers.base import Prepared
-from pipeline.solvers.peers import _metric
-from pipeline.solvers.registry import get
+from pipeline.solvers.closed_form import general6r
+from pipeline.solvers.core import Prepared
+from pipeline.solvers.core.models import metric as _metric
+from pipeline.solvers.core.registry import get
 from tests.conftest import random_transform
 from tests.test_analytic_geometry import _lengths, _twists, as_general, dh_model, robot, wrapped
 

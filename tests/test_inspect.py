@@ -28,7 +28,7 @@ def _result(i, rows=3, info=None):
 
 
 def _write(path, n=4, solvers=("dls",), rows=3, strategies=None):
-    from pipeline.solvers.driver import stack as _stack
+    from pipeline.solvers.core.driver import stack as _stack
 
     with ArchiveWriter(path, {**META, "problems": str(n * len(solvers))}) as w:
         for s_i, solver in enumerate(solvers):

@@ -11,8 +11,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pipeline.solvers._kin import borrowed, grid
-from pipeline.solvers.subproblems import angles_of
+from pipeline.solvers.kernels.kin import borrowed, grid
+from pipeline.solvers.closed_form.subproblems import angles_of
 
 
 @numba.njit(cache=False)
@@ -119,7 +119,7 @@ def test_grid_is_the_reshaped_view():
 def test_check_rows_agrees_with_the_one_row_check():
     """Every candidate row's verdict from the vectorized pass equals the scalar FK check's
     (``fk_linesz`` + ``pose_within``), for row counts around the vector width, valid and invalid rows."""
-    from pipeline.solvers import analytic as A
+    from pipeline.solvers.closed_form import analytic as A
 
     rng = np.random.default_rng(11)
     H = rng.normal(size=(6, 3))

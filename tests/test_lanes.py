@@ -1,4 +1,4 @@
-"""The batch's closed form in vector lanes (``pipeline.solvers.lanes``): 8 goals at once give the single
+"""The batch's closed form in vector lanes (``pipeline.solvers.closed_form.lanes``): 8 goals at once give the single
 call's candidates bit for bit, on arms of every family and position case it takes (written here as
 joint lines, with random geometry), on unreachable and non-finite goals, and at the wrist singularity
 where a subproblem takes a default (the goal is then left to the single call)."""
@@ -15,11 +15,12 @@ from hypothesis import strategies as st
 
 from pipeline.kinematics import fk_htm
 from pipeline.robots import load_robot
-from pipeline.solvers import lanes, make_settings, solve, solve_batch
-from pipeline.solvers.analytic import packed, unpack
-from pipeline.solvers.registry import bind
+from pipeline.solvers import make_settings, solve, solve_batch
+from pipeline.solvers.closed_form import lanes
+from pipeline.solvers.closed_form.analytic import packed, unpack
+from pipeline.solvers.core.registry import bind
 from tests.conftest import homogeneous, rodrigues
-from pipeline.solvers import subproblems as sp
+from pipeline.solvers.closed_form import subproblems as sp
 
 ROBOTS = Path(__file__).resolve().parents[1] / "data" / "robots"
 NOLIM = np.column_stack([np.full(6, -np.inf), np.full(6, np.inf)])

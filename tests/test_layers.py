@@ -124,6 +124,94 @@ def test_the_file_format_layer_imports_nothing_above_robots():
             assert all(layer_of(d) <= 2 for d in deps), (m, deps)
 
 
+# ---- inside pipeline.solvers: kernels < core < the method folders, which never import each other ----
+SOLVER_LAYERS = {"pipeline.solvers.kernels": 0, "pipeline.solvers.core": 1, "pipeline.solvers.iterative": 2,
+                 "pipeline.solvers.closed_form": 2, "pipeline.solvers.peers": 2, "pipeline.solvers": 3}
+METHOD_FOLDERS = ("pipeline.solvers.iterative", "pipeline.solvers.closed_form", "pipeline.solvers.peers")
+
+
+def solver_folder(module: str) -> str | None:
+    """The sub-package of ``pipeline.solvers`` a module belongs to (the package itself for its
+    ``__init__``), None outside ``pipeline.solvers``."""
+    best = None
+    for p in SOLVER_LAYERS:
+        if (module == p or module.startswith(p + ".")) and (best is None or len(p) > len(best)):
+            best = p
+    return best
+
+
+def solver_violations(graph: dict[str, set[str]]) -> list[str]:
+    """Imports inside ``pipeline.solvers`` that go up a sub-package layer or sideways between two
+    method folders."""
+    bad = []
+    for m, deps in sorted(graph.items()):
+        fm = solver_folder(m)
+        if fm is None:
+            continue
+        for d in sorted(deps):
+            fd = solver_folder(d)
+            if fd is None or fd == fm:
+                continue
+            if SOLVER_LAYERS[fd] > SOLVER_LAYERS[fm] or (fm in METHOD_FOLDERS and fd in METHOD_FOLDERS):
+                bad.append(f"{m} ({fm}) imports {d} ({fd})")
+    return bad
+
+
+def test_solver_sub_packages_import_down_only_and_never_sideways():
+    assert not solver_violations(import_graph()), "\n".join(solver_violations(import_graph()))
+
+
+def test_a_planted_sideways_import_is_caught():
+    """The check fails on a method folder importing another (here: a closed form taking an
+    iterative method's helper), and on a kernel importing the core."""
+    graph = {k: set(v) for k, v in import_graph().items()}
+    graph["pipeline.solvers.closed_form.analytic"].add("pipeline.solvers.iterative.optimizers")
+    graph["pipeline.solvers.kernels.kin"].add("pipeline.solvers.core.finish")
+    bad = solver_violations(graph)
+    assert bad == ["pipeline.solvers.closed_form.analytic (pipeline.solvers.closed_form) imports "
+                   "pipeline.solvers.iterative.optimizers (pipeline.solvers.iterative)",
+                   "pipeline.solvers.kernels.kin (pipeline.solvers.kernels) imports "
+                   "pipeline.solvers.core.finish (pipeline.solvers.core)"], bad
+
+
+def private_imports(files: dict[str, Path]) -> list[str]:
+    """``from X import _name`` (or ``import X._mod``) of another module's private name, anywhere in
+    the package: a private name is for its own module (a shared helper gets a public name)."""
+    bad = []
+    for m, f in sorted(files.items()):
+        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("pipeline"):
+                for a in node.names:
+                    if a.name.startswith("_") and not a.name.startswith("__"):
+                        bad.append(f"{m}: from {node.module} import {a.name}")
+            elif isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.startswith("pipeline.") and any(p.startswith("_") for p in a.name.split(".")[1:]):
+                        bad.append(f"{m}: import {a.name}")
+    return bad
+
+
+# modules outside pipeline.solvers that still take a private name (kept for a reason each)
+PRIVATE_ALLOWED = {
+    "pipeline._numba_cache",  # the package's own compile-cache set-up, imported by name (pipeline/__init__.py)
+}
+
+
+def test_no_module_imports_another_modules_private_name():
+    bad = [b for b in private_imports(modules()) if b.split(":")[0] not in PRIVATE_ALLOWED
+           and not any(part in b for part in PRIVATE_ALLOWED)]
+    solvers = [b for b in bad if b.startswith("pipeline.solvers")]
+    assert not solvers, "\n".join(solvers)
+
+
+def test_a_planted_private_import_is_caught(tmp_path):
+    f = tmp_path / "planted.py"
+    f.write_text("from pipeline.solvers.closed_form.lines import _helper\nimport pipeline.solvers._old\n")
+    assert private_imports({"pipeline.planted": f}) == [
+        "pipeline.planted: from pipeline.solvers.closed_form.lines import _helper",
+        "pipeline.planted: import pipeline.solvers._old"]
+
+
 def test_the_walk_sees_lazy_imports():
     """A function-level import counts: the CLI's verbs import the jobs inside their functions."""
     assert "pipeline.jobs.solve" in import_graph()["pipeline.cli"]

@@ -16,7 +16,7 @@ from pipeline.kinematics import fk_htm
 from pipeline.robots import load_robot
 from pipeline.settings import load_study
 from pipeline.solvers import NotApplicableError, prepare, solve
-from pipeline.solvers.optimizers import parse_bounds
+from pipeline.solvers.iterative.optimizers import parse_bounds
 from pipeline.studies.nepomuceno2024.problems import set_motion
 from pipeline.studies.nepomuceno2024.trajectory import (
     build_motion, interpolate, load_motions, pose_from_spec, segment_count)

@@ -36,13 +36,12 @@ def test_a_kernels_stamp_covers_what_it_imports_and_nothing_above():
     """The solvers reach the kinematics (whose FK check they inline) but no study, report, job or CLI
     module: editing those recompiles no solver kernel."""
     kin = _rel(closure(PKG / "kinematics" / "fkcheck.py"))
-    for method in ("analytic.py", "dls.py", "lm.py", "optimizers.py"):
-        if not (PKG / "solvers" / method).is_file():
-            continue
+    for method in ("closed_form/analytic.py", "iterative/jacobian.py", "iterative/lm.py", "iterative/optimizers.py"):
+        assert (PKG / "solvers" / method).is_file(), method
         reach = _rel(closure(PKG / "solvers" / method))
         assert f"solvers/{method}" in reach and "kinematics/fkcheck.py" in reach and kin <= reach
         assert not {f for f in reach if f.startswith(("studies/", "report/", "jobs/")) or f == "cli.py"}, reach
-    assert len(closure_digest(PKG / "solvers" / "analytic.py")) == 16
+    assert len(closure_digest(PKG / "solvers" / "closed_form" / "analytic.py")) == 16
 
 
 def _run(code: str, env: dict) -> str:

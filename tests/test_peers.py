@@ -1,4 +1,4 @@
-"""Peer IK libraries as registered solvers (pipeline/solvers/peers.py).
+"""Peer IK libraries as registered solvers (pipeline/solvers/peers/libraries.py).
 
 Each peer solves warm-start goals (our FK of random within-limit angles, start within 0.3 rad) on the
 KUKA LWR (cm: unit conversion), the PUMA 560 (mm) and the UR5e with >= 90 % success judged by the
@@ -126,7 +126,8 @@ def _general_model() -> RobotModel:
 def test_peer_models_reproduce_our_fk():
     pytest.importorskip("roboticstoolbox")
     pytest.importorskip("pinocchio")
-    from pipeline.solvers.peers import _metric, _pin_model, _rtb_ets
+    from pipeline.solvers.core.models import metric as _metric
+    from pipeline.solvers.peers.libraries import _pin_model, _rtb_ets
 
     rng = np.random.default_rng(0)
     for model in (_general_model(), _robot("kuka_lwr"), _robot("stanford"), _robot("franka_panda")

@@ -1,4 +1,4 @@
-"""EAIK and IK-Geo as registered peer solvers (pipeline/solvers/peers_geo.py).
+"""EAIK and IK-Geo as registered peer solvers (pipeline/solvers/peers/geo.py).
 
 On the PUMA 560 (mm), ABB IRB 120, KUKA KR 5 arc and UR5, goals from our FK of random within-limit
 joint vectors: each peer reaches every goal (success judged by the registry's independent FK check),
@@ -17,7 +17,8 @@ import pytest
 
 from pipeline.kinematics import fk_htm
 from pipeline.robots import RobotModel, load_robot
-from pipeline.solvers import NotApplicableError, Prepared, StopReason, get, make_settings, names, prepare, registry
+from pipeline.solvers import NotApplicableError, Prepared, StopReason, get, make_settings, names, prepare
+from pipeline.solvers.core import registry
 from tests.conftest import DATA
 
 LIBRARY = {"eaik": "eaik", "ik_geo": "ik_geo"}
@@ -153,7 +154,7 @@ def test_missing_library_is_refused(solver, module, monkeypatch):
 def test_models_reproduce_our_fk_at_q0():
     """The POE model: joint points on the axes, p_nT to the tool, R_nT the tool rotation (base included)."""
     pytest.importorskip("ik_geo")
-    from pipeline.solvers.peers_geo import _poe
+    from pipeline.solvers.core.models import poe as _poe
 
     for robot in ROBOTS:
         model = _robot(robot)

@@ -37,7 +37,7 @@ def test_readme_example_runs_as_written(capsys):
 
 def test_solve_with_a_mapping_reuses_its_binding():
     from pipeline import robots, solvers
-    from pipeline.solvers import registry
+    from pipeline.solvers.core import registry
 
     arm = robots.load_robot("ur5e")
     T = np.eye(4)

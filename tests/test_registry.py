@@ -108,7 +108,7 @@ def test_settings_round_trip_and_schema(solver):
 def test_a_bad_value_is_one_line_naming_the_field(solver, value):
     """Any value of the wrong type or range for tol_pos is refused in one line naming it (a float setting
     without a maximum of its own is capped at MAX_SETTING_FLOAT)."""
-    from pipeline.solvers.base import MAX_SETTING_FLOAT
+    from pipeline.solvers.core import MAX_SETTING_FLOAT
 
     if isinstance(value, float) and not isinstance(value, bool) and 0 <= value <= MAX_SETTING_FLOAT:
         make_settings(solver, {"tol_pos": value})

@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 from pipeline.kinematics import fk_htm, geometric_jacobian
 from pipeline.robots import parse_robot
 from pipeline.solvers import Prepared, SettingsError, StopReason, make_settings, solve
-from pipeline.solvers import _jit, _kin
-from pipeline.solvers.jacobian import DLSSettings, packed
+from pipeline.solvers.kernels import kin as _kin, pose as _jit
+from pipeline.solvers.iterative.jacobian import DLSSettings, packed
 from tests.conftest import chains
 
 KERNEL_TOL = 1e-12  # same formulas, different evaluation order
@@ -81,7 +81,8 @@ def test_claimed_success_contradicted_by_fk(lwr):
 
     from dataclasses import replace
 
-    from pipeline.solvers import Raw, get, registry
+    from pipeline.solvers import Raw, get
+    from pipeline.solvers.core import registry
 
     def lying_run(prep, T_goal, q_start, settings, seed):
         return Raw(q=q_start.copy(), code=StopReason.SUCCESS, iterations=1, solve_ns=1)
@@ -160,7 +161,7 @@ def test_small_svd_matches_lapack(seed, m, n, rank_drop):
 @given(chain=chains(), seed=st.integers(0, 2**32 - 1))
 def test_kernel_pose_only_fk_and_pose_distances_match_numpy(chain, seed):
     from pipeline.kinematics import orientation_error_angle
-    from pipeline.solvers import _kin
+    from pipeline.solvers.kernels import kin as _kin
 
     rng = np.random.default_rng(seed)
     q = rng.uniform(-np.pi, np.pi, chain.n)
@@ -217,7 +218,7 @@ def test_results_carry_both_times_and_limits(lwr):
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 8), conv=st.sampled_from(["standard", "modified"]))
 def test_batch_chain_kernels_match_numpy(seed, n, conv):
     """The HTM and dual-quaternion batch FK of the host timing (003) against the numpy reference."""
-    from pipeline.solvers import _kin
+    from pipeline.solvers.kernels import kin as _kin
     from tests.conftest import random_chain
 
     rng = np.random.default_rng(seed)

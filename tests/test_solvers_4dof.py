@@ -18,7 +18,7 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.chain import Chain
 from pipeline.robots import RobotModel, load_robot
 from pipeline.solvers import NotApplicableError, StopReason, solve
-from pipeline.solvers.base import Prepared, pose_errors
+from pipeline.solvers.core import Prepared, pose_errors
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM = load_robot(ROOT / "data/robots/mariano_4dof.yaml")

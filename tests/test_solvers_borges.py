@@ -1,5 +1,5 @@
 """Contract tests of the registered solvers of 002_56eb235931bf5f5d.txt on any chain:
-``inverse_jacobian_fd``, ``levenberg_marquardt`` and ``pso`` (pipeline/solvers/fd_jacobian.py, lm.py, pso.py).
+``inverse_jacobian_fd``, ``levenberg_marquardt`` and ``pso`` (pipeline/solvers/iterative/fd_jacobian.py, lm.py, pso.py).
 
 Every claimed success is re-checked here with the numpy reference FK; unreachable goals must give a
 reported failure (one stop reason), never an exception; PSO streams are reproducible from the seeds.
@@ -16,9 +16,9 @@ from pipeline.kinematics import fk_htm, geometric_jacobian
 from pipeline.problems import warm_start
 from pipeline.robots import LENGTH_UNITS, RobotModel, load_robot
 from pipeline.solvers import Prepared, SettingsError, StopReason, make_settings, solve
-from pipeline.solvers import fd_jacobian as FD
-from pipeline.solvers import lm as LM
-from pipeline.solvers import pso as PSO
+from pipeline.solvers.iterative import fd_jacobian as FD
+from pipeline.solvers.iterative import lm as LM
+from pipeline.solvers.iterative import pso as PSO
 from tests.conftest import DATA, chains, random_chain
 
 TOL_POS_M = 1e-4           # 0.1 mm, the registry's warm-start target

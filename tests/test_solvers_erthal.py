@@ -22,8 +22,8 @@ from pipeline.kinematics.zero_position import pz_axes, pz_fk, pz_from_dh
 from pipeline.problems import warm_start
 from pipeline.robots import RobotModel, load_robot
 from pipeline.solvers import NotApplicableError, SettingsError, StopReason, make_settings, prepare, solve
-from pipeline.solvers import _kin
-from pipeline.solvers.zero_position import strategy_weights
+from pipeline.solvers.kernels import kin as _kin
+from pipeline.solvers.iterative.zero_position import strategy_weights
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOTS = ROOT / "data" / "robots"

@@ -19,7 +19,7 @@ from pipeline.kinematics import Chain, fk_htm
 from pipeline.problems import warm_start
 from pipeline.robots import RobotModel, load_robot, parse_robot
 from pipeline.solvers import NotApplicableError, Prepared, SettingsError, StopReason, make_settings, prepare, solve
-from pipeline.solvers import optimizers as opt
+from pipeline.solvers.iterative import optimizers as opt
 from tests.conftest import chains
 
 ROOT = Path(__file__).resolve().parent.parent

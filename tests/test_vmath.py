@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from pipeline.kinematics import fk_htm
 from pipeline.kinematics.fkcheck import CHECK8_SCRATCH, check_model, pose_check, pose_check8
 from pipeline.kinematics.vmath import SINCOS_MAX, sincos, sincos_core
-from pipeline.solvers.base import pose_errors
+from pipeline.solvers.core import pose_errors
 from tests.test_fast_path import _chain
 
 

@@ -237,7 +237,7 @@ def test_benchmark_successes_are_within_tolerance_and_limits(built):
     from pipeline.kinematics import matrix_from_quat
     from pipeline.robots import load_robot
     from pipeline.robots import LENGTH_UNITS
-    from pipeline.solvers.base import within_limits
+    from pipeline.solvers.core import within_limits
 
     archives = sorted((built / "arm_benchmark" / "runs").rglob("*.mcap"))
     assert len(archives) > 300

@@ -3,29 +3,29 @@
     from pipeline.solvers import solve, names
     res = solve("dls", robot, T_goal, q_start, {"damping": 0.05})
 
-Layout
+Layout (bottom to top; ``tests/test_layers.py`` checks the order and that no method folder imports another)
 ------
-``base``      StopReason, Settings (+ ``setting`` fields), Prepared robot, Raw kernel output,
-              IKResult, the one result rule (``finish``: independent FK check, limits, stop reason)
-``registry``  name -> Solver (settings type, applicability, kernel call); ``solve``, ``solve_batch``,
-              ``bind``, ``prepare``
-``driver``    the one way to run a solve (``Bound``: a solver bound to a robot and settings, per-job
-              work done once; one problem or N, restarts, result, timing)
-``timing``    the one timing definition (solve_time_s, ik_time_s, call_time_s)
-``_kin``      the compiled kinematics layer (numba) every iterative method uses, and the one table
-              of integer codes the kernels take (stop codes, success-test codes, trace columns)
-``jacobian``  Jacobian transpose, pseudoinverse, DLS, SDLS (000)
-``fd_jacobian``, ``lm``, ``pso``            inverse Jacobian (finite differences), Levenberg-Marquardt, PSO (002)
-``optimizers`` J+ gradient descent, BFGS, L-BFGS-B, Nelder-Mead (004); ``analytic_ur`` UR closed form (004)
-``zero_position``, ``newton_raphson``, ``geometric``, ``analytic_puma``   (001)
-``analytic_4dof``  the closed form of the 4-DOF arm (003)
-``analytic``  closed forms by subproblem decomposition found from the joint axes; ``general_6r`` every
-              solution of any other 6R arm by algebraic elimination (Raghavan-Roth, Manocha-Canny)
+``kernels/``      compiled building blocks: FK and Jacobian, the integer codes every kernel takes
+                  (``kin``), pose errors (``pose``), per-family kernel copies (``specialise``)
+``core/``         settings, the prepared robot, the result types, the one result rule (``finish``), the
+                  driver (``Bound``: one problem or N, restarts, result, timing), the registry
+                  (``solve``, ``solve_batch``, ``bind``, ``prepare``), the one timing definition, and the
+                  arm as the all-solution methods take it (``models``)
+``iterative/``    Jacobian transpose, pseudoinverse, DLS, SDLS (000, ``jacobian`` with its fused loop
+                  ``lean``); inverse Jacobian, Levenberg-Marquardt, PSO (002: ``fd_jacobian``, ``lm``,
+                  ``pso``); J+ descent, BFGS, L-BFGS-B, Nelder-Mead (004: ``optimizers``); Zero-Position,
+                  Newton-Raphson, geometric (001)
+``closed_form/``  subproblems, closed forms found from the joint axes (``analytic``, with the 8-goal
+                  ``lanes``), the documents' transcriptions (``analytic_ur`` 004, ``analytic_puma`` 001,
+                  ``analytic_4dof`` 003), every solution of any other 6R arm (``general6r``)
+``peers/``        peer libraries as registered solvers (``libraries``: Robotics Toolbox, TRAC-IK,
+                  Pinocchio, ur_analytic_ik; ``geo``: EAIK, IK-Geo)
 
-Importing this package registers every method (kernels compile lazily, on first use).
+Importing this package registers every method, in the order ``python -m pipeline solvers`` lists
+them (kernels compile lazily, on first use).
 """
 
-from pipeline.solvers.base import (
+from pipeline.solvers.core import (
     STOP_REASONS,
     BatchResult,
     IKResult,
@@ -39,12 +39,16 @@ from pipeline.solvers.base import (
     verify,
     within_limits,
 )
-from pipeline.solvers.registry import (Bound, Solver, bind, catalogue, get, make_settings, names, prepare, register, solve,
+from pipeline.solvers.core.registry import (Bound, Solver, bind, catalogue, get, make_settings, names, prepare, register, solve,
                                        solve_batch, warm_up)
-from pipeline.solvers import jacobian  # noqa: F401  (registers the four Jacobian methods)
-from pipeline.solvers import _methods  # noqa: F401  (registers the methods of the other studies)
-from pipeline.solvers import peers_geo  # noqa: F401  (registers the EAIK and IK-Geo peers)
-from pipeline.solvers import general6r  # noqa: F401  (registers general_6r)
+# registration order = the order of `python -m pipeline solvers`
+from pipeline.solvers.iterative import jacobian  # noqa: F401,E402
+from pipeline.solvers.iterative import fd_jacobian, lm, pso, optimizers  # noqa: F401,E402
+from pipeline.solvers.closed_form import analytic_ur  # noqa: F401,E402
+from pipeline.solvers.iterative import zero_position, newton_raphson, geometric  # noqa: F401,E402
+from pipeline.solvers.closed_form import analytic_puma, analytic_4dof, analytic  # noqa: F401,E402
+from pipeline.solvers.peers import libraries, geo  # noqa: F401,E402
+from pipeline.solvers.closed_form import general6r  # noqa: F401,E402
 
 __all__ = ["STOP_REASONS", "BatchResult", "Bound", "IKResult", "NotApplicableError", "Prepared", "Raw", "Settings", "SettingsError",
            "Solver", "StopReason", "bind", "catalogue", "finish", "get", "make_settings", "names", "prepare", "register",

@@ -1,0 +1,226 @@
+"""Settings every IK method shares: the ``setting`` field, the ``Settings`` base, the limits on values."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import math
+from dataclasses import MISSING, asdict, dataclass, field, fields, replace
+
+from pipeline.robots import LENGTH_UNITS
+from pipeline.solvers.kernels.kin import CRITERIA
+
+
+class SettingsError(ValueError):
+    """A solver setting is missing, unknown or out of range (message names the field)."""
+
+
+# ---- caps on settings: no solve runs unbounded, no setting reads outside the data folder -------------
+MAX_TIME_BUDGET_S = 60.0  # ``time_budget`` of all restarts of one call: 3000x TRAC-IK's 20 ms budget; a solve job
+#                           of 10 000 goals then still ends (every iterative search is also capped by MAX_WORK)
+MAX_LIBRARY_TIMEOUT_S = 1.0  # a peer library's own wall-time budget per solve (TRAC-IK ``timeout``): 200x its 5 ms
+#                              default (1e9 s made one solve hang)
+MAX_WORK = 10_000_000  # iterations of one call, all searches together: (restarts + 1) x the product of the work
+#                        settings (WORK_FIELDS) present; the per-field iteration cap, so restarts cannot multiply it
+WORK_FIELDS = ("max_iterations", "ilimit", "slimit", "particles")
+MAX_SETTING_FLOAT = 1e9  # |value| of a float setting without a maximum of its own (tolerances, gains, weights,
+#                          steps): far beyond any meaningful value in SI units, and far from overflow
+PROJECT_ROOT = Path(__file__).resolve().parents[3]  # file-valued settings are paths from here ...
+DATA_FOLDER = PROJECT_ROOT / "data"  # ... and must resolve inside this folder (no '..', no absolute path)
+
+
+def check_data_path(value: str, where: str) -> Path:
+    """The file a file-valued setting names: relative to the project root, resolving (symbolic links
+    followed) inside :data:`DATA_FOLDER`, an existing regular file; else one line naming the field.
+
+    Raises
+    ------
+    SettingsError
+    """
+    rel = Path(value)
+    inside = "a path from the project root inside its data folder, e.g. data/robots/<name>.yaml"
+    if rel.is_absolute() or ".." in rel.parts or "\\" in value or "\x00" in value:
+        raise SettingsError(f"{where}: {value[:80]!r} is not {inside}")
+    path = (PROJECT_ROOT / rel).resolve()
+    if not path.is_relative_to(DATA_FOLDER.resolve()):
+        raise SettingsError(f"{where}: {value[:80]!r} resolves outside the data folder {DATA_FOLDER}")
+    if not path.is_file():
+        raise SettingsError(f"{where}: {value[:80]!r}: no such regular file in the data folder")
+    return path
+
+
+class NotApplicableError(ValueError):
+    """A solver does not apply to a robot (one line: the robot file, the solver, why)."""
+
+
+POSITION_CRITERIA = ("position", "dq_norm_body")  # success tests that ignore the goal orientation
+
+
+def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, above=None, maximum=None,
+            length: bool = False, file: bool = False):
+    """A settings field with its documentation and checks (read by ``from_dict`` and ``json_schema``).
+
+    Parameters
+    ----------
+    unit : str
+        Unit shown in ``python -m pipeline solvers`` (e.g. ``m``, ``rad``).
+    choices : sequence, optional
+        Allowed values.
+    minimum, above, maximum : float, optional
+        Inclusive lower bound, exclusive lower bound, inclusive upper bound.
+    length : bool
+        The value is a length written in metres and converted to ``length_unit`` once per job.
+    file : bool
+        The value names a file (``''`` = none): a path from the project root that must resolve inside
+        its data folder (:func:`check_data_path`).
+    """
+    meta = {"doc": doc, "unit": unit, "choices": tuple(choices) if choices is not None else None,
+            "minimum": minimum, "above": above, "maximum": maximum, "length": length, "file": file}
+    return field(default=default, metadata=meta)
+
+
+_PY_TYPES = {"int": int, "float": float, "bool": bool, "str": str}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Settings every method has: working unit and the success test its FK check applies.
+
+    Subclasses add their own fields with :func:`setting` and may override :meth:`check` for
+    cross-field rules. Everything is validated by :meth:`from_dict`; errors are one line naming
+    the field.
+    """
+
+    length_unit: str = setting("m", "unit the method computes in (robot and goal converted once); "
+                               "length settings are still written in m", choices=tuple(LENGTH_UNITS))
+    criterion: str = setting("pos_orient", "success test of the FK check: pos_orient (|dp| <= tol_pos and "
+                             "angle <= tol_rot), position (|dp| only), dq_norm (8-coefficient norm of "
+                             "Q_goal Q* <= tol_dq), dq_norm_body (norm of Q* Q_goal: position only)",
+                             choices=CRITERIA)
+    tol_pos: float = setting(1e-4, "position tolerance", unit="m", minimum=0.0, length=True)
+    tol_rot: float = setting(1e-3, "orientation tolerance (rotation angle)", unit="rad", minimum=0.0)
+    tol_dq: float = setting(1 + 1e-6, "dual-quaternion norm tolerance (1 + epsilon; dq_norm criteria only)",
+                            minimum=1.0)
+    require_limits: bool = setting(False, "a success must also lie within the robot file's joint limits "
+                                   "(revolute joints wrapped by 2 pi first, and returned wrapped; an analytic "
+                                   "method returns the solution that moves the joints least from the start, "
+                                   "each by whole turns to its value within the limits nearest the start)")
+    restarts: int = setting(0, "random restarts after a failed search (iterative methods): each restart starts "
+                            "uniformly within the joint limits (+-pi for unbounded revolute joints) and the "
+                            "first success ends the call; iterations and solve time add up over the searches",
+                            minimum=0, maximum=100000)
+    time_budget: float = setting(0.0, "wall-time budget of all restarts together, 0 = none (the search under way "
+                                 "is finished; a budget makes results depend on the machine's speed)",
+                                 unit="s", minimum=0.0, maximum=MAX_TIME_BUDGET_S)
+
+    # ---- construction and validation -------------------------------------------------------
+    @classmethod
+    def from_dict(cls, d: dict | None, where: str = "solver settings") -> "Settings":
+        """Build from a mapping, naming the bad field in a one-line :class:`SettingsError`."""
+        d = dict(d or {})
+        known = {f.name: f for f in fields(cls)}
+        for k in d:
+            if k not in known:
+                raise SettingsError(f"{where}: field '{k}': unknown setting (allowed: {', '.join(known)})")
+        for k, v in d.items():
+            d[k] = _coerce(known[k], v, where)
+        out = cls(**d)
+        out.validate(where)
+        return out
+
+    def validate(self, where: str = "solver settings") -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            _coerce(f, v, where)
+            m = f.metadata
+            if m.get("choices") is not None and v not in m["choices"]:
+                raise SettingsError(f"{where}: field '{f.name}': {v!r} is not one of {list(m['choices'])}")
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                if not math.isfinite(v):
+                    raise SettingsError(f"{where}: field '{f.name}': must be finite, got {v!r}")
+                if m.get("minimum") is not None and v < m["minimum"]:
+                    raise SettingsError(f"{where}: field '{f.name}': must be >= {m['minimum']}, got {v!r}")
+                if m.get("above") is not None and v <= m["above"]:
+                    raise SettingsError(f"{where}: field '{f.name}': must be > {m['above']}, got {v!r}")
+                if m.get("maximum") is not None and v > m["maximum"]:
+                    raise SettingsError(f"{where}: field '{f.name}': must be <= {m['maximum']}, got {v!r}")
+                if isinstance(v, float) and m.get("maximum") is None and abs(v) > MAX_SETTING_FLOAT:
+                    raise SettingsError(f"{where}: field '{f.name}': {v!r} is beyond the sane maximum "
+                                        f"{MAX_SETTING_FLOAT:g} in absolute value (MAX_SETTING_FLOAT)")
+            if m.get("file") and v:
+                check_data_path(v, f"{where}: field '{f.name}'")
+        work = self.restarts + 1
+        for name in WORK_FIELDS:
+            work *= getattr(self, name, 1)
+        if work > MAX_WORK:
+            used = " x ".join(f"{n} {getattr(self, n)}" for n in WORK_FIELDS if hasattr(self, n))
+            raise SettingsError(f"{where}: field 'restarts': (restarts {self.restarts} + 1) x {used} is beyond the "
+                                f"sane maximum of {MAX_WORK} iterations per call (MAX_WORK)")
+        self.check(where)
+
+    def check(self, where: str) -> None:
+        """Cross-field rules of a method (override; raise :class:`SettingsError`)."""
+
+    def check_robot(self, n_joints: int, where: str) -> None:
+        """Rules that need the robot (a list of one value per joint, say): override; raise
+        :class:`SettingsError`. ``check_inputs`` calls it for every (robot, solver) job of a study."""
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    def converted(self) -> "Settings":
+        """A copy whose length-valued fields are in ``length_unit`` instead of metres."""
+        f = 1.0 / LENGTH_UNITS[self.length_unit]
+        if f == 1.0:
+            return self
+        return replace(self, **{x.name: getattr(self, x.name) * f for x in fields(self) if x.metadata.get("length")})
+
+    @classmethod
+    def describe(cls) -> list[dict]:
+        """One row per field: name, type, default, unit, allowed values / range, documentation."""
+        rows = []
+        for f in fields(cls):
+            m = f.metadata
+            rng = []
+            if m.get("choices") is not None:
+                rng.append("one of " + ", ".join(map(str, m["choices"])))
+            for key, sym in (("minimum", ">="), ("above", ">"), ("maximum", "<=")):
+                if m.get(key) is not None:
+                    rng.append(f"{sym} {m[key]}")
+            rows.append({"name": f.name, "type": f.type, "default": f.default if f.default is not MISSING else None,
+                         "unit": m.get("unit", ""), "range": "; ".join(rng), "doc": m.get("doc", "")})
+        return rows
+
+    @classmethod
+    def json_schema(cls) -> dict:
+        """JSON schema of the settings mapping (every field optional; defaults given)."""
+        kinds = {"int": "integer", "float": "number", "bool": "boolean", "str": "string"}
+        props = {}
+        for f in fields(cls):
+            m = f.metadata
+            p = {"type": kinds.get(f.type, "string"), "default": f.default, "description": m.get("doc", "")}
+            if m.get("choices") is not None:
+                p["enum"] = list(m["choices"])
+            if m.get("minimum") is not None:
+                p["minimum"] = m["minimum"]
+            if m.get("above") is not None:
+                p["exclusiveMinimum"] = m["above"]
+            if m.get("maximum") is not None:
+                p["maximum"] = m["maximum"]
+            props[f.name] = p
+        return {"type": "object", "additionalProperties": False, "properties": props}
+
+
+def _coerce(f, v, where: str):
+    """Type check of one field value (ints accepted where floats are expected)."""
+    want = _PY_TYPES.get(f.type)
+    if want is None:
+        return v
+    if want is float and isinstance(v, int) and not isinstance(v, bool):
+        return float(v)
+    if want in (int, float) and isinstance(v, bool) or not isinstance(v, want):
+        raise SettingsError(f"{where}: field '{f.name}': expected {f.type}, got {v!r}")
+    return v
+
+
+# ---- the robot, prepared once per job ---------------------------------------------------------

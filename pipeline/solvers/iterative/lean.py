@@ -1,0 +1,322 @@
+"""Allocation-free hot loop of the Jacobian IK methods, and their batch form on every core.
+
+The loop of 000 §3 (the four Jacobian methods), computed without allocating inside the loop
+(``tests/test_fast_path.py`` holds its iterates to the same loop written with the numpy kinematics):
+
+* forward kinematics multiplies the running 3x4 frame by each link in place, with the link's
+  cos/sin alpha computed once per robot (:func:`lean_chain`), about 36 multiply-adds per link;
+* the geometric Jacobian is written into a preallocated (6, n) array;
+* the transpose, pseudoinverse and DLS steps form ``J J^T + lambda^2 I`` (6x6, lower half),
+  factor it by Cholesky in place and solve two triangular systems; when the factor meets a
+  non-positive pivot (``J J^T`` singular, pseudoinverse) the reference step
+  (:func:`pipeline.solvers.kernels.pose.step`: LU, then the SVD pseudoinverse) takes over for that
+  iteration. SDLS always uses the reference step (its SVD allocates, and it is not on the hot path
+  of any study).
+
+Flops of one 7-DoF DLS iteration (:func:`flops_per_iteration`; ``benchmarks/bench_fast.py``
+reports achieved time against this floor): FK 7 x 36 + tool 36 = 288 plus 7 sin/cos pairs; Jacobian
+7 x 9 = 63; pose error ~75; ``J J^T`` 21 x 7 x 2 = 294; Cholesky 6x6 ~ 91; two triangular solves 72;
+``J^T y`` 84; update 7: 974 flops and 7 sin/cos pairs.
+
+:func:`solve_batch` runs N problems with ``numba.prange``: each problem only reads shared inputs
+and writes its own rows, so results do not depend on the number of threads.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+import pipeline.solvers.kernels.pose as _jit
+from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NON_FINITE, SUCCESS, TRACE_DP, now_ns, quat_from_rot,
+                                    quat_relative, relative_translation_norm, rodrigues, thread_cpu_ns)
+
+
+def flops_per_iteration(n: int, method: str = "dls") -> int:
+    """Floating-point operations of one iteration of ``method`` on an n-joint chain (a multiply-add
+    counts 2; sin, cos, sqrt and atan2 are not counted here: the benchmark adds their measured cost).
+
+    Common to every method: forward kinematics 36 n + 36 (the running 3x4 frame times each link,
+    then the tool), the Jacobian 9 n, the pose error ~75 (two quaternions and their product). Then
+    the step: transpose ``J^T e`` 12 n, ``J g`` 12 n, two dot products 24, scaling n; pseudoinverse and
+    DLS ``J J^T`` (lower half) 21 x 2 n, Cholesky ~91, two triangular solves 72, ``J^T y`` 12 n.
+    Every method adds the update n.
+    """
+    common = (36 * n + 36) + 9 * n + 75 + n
+    if method == "jacobian_transpose":
+        return common + 12 * n + 12 * n + 24 + n
+    if method in ("pseudoinverse", "dls"):
+        return common + 42 * n + 91 + 72 + 12 * n
+    raise ValueError(f"no flop count for {method!r} (its step is the reference SVD code)")
+
+
+def lean_chain(args: tuple) -> tuple:
+    """``Prepared.args`` -> the lean kernels' chain tuple ``(form, a, ca, sa, d, offs, prism, base, tool)``."""
+    a, alpha, d, offs, prism, form, base, tool = args
+    if form == 2:
+        ca, sa = alpha.copy(), np.zeros(1)  # general form: alpha holds the axes (see _kin.link_transform)
+    else:
+        ca, sa = np.cos(alpha), np.sin(alpha)
+    return (int(form), a, np.ascontiguousarray(ca), np.ascontiguousarray(sa), d, offs, prism, base, tool)
+
+
+@numba.njit(cache=True, inline="always")
+def _mul_rows(C, l00, l01, l02, l03, l10, l11, l12, l13, l20, l21, l22, l23):
+    """C (3, 4) := C @ L with L the 3x4 rows of a rigid transform (row 3 = 0 0 0 1), in place."""
+    for r in range(3):
+        c0, c1, c2, c3 = C[r, 0], C[r, 1], C[r, 2], C[r, 3]
+        C[r, 0] = c0 * l00 + c1 * l10 + c2 * l20
+        C[r, 1] = c0 * l01 + c1 * l11 + c2 * l21
+        C[r, 2] = c0 * l02 + c1 * l12 + c2 * l22
+        C[r, 3] = c0 * l03 + c1 * l13 + c2 * l23 + c3
+
+
+@numba.njit(cache=True)
+def fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C):
+    """Tool pose into ``T`` (4, 4) (row 3 untouched), joint axes/origins into (n, 3); ``C`` (3, 4) scratch."""
+    for r in range(3):
+        for c in range(4):
+            C[r, c] = base[r, c]
+    n = q.shape[0]
+    for i in range(n):
+        if form == 2:
+            o = 12 * i
+            k0, k1, k2 = ca[3 * i], ca[3 * i + 1], ca[3 * i + 2]
+            _mul_rows(C, a[o], a[o + 1], a[o + 2], a[o + 3], a[o + 4], a[o + 5], a[o + 6], a[o + 7],
+                      a[o + 8], a[o + 9], a[o + 10], a[o + 11])
+            if prism[i]:
+                x = q[i]
+                for r in range(3):
+                    C[r, 3] += x * (C[r, 0] * k0 + C[r, 1] * k1 + C[r, 2] * k2)
+            else:
+                m00, m01, m02, m10, m11, m12, m20, m21, m22 = rodrigues(k0, k1, k2, q[i])
+                _mul_rows(C, m00, m01, m02, 0.0, m10, m11, m12, 0.0, m20, m21, m22, 0.0)
+            for r in range(3):
+                axes[i, r] = C[r, 0] * k0 + C[r, 1] * k1 + C[r, 2] * k2
+                origins[i, r] = C[r, 3]
+            continue
+        th = offs[i]
+        di = d[i]
+        if prism[i]:
+            di += q[i]
+        else:
+            th += q[i]
+        ct, st = math.cos(th), math.sin(th)
+        cal, sal, ai = ca[i], sa[i], a[i]
+        if form == 1:  # modified: Rx(alpha) Tx(a) Rz(theta) Tz(d); axis = z after Rx(alpha) Tx(a)
+            for r in range(3):
+                c0, c1, c2, c3 = C[r, 0], C[r, 1], C[r, 2], C[r, 3]
+                u = c1 * cal + c2 * sal
+                z = c2 * cal - c1 * sal
+                axes[i, r] = z
+                origins[i, r] = c0 * ai + c3
+                C[r, 0] = c0 * ct + u * st
+                C[r, 1] = u * ct - c0 * st
+                C[r, 2] = z
+                C[r, 3] = c0 * ai + z * di + c3
+        else:  # standard: Rz(theta) Tz(d) Tx(a) Rx(alpha); axis = z before the link
+            for r in range(3):
+                c0, c1, c2, c3 = C[r, 0], C[r, 1], C[r, 2], C[r, 3]
+                axes[i, r] = c2
+                origins[i, r] = c3
+                x0 = c0 * ct + c1 * st
+                y0 = c1 * ct - c0 * st
+                C[r, 0] = x0
+                C[r, 1] = y0 * cal + c2 * sal
+                C[r, 2] = c2 * cal - y0 * sal
+                C[r, 3] = ai * x0 + c2 * di + c3
+    for r in range(3):
+        c0, c1, c2, c3 = C[r, 0], C[r, 1], C[r, 2], C[r, 3]
+        for c in range(4):
+            T[r, c] = c0 * tool[0, c] + c1 * tool[1, c] + c2 * tool[2, c]
+        T[r, 3] += c3
+
+
+@numba.njit(cache=True)
+def _jacobian(prism, axes, origins, T, J):
+    n = axes.shape[0]
+    p0, p1, p2 = T[0, 3], T[1, 3], T[2, 3]
+    for i in range(n):
+        z0, z1, z2 = axes[i, 0], axes[i, 1], axes[i, 2]
+        if prism[i]:
+            J[0, i], J[1, i], J[2, i] = z0, z1, z2
+            J[3, i], J[4, i], J[5, i] = 0.0, 0.0, 0.0
+        else:
+            r0, r1, r2 = p0 - origins[i, 0], p1 - origins[i, 1], p2 - origins[i, 2]
+            J[0, i] = z1 * r2 - z2 * r1
+            J[1, i] = z2 * r0 - z0 * r2
+            J[2, i] = z0 * r1 - z1 * r0
+            J[3, i], J[4, i], J[5, i] = z0, z1, z2
+
+
+@numba.njit(cache=True)
+def _step(method, J, e, lam2, A, y, dq):
+    """Transpose / pseudoinverse / DLS step into ``dq`` (n,); False when J J^T + lam2 I is not
+    positive definite (the caller then uses the reference step)."""
+    n = J.shape[1]
+    if method == 0:  # g = J^T e; alpha = <e, J g> / |J g|^2 (eq. 48 of 000)
+        for j in range(n):
+            s = 0.0
+            for r in range(6):
+                s += J[r, j] * e[r]
+            dq[j] = s
+        num = 0.0
+        den = 0.0
+        for r in range(6):
+            s = 0.0
+            for j in range(n):
+                s += J[r, j] * dq[j]
+            num += e[r] * s
+            den += s * s
+        alpha = num / den if den > 0 else 0.0
+        for j in range(n):
+            dq[j] *= alpha
+        return True
+    for r in range(6):  # lower half of J J^T + lam2 I
+        for c in range(r + 1):
+            s = 0.0
+            for j in range(n):
+                s += J[r, j] * J[c, j]
+            A[r, c] = s
+        A[r, r] += lam2
+    for c in range(6):  # Cholesky in place (lower); the diagonal holds 1 / L[c, c] (6 divisions, not 27)
+        s = A[c, c]
+        for k in range(c):
+            s -= A[c, k] * A[c, k]
+        if not s > 0.0:
+            return False
+        inv = 1.0 / math.sqrt(s)
+        A[c, c] = inv
+        for r in range(c + 1, 6):
+            s = A[r, c]
+            for k in range(c):
+                s -= A[r, k] * A[c, k]
+            A[r, c] = s * inv
+    for r in range(6):  # L z = e
+        s = e[r]
+        for k in range(r):
+            s -= A[r, k] * y[k]
+        y[r] = s * A[r, r]
+    for r in range(5, -1, -1):  # L^T y = z
+        s = y[r]
+        for k in range(r + 1, 6):
+            s -= A[k, r] * y[k]
+        y[r] = s * A[r, r]
+    for j in range(n):
+        s = 0.0
+        for r in range(6):
+            s += J[r, j] * y[r]
+        dq[j] = s
+    return True
+
+
+@numba.njit(cache=True)
+def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace, times):
+    """One problem of the Jacobian loop (000 §3; stop rule :func:`pipeline.solvers.kernels.pose.stop_code`).
+
+    Writes the solution into ``q`` (n,), trace rows ``0..iterations`` of ``trace`` (k, 8) (rows
+    beyond its length are not written; it needs at least one row), and ``times`` (3,) = (total,
+    IK block, the thread's CPU time over the total) [ns]. Returns ``(stop code, iterations)``.
+    """
+    clk = np.zeros(2, np.int64)
+    c_start = thread_cpu_ns(clk)
+    t_start = now_ns(clk)
+    n = q0.shape[0]
+    for i in range(n):
+        q[i] = q0[i]
+    axes = np.empty((n, 3))
+    origins = np.empty((n, 3))
+    T = np.zeros((4, 4))
+    T[3, 3] = 1.0
+    Tprev = np.zeros((4, 4))
+    Tprev[3, 3] = 1.0
+    C = np.empty((3, 4))
+    J = np.empty((6, n))
+    e = np.empty(6)
+    A = np.empty((6, 6))
+    y = np.empty(6)
+    dq = np.empty(n)
+    qg = np.empty(4)  # goal orientation, once per solve
+    qt = np.empty(4)  # this iterate's orientation
+    qp = np.empty(4)  # the previous iterate's (stall test)
+    quat_from_rot(Tg, qg)
+    method = ip[_jit.I_METHOD]
+    crit = ip[_jit.I_CRITERION]  # pipeline.solvers.kernels.kin.CRITERION_CODE
+    dq_crit = crit == CRIT_DQ_NORM or crit == CRIT_DQ_BODY
+    time_ik = ip[_jit.I_TIME_IK] != 0
+    t0 = 0
+    lam = fp[_jit.F_LAMBDA] if method == 2 else 0.0
+    lam2 = lam * lam
+    rows = trace.shape[0]
+    fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
+    err, dp, ang = _jit.pose_error_q(Tg, T, qg, qt, ip, fp, e)
+    trace[0, 0] = err
+    for r in range(6):
+        trace[0, 1 + r] = e[r]
+    trace[0, TRACE_DP] = dp
+    t_ik = 0
+    code = 0
+    it = 0
+    grew = 0
+    if not math.isfinite(err):
+        code = NON_FINITE
+    elif (dq_crit and err <= fp[_jit.F_TOL_DQ]) or (not dq_crit and dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]):
+        code = SUCCESS
+    while code == 0:
+        it += 1
+        _jacobian(prism, axes, origins, T, J)
+        if time_ik:
+            t0 = now_ns(clk)
+        if method == 3 or not _step(method, J, e, lam2, A, y, dq):
+            ref = _jit.step(method, J, e, ip, fp)
+            for j in range(n):
+                dq[j] = ref[j]
+        if time_ik:
+            t_ik += now_ns(clk) - t0
+        for j in range(n):
+            q[j] += dq[j]
+        for r in range(3):
+            for c in range(4):
+                Tprev[r, c] = T[r, c]
+        for k in range(4):
+            qp[k] = qt[k]
+        fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
+        prev_err = err
+        err, dp, ang = _jit.pose_error_q(Tg, T, qg, qt, ip, fp, e)
+        if it < rows:
+            trace[it, 0] = err
+            for r in range(6):
+                trace[it, 1 + r] = e[r]
+            trace[it, TRACE_DP] = dp
+        if dq_crit:
+            if crit == CRIT_DQ_NORM:
+                t = relative_translation_norm(T, Tprev)
+            else:
+                t = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
+            stalled = math.sqrt(1.0 + 0.25 * t * t) < fp[_jit.F_STALL_DQ]
+            ok = err <= fp[_jit.F_TOL_DQ]
+        else:
+            dmove = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
+            stalled = False
+            if dmove < fp[_jit.F_STALL_POS]:  # the rotation only matters when the position stalled
+                w, x, yy, z = quat_relative(qt, qp)
+                stalled = 2.0 * math.atan2(math.sqrt(x * x + yy * yy + z * z), w) < fp[_jit.F_STALL_ROT]
+            ok = dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]
+        grew = grew + 1 if err > prev_err else 0
+        code = _jit.stop_code(err, ok, stalled, grew, it, ip)
+    times[0] = now_ns(clk) - t_start
+    times[1] = t_ik
+    times[2] = thread_cpu_ns(clk) - c_start
+    return code, it
+
+
+@numba.njit(cache=True, parallel=True)
+def solve_batch(form, a, ca, sa, d, offs, prism, base, tool, goals, starts, ip, fp, Q, codes, iters, times, traces):
+    """:func:`solve` for every row: ``goals`` (N, 4, 4), ``starts`` (N, n) -> ``Q`` (N, n),
+    ``codes``/``iters`` (N,), ``times`` (N, 3), ``traces`` (N, k, 8) (k >= 1; rows past k dropped)."""
+    for i in numba.prange(goals.shape[0]):
+        c, it = solve(form, a, ca, sa, d, offs, prism, base, tool, goals[i], starts[i], ip, fp, Q[i], traces[i], times[i])
+        codes[i] = c
+        iters[i] = it

@@ -1,0 +1,69 @@
+"""Compiled copies of one kernel with some of the names it calls bound to other kernels.
+
+numba compiles a function with everything it can reach: a kernel that picks a closed form at run time
+(``if fam == SPH: solve_sph(...) elif ...``) compiles every family's closed form on its first call,
+though a robot only ever uses one. :func:`specialise` makes a copy of a kernel's Python function whose
+global names listed in ``names`` point elsewhere (``FAMILY=family_3p``, say), and compiles that copy
+only when it is called. Each copy has a qualified name of its own (``solve_pose__three_parallel``) and
+so its own entry in numba's on-disk cache (:mod:`pipeline._numba_cache`, which stamps it with the
+source it can reach like any kernel of its module).
+
+The rebound names must be other compiled functions or constants: a copy refers to them by global
+name, so numba freezes them at compile time, as it does every global. (Passing a kernel to another
+in a closure cell does not do: numba keys the cache on the pickled cells, and a pickled dispatcher
+carries a per-process id, so the copy would compile again in every process.)
+"""
+
+from __future__ import annotations
+
+import types
+
+import numba
+
+
+def specialise(template, tag: str, options: dict, **names):
+    """A numba dispatcher of ``template`` (a plain Python function) with global ``names`` rebound.
+
+    Parameters
+    ----------
+    template : function   the kernel's source, written against the names it calls
+    tag : str             what distinguishes this copy (part of its qualified name and cache file)
+    options : dict        numba.njit options (``cache=True`` for an on-disk cache)
+    **names               global name -> compiled function or constant, for this copy only
+
+    The copy sees the template module's globals as they are at this call, with ``names`` over them: build
+    the copies after the module has finished loading (at the first call, for example).
+    """
+    return _compiled_copy(template, {**template.__globals__, **names}, tag, options)
+
+
+def _compiled_copy(py, g: dict, tag: str, options: dict):
+    """A numba dispatcher of a copy of function ``py`` whose globals are ``g`` and whose qualified name ends
+    in ``__tag`` (its own cache file); ``options`` as numba.njit takes them (``nopython`` is implied)."""
+    f = types.FunctionType(py.__code__, g, py.__name__, py.__defaults__, py.__closure__)
+    f.__qualname__ = f"{py.__qualname__}__{tag}"
+    f.__module__, f.__doc__, f.__kwdefaults__ = py.__module__, py.__doc__, py.__kwdefaults__
+    return numba.njit(**{k: v for k, v in options.items() if k != "nopython"})(f)
+
+
+def inlined_twin(module, suffix: str = "inline"):
+    """A module object holding ``module``'s globals with each of its compiled functions replaced by a twin
+    that numba inlines at every call site (``inline="always"``), calling the other twins.
+
+    For code that must see a chain of small kernels as one body, such as a pass that the compiler turns
+    into vector code only when no call is left in it (:mod:`pipeline.solvers.closed_form.lanes`), while the kernels
+    themselves stay separate functions elsewhere (inlining at numba's level copies a callee's code into
+    every call site, which multiplies the compiler's work: a single closed-form call compiled in minutes
+    with it and seconds without). The twins compute the same floats as the originals (the same
+    operations in the same order; no fast-math).
+    """
+    twin = types.ModuleType(f"{module.__name__}__{suffix}")
+    g = twin.__dict__
+    g.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__spec__", "__loader__")})
+    for name, obj in vars(module).items():
+        py = getattr(obj, "py_func", None)
+        if py is None or getattr(py, "__module__", None) != module.__name__ or not hasattr(obj, "targetoptions"):
+            continue
+        options = {k: v for k, v in obj.targetoptions.items() if k not in ("inline", "cache")}
+        g[name] = _compiled_copy(py, g, suffix, {**options, "inline": "always"})
+    return twin
