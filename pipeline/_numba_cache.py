@@ -205,7 +205,7 @@ COMPILE_CLOCK = [0, 0, 0]
 def compile_ns() -> int:
     """Nanoseconds this process has spent so far in numba's compiler, compiling kernels or loading them
     from the cache (0 until numba is imported). A call that changed it compiled or loaded something, so
-    its measured times are not its own (:meth:`pipeline.solvers.driver.Bound.solve`)."""
+    its measured times are not its own (:meth:`pipeline.solvers.core.driver.Bound.solve`)."""
     return COMPILE_CLOCK[0]
 
 

@@ -11,7 +11,7 @@ Every solve's CPU time is measured beside its wall time: the calling thread's CP
 that runs threads of its own (``Solver.own_threads``: TRAC-IK's two racing solvers both count); for a
 batch kernel, the process's CPU time around the batch call shared out over its problems in
 proportion to their kernel-measured solve times, unless the kernel reads each solve's thread CPU
-time itself (the Jacobian loop of ``pipeline.solvers._lean`` does: ``BatchResult.cpu_times_s``). Summed over a job's
+time itself (the Jacobian loop of ``pipeline.solvers.iterative.lean`` does: ``BatchResult.cpu_times_s``). Summed over a job's
 solves, CPU / wall time is its CPU share: below 0.9 the job did not get a core to itself.
 
 With ``timing_runs`` > 1 every solve is run that many times (a batch call that many times, a single
@@ -35,7 +35,7 @@ import numpy as np
 from pipeline.problems import ProblemSet
 from pipeline.robots import LENGTH_UNITS, RobotModel
 from pipeline.solvers import BatchResult, IKResult, Settings, bind, get, prepare, solve_batch, warm_up
-from pipeline.solvers.driver import stack
+from pipeline.solvers.core.driver import stack
 
 BATCH = 2000  # problems per batch call (progress is reported between batches)
 

@@ -89,9 +89,9 @@ def _warm_helpers(prep, settings) -> bool:
     it for every robot. Returns whether the FK timing kernels were reached."""
     import numpy as np
 
-    from pipeline.solvers import _kin
-    from pipeline.solvers.base import LIMIT_TOL, check, nearest_rep
-    from pipeline.solvers.driver import converted
+    from pipeline.solvers.kernels import kin as _kin
+    from pipeline.solvers.core import LIMIT_TOL, check, nearest_rep
+    from pipeline.solvers.core.driver import converted
 
     T, q0 = _goal_of(prep)
     check(prep, prep.working_goal(T), q0, converted(prep, settings))

@@ -70,7 +70,7 @@ def deterministic(method: str, settings) -> bool:
 
     if float(getattr(settings, "time_budget", 0.0) or 0.0) > 0.0:
         return False
-    return not get(method).run.__module__.startswith("pipeline.solvers.peers") or method == "ur_analytic_ik"
+    return not get(method).run.__module__.startswith("pipeline.solvers.peers.libraries") or method == "ur_analytic_ik"
 
 
 def trace_policy(study):
@@ -121,7 +121,7 @@ def solve_to_archive(study, problem_set: str, entry, robot_path, problems_path, 
         robot_repairs="; ".join(model.repairs) if model.repairs else None, length_unit=unit,
         deterministic=str(deterministic(entry.method, settings)).lower(),
         timing="solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "
-               "solve() call (pipeline/solvers/timing.py); cpu_time_s = the CPU time of the call "
+               "solve() call (pipeline/solvers/core/timing.py); cpu_time_s = the CPU time of the call "
                "(pipeline/runner.py)" + (f"; each the fastest of {runs} runs of the solve by CPU time, the "
                                          "result of the first (timing_runs)" if runs > 1 else ""),
         traces=policy.describe(), **(extra_meta or {}))

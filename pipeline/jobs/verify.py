@@ -23,7 +23,7 @@ checked against what it stores itself, without re-running a solver (:func:`recor
 4. the flags agree with the stop reason (success exactly when the stop reason is SUCCESS; a SUCCESS
    or FK_CHECK_FAILED stop only after a claimed success; a stop reason that exists);
 5. the FK check is recomputed from the stored joints: the compiled dual-quaternion check every solve
-   went through (:func:`pipeline.solvers.base.finish_batch`, the same floats as the solve job's
+   went through (:func:`pipeline.solvers.core.finish_batch`, the same floats as the solve job's
    finish) is run on the stored ``q_solution`` against the problem file's goal (converted as the job
    converted it) with the archive's settings; its position and orientation errors must equal the
    stored ones bit for bit, and its verdict -- stop reason, success, claimed success, within limits
@@ -181,7 +181,7 @@ def fk_problems(arch, robot_file: Path) -> list[str]:
     from pipeline.jobs.replay import ReplayError, settings_from_archive
     from pipeline.robots import load_robot
     from pipeline.runner import model_goals
-    from pipeline.solvers.base import BatchRaw, Prepared, finish_batch
+    from pipeline.solvers.core import BatchRaw, Prepared, finish_batch
 
     meta, path = arch.metadata, arch.path
     try:

@@ -1,7 +1,7 @@
 """The independent success check, compiled: forward kinematics by unit dual quaternions.
 
 Every solver's claimed success is re-checked by forward kinematics that share no code with the
-solvers' own (:mod:`pipeline.solvers._kin` multiplies homogeneous matrices). This module writes a
+solvers' own (:mod:`pipeline.solvers.kernels.kin` multiplies homogeneous matrices). This module writes a
 chain as a product of unit dual quaternions (DQ, w-first, :mod:`pipeline.kinematics.dualquat`)::
 
     K_0 M_0(q_0) K_1 M_1(q_1) ... M_{n-1}(q_{n-1}) K_n
@@ -119,7 +119,7 @@ def _errors_of(r0, r1, r2, r3, d0, d1, d2, d3, g, o, st):
 
     With R the rotation of the (normalised) real part and p = 2 vec(d r*) / |r|², R_rel = R_goal Rᵀ:
     dp = p_goal − p, cos = (tr R_rel − 1) / 2, sin = |vee(R_rel − R_relᵀ)| / 2, t = p_goal − R_rel p
-    (the formulas of :func:`pipeline.solvers.base.pose_errors`, the numpy check)."""
+    (the formulas of :func:`pipeline.solvers.core.pose_errors`, the numpy check)."""
     nr2 = r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3
     _, x, y, z = _qmul(d0, d1, d2, d3, r0, -r1, -r2, -r3)
     px, py, pz = 2.0 * x / nr2, 2.0 * y / nr2, 2.0 * z / nr2
@@ -244,7 +244,7 @@ def pose_check8(K, axis, offset, prism, Q, goals, k0, W, out):
 
 @numba.njit(cache=True, error_model="numpy")
 def meets(crit, tol_pos, tol_rot, tol_dq, dp, ang, t):
-    """The success test (criterion codes of :data:`pipeline.solvers.base.CRITERION_CODE`)."""
+    """The success test (criterion codes of :data:`pipeline.solvers.core.CRITERION_CODE`)."""
     if not math.isfinite(dp) or (crit != 1 and not math.isfinite(ang)):
         return False
     if crit == 2:

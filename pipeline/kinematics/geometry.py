@@ -9,7 +9,7 @@ about line i; the file's own joint angles are kept (offsets are folded into the 
 Which lines meet or are parallel decides the decomposition into the Paden-Kahan subproblems
 (Paden 1985; Kahan's subproblems; their extensions in IK-Geo, Elias & Wen 2022, and EAIK,
 Ostermeier, Külz & Althoff 2025). The families this project solves, for 6R arms
-(:mod:`pipeline.solvers.analytic`):
+(:mod:`pipeline.solvers.closed_form.analytic`):
 
 ``spherical_wrist``
     axes 4, 5 and 6 meet in one point (the wrist centre); the first three joints place it in
@@ -195,7 +195,7 @@ def _position_case(pr: dict) -> int:
 
 def reverse_lines(lines: Lines) -> Lines:
     """The chain read from the tool back: ``T⁻¹ = E'_1(−q_n) ... E'_n(−q_1) M⁻¹`` with the lines
-    moved by ``M⁻¹`` (see :func:`pipeline.solvers.analytic`'s packing)."""
+    moved by ``M⁻¹`` (see :func:`pipeline.solvers.closed_form.analytic`'s packing)."""
     Mi = np.linalg.inv(lines.M)
     R, t = Mi[:3, :3], Mi[:3, 3]
     h = (lines.h[::-1] @ R.T).copy()

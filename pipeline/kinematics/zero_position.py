@@ -11,8 +11,8 @@ the product of exponentials): :func:`pz_fk`.
 :func:`pz_from_dh` (alias :func:`pz_from_chain`) derives the description from any chain (standard
 or modified DH, or the general origin/axis form; prismatic joints, base and tool) through
 :func:`pipeline.kinematics.jacobian.joint_axes`. The
-Zero-Position IK method (:mod:`pipeline.solvers.zero_position`) uses the same quantities at the
-current configuration, which :func:`pipeline.solvers._kin.forward` returns directly.
+Zero-Position IK method (:mod:`pipeline.solvers.iterative.zero_position`) uses the same quantities at the
+current configuration, which :func:`pipeline.solvers.kernels.kin.forward` returns directly.
 """
 
 from __future__ import annotations

@@ -86,14 +86,14 @@ def _p(x, q) -> float:
 
 
 def _kind(method: str) -> str:
-    from pipeline.solvers import registry
+    from pipeline.solvers.core import registry
 
     return registry.get(method).kind if method in registry.names() else "local"
 
 
 def label_settings(archives) -> dict:
     """Solver label -> (method, non-default settings as a dict) from the archives' settings."""
-    from pipeline.solvers import registry
+    from pipeline.solvers.core import registry
 
     from pipeline.studies.common import archive_method
 
@@ -126,7 +126,7 @@ def job_timing(archives) -> dict:
 
 
 def _own_threads(method: str) -> bool:
-    from pipeline.solvers import registry
+    from pipeline.solvers.core import registry
 
     return method in registry.names() and registry.get(method).own_threads
 
@@ -515,7 +515,7 @@ RULE = (f"Correctness from the archives, speed from a race. Labels run on at lea
         f"recorded beside every time and never withholds an answer."
         f" Success = pose within 0.1 mm and 1e-3 rad by an independent FK AND the returned angles "
         f"within the joint limits (revolute joints wrapped by 2 pi; 1e-6 rad tolerance for every method, "
-        f"pipeline.solvers._kin.LIMIT_TOL).")
+        f"pipeline.solvers.kernels.kin.LIMIT_TOL).")
 
 _FULL_COLUMNS = ["problem set", "solver", "library", "problems", "success [%]", "success 95 % CI [%]",
                  "within limits [%]", "call time p50 [µs]", "CPU share [%]", "iterations p50",
@@ -533,7 +533,7 @@ def travel(q, q0, limits: np.ndarray, prismatic: np.ndarray, turns: bool) -> flo
     ``turns``: each revolute joint may first take ``q``'s value moved by whole turns to the one within its
     limits nearest ``q0`` (a solution row, whose representative is free); inf when some joint has none.
     Otherwise the moves are ``q - q0`` as given (the angles a method returned are what the arm is sent)."""
-    from pipeline.solvers.base import LIMIT_TOL, nearest_rep
+    from pipeline.solvers.core import LIMIT_TOL, nearest_rep
 
     q, q0 = np.array(q, dtype=float), np.array(q0, dtype=float)  # writable copies: one kernel signature
     if not turns:

@@ -19,7 +19,7 @@ def archive_method(a: Archive) -> tuple[str, str]:
     method = a.metadata.get("method") or json.loads(a.metadata["settings"]).get("method", a.metadata["solver"])
     library = a.metadata.get("library")
     if not library:
-        from pipeline.solvers import registry
+        from pipeline.solvers.core import registry
 
         library = registry.get(method).library if method in registry.names() else "ours"
     return method, library

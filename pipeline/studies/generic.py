@@ -127,7 +127,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         TableSpec("summary", "Per robot and solver: success, limits, iterations, times, errors", summary_table(df),
                   "Success = the method's stop test passed and an independent FK of the returned angles confirmed "
                   "it. Solve time = the method's own computation (monotonic clock); call time = the whole "
-                  "pipeline.solvers.solve() call (pipeline/solvers/timing.py). Percentiles over all solves."),
+                  "pipeline.solvers.solve() call (pipeline/solvers/core/timing.py). Percentiles over all solves."),
         TableSpec("stop_reasons", "Stop reasons per robot and solver", stop_table(df),
                   "pipeline.solvers.StopReason; 6 = the method claimed success but FK disagreed."),
     ]

@@ -33,7 +33,7 @@ methods by call time), tables computed from times under other names (:data:`TIMI
 rows are chosen by time (:data:`TIMING_CHOSEN`: the benchmark's key labels per robot), table rows
 whose first column names a time, time fields inside a record's ``info``, and
 the records of TRAC-IK, of the Robotics Toolbox solvers (a failed search returns a C ``rand()``
-configuration) and of any label with a ``time_budget`` (``pipeline/solvers/peers.py``), with their
+configuration) and of any label with a ``time_budget`` (``pipeline/solvers/peers/libraries.py``), with their
 rows and columns in the tables.
 """
 
@@ -54,7 +54,7 @@ TIMING_TABLES = {"cerbaro2019/tables/table14_correlation.csv",  # Pearson r of p
 # of each group by success, ties to the faster call)
 TIMING_CHOSEN = ("arm_benchmark/tables/key_*.csv",)
 
-# pipeline/solvers/peers.py: TRAC-IK has a wall-time budget and two racing threads; a failed Robotics
+# pipeline/solvers/peers/libraries.py: TRAC-IK has a wall-time budget and two racing threads; a failed Robotics
 # Toolbox search returns a configuration drawn with C rand(), whose state depends on what else the
 # process ran (TRAC-IK's restarts draw from it too)
 NONDETERMINISTIC = ("trac_ik", "rtb_ik_")

@@ -74,8 +74,8 @@ def cmd_robot(args) -> None:
             text += "\n" + report(model.chain, args.geometry_tol, model.length_unit)
             six_revolute = model.n == 6 and not np.any(model.chain.prismatic)
             if six_revolute and classify(model.chain, args.geometry_tol).family is None:
-                from pipeline.solvers import general6r
-                from pipeline.solvers.base import Prepared
+                from pipeline.solvers.closed_form import general6r
+                from pipeline.solvers.core import Prepared
 
                 why = general6r.degenerate(Prepared(model))
                 text += ("general 6R: `analytic` solves it by algebraic elimination (the solver `general_6r`)\n"

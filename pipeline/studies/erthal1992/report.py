@@ -468,7 +468,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
 def _fig06_14(df: pd.DataFrame, out_dir: Path, plt, save) -> FigureSpec:
     """Fig. 6.14: the joint weights c(j) of strategies 6-10 (eqs. 6.1-6.2) for the Test 3 arm's N joints,
     from the weight function the archived Test 3 solves ran with (no solve data is needed)."""
-    from pipeline.solvers.zero_position import strategy_weights
+    from pipeline.solvers.iterative.zero_position import strategy_weights
 
     n = len(df["q_start"].iloc[0])
     j = np.arange(1, n + 1)
@@ -483,7 +483,7 @@ def _fig06_14(df: pd.DataFrame, out_dir: Path, plt, save) -> FigureSpec:
     ax.legend(fontsize=7)
     return FigureSpec(save(fig, out_dir, "fig06_14_weights"), "Fig. 6.14 — ZP weight c per joint for strategies 6–10",
                       f"c = [(j − N)/(1 − N)]ⁿ (eq. 6.1) and c = (jⁿ − Nⁿ)/(1 − Nⁿ) (eq. 6.2) for the N = {n} joints of "
-                      "the Test 3 PUMA, from pipeline.solvers.zero_position.strategy_weights (the function the "
+                      "the Test 3 PUMA, from pipeline.solvers.iterative.zero_position.strategy_weights (the function the "
                       "archived Test 3 solves used): c = 1 at the base, 0 at the wrist.")
 
 

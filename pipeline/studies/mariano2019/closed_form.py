@@ -7,7 +7,7 @@ The pitch is ``phi = -(theta2 + theta3 + theta4)`` (eq. 26); ``omega = theta1`` 
 ``gamma = 90 deg`` (eq. 28); the orientation is ``Rz(omega) Ry(phi) Rx(gamma)`` for every q.
 
 These printed formulas are the object of the operation counts (Tables II-III), not a solver: the
-study's IK problems are solved by the registered ``analytic_4dof`` (:mod:`pipeline.solvers.analytic_4dof`).
+study's IK problems are solved by the registered ``analytic_4dof`` (:mod:`pipeline.solvers.closed_form.analytic_4dof`).
 """
 
 from __future__ import annotations

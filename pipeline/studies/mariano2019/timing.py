@@ -48,7 +48,7 @@ def _block(impl: str, algebra: str, chain, Q: np.ndarray, calls: int):
         fn = fk_htm if algebra == "htm" else fk_dq
         return (lambda: fn(chain, Q)), Q.shape[0]
     if impl == "numba":
-        from pipeline.solvers import _kin
+        from pipeline.solvers.kernels import kin as _kin
 
         kern = _kin.fk_htm_batch if algebra == "htm" else _kin.fk_dq_batch
         out = np.empty((Q.shape[0], 3))

@@ -5,7 +5,7 @@ Modules
 trajectory  the designed motions (data/nepomuceno2024/motions.yaml) and their interpolation
 problems    the problem-set generator: one motion = one chain of path points (warm starts), solved
             by the generic solve rule with the registered solvers jpinv_descent, bfgs, lbfgsb,
-            nelder_mead, analytic_ur (pipeline/solvers/optimizers.py, analytic_ur.py)
+            nelder_mead, analytic_ur (pipeline/solvers/iterative/optimizers.py, analytic_ur.py)
 tables      Tabelas 5.1-5.2, continuity, extra runs, published orderings
 figures     Figuras 5.1-5.2, TCP path in 3-D, joint jumps
 cli         study verb plan_motion_nepomuceno2024 (inspection)
