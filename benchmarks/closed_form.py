@@ -54,7 +54,7 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.geometry import classify
 from pipeline.robots import load_robot, parse_robot
 from pipeline.solvers import make_settings, solve
-from pipeline.solvers.closed_form import general6r
+from pipeline.solvers.closed_form import general6r, general6r_model
 from pipeline.solvers.core import NotApplicableError, Prepared
 from pipeline.solvers.core.models import metric as _metric
 from pipeline.solvers.core.registry import get, solve_batch
@@ -202,8 +202,8 @@ def _dense_count(m6, T, starts) -> set:
     """Distinct solutions a Newton search reaches from ``starts`` (rounded keys)."""
     found = []
     for s0 in starts:
-        x = general6r._newton(m6.H, m6.P, m6.T0, T, s0, 40)
-        if np.all(np.isfinite(x)) and np.abs(general6r._fk(m6, x) - T).max() < 1e-10:
+        x = general6r_model.newton_polish(m6.H, m6.P, m6.T0, T, s0, 40)
+        if np.all(np.isfinite(x)) and np.abs(general6r_model.fk_model(m6, x) - T).max() < 1e-10:
             x = (x + np.pi) % (2 * np.pi) - np.pi
             if all(np.abs((x - y + np.pi) % (2 * np.pi) - np.pi).max() > 1e-6 for y in found):
                 found.append(x)
@@ -221,7 +221,7 @@ def section_general(n: int) -> dict:
         for i in range(10):
             Tm = _metric(prep).goal(T[i])
             ours = general6r.candidates(m6, Tm, general6r.General6RSettings())
-            ours = [x for x in ours if np.abs(general6r._fk(m6, x) - Tm).max() < 1e-9]
+            ours = [x for x in ours if np.abs(general6r_model.fk_model(m6, x) - Tm).max() < 1e-9]
             dense = _dense_count(m6, Tm, rng.uniform(-np.pi, np.pi, (600, 6)))
             agree += len(ours) == len(dense) and all(
                 min(np.abs((y - x + np.pi) % (2 * np.pi) - np.pi).max() for x in ours) < 1e-6 for y in dense)

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from pipeline.kinematics import fk_htm
 from pipeline.solvers import NotApplicableError, SettingsError, StopReason, solve, solve_batch
-from pipeline.solvers.closed_form import general6r
+from pipeline.solvers.closed_form import eigen, general6r, general6r_model
 from pipeline.solvers.core import Prepared
 from pipeline.solvers.core.models import metric as _metric
 from pipeline.solvers.core.registry import get
@@ -59,8 +59,8 @@ def _dense(m6, T, starts) -> list[np.ndarray]:
     """Distinct solutions Newton reaches from ``starts`` (the same polish as the solver, 40 steps)."""
     found = []
     for s0 in starts:
-        x = general6r._newton(m6.H, m6.P, m6.T0, T, s0, 40)
-        if np.all(np.isfinite(x)) and np.abs(general6r._fk(m6, x) - T).max() < 1e-10:
+        x = general6r_model.newton_polish(m6.H, m6.P, m6.T0, T, s0, 40)
+        if np.all(np.isfinite(x)) and np.abs(general6r_model.fk_model(m6, x) - T).max() < 1e-10:
             x = wrapped(x)
             if all(np.abs(wrapped(x - y)).max() > 1e-6 for y in found):
                 found.append(x)
@@ -76,7 +76,7 @@ def test_solution_set_equals_a_dense_newton_search(seed):
     for _ in range(3):
         T = _metric(prep).goal(fk_htm(m.chain, rng.uniform(-np.pi, np.pi, 6)))
         ours = general6r.candidates(m6, T, general6r.General6RSettings())
-        ours = [x for x in ours if np.abs(general6r._fk(m6, x) - T).max() < 1e-9]
+        ours = [x for x in ours if np.abs(general6r_model.fk_model(m6, x) - T).max() < 1e-9]
         dense = _dense(m6, T, rng.uniform(-np.pi, np.pi, (600, 6)))
         assert len(dense) >= 2
         for y in dense:  # every solution the search finds, the elimination finds
@@ -93,7 +93,7 @@ def test_qr_split_gives_the_left_null_space_and_the_least_squares_solve(seed, sp
     rng = np.random.default_rng(seed)
     Q = rng.standard_normal((14, 8)) * 10.0 ** rng.uniform(-spread / 2, spread / 2, (14, 1))
     Qp, Nl = np.empty((8, 14)), np.empty((6, 14))
-    assert general6r._qr_split(Q, Qp, Nl)
+    assert eigen.qr_split(Q, Qp, Nl)
     d = 2.0 ** -np.floor(np.log2(np.abs(Q).max(axis=1)))  # the row scaling _qr_split applies
     U = Nl / d
     assert np.abs(U @ U.T - np.eye(6)).max() < 1e-12
@@ -109,7 +109,7 @@ def test_own_eigenvalues_equal_lapacks(seed, n, spread):
     rng = np.random.default_rng(seed)
     A = rng.standard_normal((n, n)) * 10.0 ** rng.uniform(-spread / 2, spread / 2, (n, 1))
     wr, wi = np.empty(n), np.empty(n)
-    assert general6r._eig_hess(A.copy(), wr, wi)
+    assert eigen.eig_hess(A.copy(), wr, wi)
     ours, ref = wr + 1j * wi, np.linalg.eigvals(A)
     scale = 1.0 + np.abs(ref).max()
     assert np.abs(ref[:, None] - ours[None, :]).min(axis=1).max() < 1e-9 * scale
@@ -123,21 +123,21 @@ def test_own_eigenvalues_of_a_companion_with_known_roots_and_a_refused_infinity(
     A[0] = -c[1:]
     A[1:, :-1] = np.eye(5)
     wr, wi = np.empty(6), np.empty(6)
-    assert general6r._eig_hess(A.copy(), wr, wi)
+    assert eigen.eig_hess(A.copy(), wr, wi)
     assert np.allclose(np.sort(wr), roots, atol=1e-10) and np.all(wi == 0.0)
     A[2, 3] = np.inf
-    assert not general6r._eig_hess(A, wr, wi)
+    assert not eigen.eig_hess(A, wr, wi)
 
 
 def test_qr_split_refuses_a_rank_deficient_matrix():
     Q = np.random.default_rng(1).standard_normal((14, 8))
     Q[:, 7] = Q[:, 0] - 2.0 * Q[:, 3]
-    assert not general6r._qr_split(Q, np.empty((8, 14)), np.empty((6, 14)))
+    assert not eigen.qr_split(Q, np.empty((8, 14)), np.empty((6, 14)))
 
 
 def _pencil_of(m6, T):
     return general6r._pencil(m6.eP[m6.roles[2]], m6.eT0, *m6.left, m6.right_inv, m6.right_L, m6.right_c,
-                             m6.right_h, m6.C, general6r._KRON_OF, np.ascontiguousarray(T), general6r._MOBIUS)
+                             m6.right_h, m6.C, general6r_model.KRON_OF, np.ascontiguousarray(T), general6r._MOBIUS)
 
 
 @pytest.mark.parametrize("seed", [3, 8, 21])
@@ -155,7 +155,7 @@ def test_deflation_removes_exactly_the_eight_eigenvalues_at_plus_minus_i(seed):
         assert ok
         full = np.linalg.eigvals(comp)
         B = np.empty((16, 16))
-        assert general6r._deflate(pen, comp.copy(), B)
+        assert eigen.deflate(pen, comp.copy(), B)
         rest = np.linalg.eigvals(B)
         assert np.sum(np.abs(np.abs(full.imag) - 1.0) + np.abs(full.real) < 1e-6) >= 8
         assert np.sum(np.abs(np.abs(rest.imag) - 1.0) + np.abs(rest.real) < 1e-6) == 0
@@ -172,7 +172,7 @@ def test_deflation_declines_a_pencil_without_the_block_at_i():
     comp = np.zeros((24, 24))
     comp[:12, 12:] = np.eye(12)
     comp[12:] = -np.linalg.solve(pen[2], np.hstack((pen[0], pen[1])))
-    assert not general6r._deflate(pen, comp, np.empty((16, 16)))
+    assert not eigen.deflate(pen, comp, np.empty((16, 16)))
 
 
 def test_public_call_of_a_general_arm_equals_the_general_6r_solver():

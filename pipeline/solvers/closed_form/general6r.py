@@ -27,7 +27,7 @@ file form works:
    12 monomials, ``(M2 x3² + M1 x3 + M0) m = 0``. A Möbius change of variable (``_MOBIUS``) makes
    its leading matrix well conditioned. Its 24 × 24 companion matrix has 8 eigenvalues at ±i whatever
    the goal (the factor ``(1 + x3²)⁴`` of Raghavan and Roth's degree-24 polynomial); they are
-   deflated (:func:`_deflate`) and the real eigenvalues of the remaining 16 × 16 (:func:`_eig_hess`,
+   deflated (:func:`deflate`) and the real eigenvalues of the remaining 16 × 16 (:func:`eig_hess`,
    LAPACK ``dgeev`` its fallback) give joint 3; the null vector ``m`` (one step of inverse iteration)
    joints 4 and 5, the 14 equations joints 1 and 2 (least squares on the eliminated products) and the pose joint 6. The
    whole goal is one compiled call (:func:`_all_roots`).
@@ -64,15 +64,19 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from numba.np.linalg import _LAPACK, ensure_lapack
+from numba.np.linalg import ensure_lapack
 
 from pipeline.kinematics.fkcheck import check_one
-from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS, TRACE_COLS, now_ns, rodrigues
+from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS, TRACE_COLS, now_ns
+from pipeline.solvers.closed_form.eigen import deflate, eig_hess, eigvals, mm, qr_split
+from pipeline.solvers.closed_form.general6r_model import (KRON_OF, SHIFT, ArmModel, build_model, chain_into,
+                                                         fk_model, fourteen_into, gauss_solve, newton_polish,
+                                                         times_motion)
 from pipeline.solvers.closed_form.lines import doc_row, fk_lines
-from pipeline.solvers.core import (Prepared, Raw, Settings, inv_rigid, unpack_check, check_fields, check_pack,
+from pipeline.solvers.core import (Prepared, Raw, Settings, unpack_check, check_fields, check_pack,
                                    finish_packed, setting)
 from pipeline.solvers.core.driver import run_of
-from pipeline.solvers.core.models import metric, poe, six_revolute, wrap_angles
+from pipeline.solvers.core.models import metric, six_revolute, wrap_angles
 from pipeline.solvers.core.registry import Solver, register
 from pipeline.solvers.closed_form.subproblems import wrap
 
@@ -81,8 +85,6 @@ ensure_lapack()
 SOURCE = ("Raghavan & Roth (1993), Inverse kinematics of the general 6R manipulator and related linkages, ASME J. "
           "Mech. Des. 115; Manocha & Canny (1994), Efficient inverse kinematics for general 6R manipulators, IEEE "
           "Trans. Robot. Autom. 10(5) (their matrix formulation, written on the joint lines)")
-SHIFT = (0.5 * math.sqrt(2.0), -0.5 * math.sqrt(3.0), 0.25 * math.sqrt(5.0))  # [rad] fixed offsets of joints 3-5
-_GRID = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)  # [rad] where the coefficient sets are evaluated
 _CHECK_Q = np.random.default_rng(606).uniform(-math.pi, math.pi, (3, 6))  # the arm's own test configurations
 
 
@@ -94,646 +96,6 @@ class General6RSettings(Settings):
                                 maximum=50)
     real_tol: float = setting(1e-6, "an eigenvalue x3 counts as real when |Im x3| <= this times (1 + |x3|)",
                               above=0.0, maximum=1e-1)
-
-
-# ---- pure kinematics on joint lines (metres) ---------------------------------------------------------
-def _motion(h: np.ndarray, p: np.ndarray, t: float) -> np.ndarray:
-    """(4, 4) rotation by ``t`` [rad] about the line through ``p`` along the unit ``h``."""
-    T = np.eye(4)
-    R, u = np.empty((3, 3)), np.empty(3)
-    _motion_into(np.asarray(h, dtype=float), np.asarray(p, dtype=float), float(t), R, u)
-    T[:3, :3], T[:3, 3] = R, u
-    return T
-
-
-def _fourteen(p: np.ndarray, l: np.ndarray) -> np.ndarray:
-    """The 14 quantities of Raghavan and Roth of a point ``p`` (3,) and a direction ``l`` (3,)."""
-    out = np.empty(14)
-    _fourteen_into(np.ascontiguousarray(p, dtype=float), np.ascontiguousarray(l, dtype=float), out)
-    return out
-
-
-# the nine products of two joints' (sin, cos, 1), "_nine's order": (sa sb, sa cb, ca sb, ca cb, sa, ca, sb, cb, 1),
-# each as its (index in a's triple, index in b's)
-_ORDER = [(0, 0), (0, 1), (1, 0), (1, 1), (0, 2), (1, 2), (2, 0), (2, 1), (2, 2)]
-
-
-def _grid_nine(a: float, b: float) -> np.ndarray:
-    """The nine products in the Kronecker order of ``(s, c, 1)_a ⊗ (s, c, 1)_b``."""
-    u, v = (math.sin(a), math.cos(a), 1.0), (math.sin(b), math.cos(b), 1.0)
-    return np.array([u[i] * v[j] for i in range(3) for j in range(3)])
-
-
-_KRON_OF = np.array([3 * i + j for i, j in _ORDER], np.int64)  # _nine's term t sits at Kronecker index _KRON_OF[t]
-
-
-# How the closure is split: (the three joints of the left side, the joint whose axis carries the point
-# and direction, the two joints of the right side). Split 0: E3 E4 E5 (c, h6) = E2⁻¹ E1⁻¹ G (c, h6);
-# split 1: E2 E3 E4 (c, h5) = E1⁻¹ G E6⁻¹ (c, h5), G = T M⁻¹ (0-based joint indices below).
-SPLITS = (((2, 3, 4), 5, (0, 1)), ((1, 2, 3), 4, (0, 5)))
-
-
-@dataclass(frozen=True)
-class _Model:
-    H: np.ndarray        # (6, 3) unit axes of the arm
-    P: np.ndarray        # (6, 3) a point on each
-    T0: np.ndarray       # (4, 4) the tool at q = 0
-    reversed: bool       # the elimination runs on the chain read from the tool back (below)
-    split: int           # which of SPLITS
-    eH: np.ndarray       # (6, 3), (6, 3), (4, 4): the chain the elimination runs on (the arm's own, or
-    eP: np.ndarray       # reversed: joint k is the arm's joint 7 - k with angle −θ, its lines moved by
-    eT0: np.ndarray      # T0⁻¹, home T0⁻¹; the goal T⁻¹)
-    left: tuple          # (Ps, Pc, P1), each (14, 9): coefficients of (s, c, 1) of the left's first joint
-    right_inv: np.ndarray  # (9, 9) inverse of the right side's design on the grid
-    right_L: np.ndarray  # (9, 4, 4) the right side's motion before G on the grid
-    right_c: np.ndarray  # (9, 3), (9, 3): the point and direction G acts on, on the grid
-    right_h: np.ndarray
-    roles: np.ndarray    # (6,) int: the right pair, the left triple, the joint whose axis carries the point
-    C: np.ndarray        # (9, 9) _nine's terms times (1 + x4²)(1 + x5²) as monomials x4^i x5^j (index 3i + j)
-
-
-def _model(prep: Prepared, reversed_: bool = False, split: int = 0) -> _Model:
-    g = poe(prep)
-    c = np.ascontiguousarray
-    H0, P0, M0 = c(g.H, dtype=float), c(g.pts, dtype=float), c(g.T0, dtype=float)
-    H, P, T0 = H0, P0, M0
-    if reversed_:  # T⁻¹ = T0⁻¹ E_6(−θ6) ⋯ E_1(−θ1) = E'_1(−θ6) ⋯ E'_6(−θ1) T0⁻¹, E'_k about T0⁻¹ (line 7 − k)
-        R0, p0 = M0[:3, :3], M0[:3, 3]
-        H = c(np.array([R0.T @ H0[5 - k] for k in range(6)]))
-        P = c(np.array([R0.T @ (P0[5 - k] - p0) for k in range(6)]))
-        T0 = c(inv_rigid(M0))
-    tri, pt, (ja, jb) = SPLITS[split]
-    o, cp, hp = P[tri[0]], P[pt], H[pt]
-    rows, vals = [], []
-    for f3 in _GRID:
-        for f4 in _GRID:
-            for f5 in _GRID:
-                T = (_motion(H[tri[0]], P[tri[0]], f3 + SHIFT[0]) @ _motion(H[tri[1]], P[tri[1]], f4 + SHIFT[1])
-                     @ _motion(H[tri[2]], P[tri[2]], f5 + SHIFT[2]))
-                rows.append(np.kron((math.sin(f3), math.cos(f3), 1.0), _grid_nine(f4, f5)))
-                vals.append(_fourteen(T[:3, :3] @ cp + T[:3, 3] - o, T[:3, :3] @ hp))
-    coef = np.linalg.solve(np.array(rows), np.array(vals))  # (27, 14), exact: a Kronecker product of 3 × 3 grids
-    left = tuple(c(coef[9 * k:9 * k + 9][_KRON_OF].T) for k in range(3))
-    design, Ls, cs, hs = [], [], [], []
-    for f1 in _GRID:
-        for f2 in _GRID:
-            design.append(_grid_nine(f1, f2))
-            if split == 0:  # (E1 E2)⁻¹ G (c, h)
-                Ls.append(np.linalg.inv(_motion(H[ja], P[ja], f1) @ _motion(H[jb], P[jb], f2)))
-                cs.append(cp)
-                hs.append(hp)
-            else:  # E1⁻¹ G E6⁻¹ (c, h)
-                Ls.append(np.linalg.inv(_motion(H[ja], P[ja], f1)))
-                B = np.linalg.inv(_motion(H[jb], P[jb], f2))
-                cs.append(B[:3, :3] @ cp + B[:3, 3])
-                hs.append(B[:3, :3] @ hp)
-    s_, c_, o_ = np.array([0.0, 2.0, 0.0]), np.array([1.0, 0.0, -1.0]), np.array([1.0, 0.0, 1.0])
-    half = {0: s_, 1: c_, 2: o_}
-    C = np.array([np.outer(half[a], half[b]).ravel() for a, b in _ORDER])
-    roles = np.array([ja, jb, *tri, pt], np.int64)
-    return _Model(H0, P0, M0, reversed_, split, H, P, T0, left, c(np.linalg.inv(np.array(design))), c(np.array(Ls)),
-                  c(np.array(cs)), c(np.array(hs)), roles, c(C))
-
-
-def _fk(m: _Model, q: np.ndarray) -> np.ndarray:
-    T = np.eye(4)
-    for i in range(6):
-        T = T @ _motion(m.H[i], m.P[i], q[i])
-    return T @ m.T0
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _motion_into(h, p, t, R, u):
-    """Rotation ``R`` (3, 3) and translation ``u`` (3,) of the motion by ``t`` [rad] about the line
-    through ``p`` along the unit ``h`` (:func:`pipeline.solvers.kernels.kin.rodrigues`), written into R and u."""
-    r9 = rodrigues(h[0], h[1], h[2], t)
-    for r in range(3):
-        R[r, 0], R[r, 1], R[r, 2] = r9[3 * r], r9[3 * r + 1], r9[3 * r + 2]
-    for r in range(3):
-        u[r] = p[r] - (R[r, 0] * p[0] + R[r, 1] * p[1] + R[r, 2] * p[2])
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _times_motion(A, h, p, t, R, u, B):
-    """``A`` (4, 4) times the motion E(t) about the line (h, p), in place (R, u, B scratch)."""
-    _motion_into(h, p, t, R, u)
-    for r in range(3):
-        for c in range(3):
-            B[r, c] = A[r, 0] * R[0, c] + A[r, 1] * R[1, c] + A[r, 2] * R[2, c]
-        B[r, 3] = A[r, 0] * u[0] + A[r, 1] * u[1] + A[r, 2] * u[2] + A[r, 3]
-    for r in range(3):
-        for c in range(4):
-            A[r, c] = B[r, c]
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _chain(H, P, q, k, A):
-    """``A`` (4, 4) = E_1(q_1) ⋯ E_k(q_k)."""
-    R, u, B = np.empty((3, 3)), np.empty(3), np.empty((4, 4))
-    for r in range(4):
-        for c in range(4):
-            A[r, c] = 1.0 if r == c else 0.0
-    for i in range(k):
-        _times_motion(A, H[i], P[i], q[i], R, u, B)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _gauss(A, B):
-    """Solve ``A X = B`` (A (k, k), B (k, m); both overwritten, X in B) by Gaussian elimination with
-    partial pivoting; returns (X, ok), ok False at a zero pivot (no LAPACK call, no exception)."""
-    k, m = A.shape[0], B.shape[1]
-    for c in range(k):
-        piv = c
-        for r in range(c + 1, k):
-            if abs(A[r, c]) > abs(A[piv, c]):
-                piv = r
-        if not A[piv, c] != 0.0:  # zero (or NaN)
-            return B, False
-        if piv != c:
-            for j in range(c, k):
-                A[c, j], A[piv, j] = A[piv, j], A[c, j]
-            for j in range(m):
-                B[c, j], B[piv, j] = B[piv, j], B[c, j]
-        for r in range(c + 1, k):
-            f = A[r, c] / A[c, c]
-            if f != 0.0:
-                for j in range(c + 1, k):
-                    A[r, j] -= f * A[c, j]
-                for j in range(m):
-                    B[r, j] -= f * B[c, j]
-    for c in range(k - 1, -1, -1):
-        for j in range(m):
-            acc = B[c, j]
-            for i in range(c + 1, k):
-                acc -= A[c, i] * B[i, j]
-            B[c, j] = acc / A[c, c]
-    return B, True
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _newton(H, P, T0, Tg, q, steps):
-    """``steps`` Newton steps of the joint values ``q`` (6,) towards the goal ``Tg`` (4, 4) (spatial
-    twist error, geometric Jacobian, least squares); returns the polished ``q``."""
-    q = q.copy()
-    W = np.empty(36 + 6 + 16 + 16 + 9 + 3 + 16 + 3 + 3 + 9)  # one allocation, then views
-    J, e = W[0:36].reshape((6, 6)), W[36:42]
-    A, T = W[42:58].reshape((4, 4)), W[58:74].reshape((4, 4))
-    R, u, B, h, pt = W[74:83].reshape((3, 3)), W[83:86], W[86:102].reshape((4, 4)), W[102:105], W[105:108]
-    d = W[108:117].reshape((3, 3))
-    for _ in range(steps):
-        for r in range(4):
-            for c in range(4):
-                A[r, c] = 1.0 if r == c else 0.0
-        for i in range(6):  # joint i's line moved by E_1 ⋯ E_i-1: (h, -h × p) of the spatial Jacobian
-            for r in range(3):
-                h[r] = A[r, 0] * H[i, 0] + A[r, 1] * H[i, 1] + A[r, 2] * H[i, 2]
-                pt[r] = A[r, 0] * P[i, 0] + A[r, 1] * P[i, 1] + A[r, 2] * P[i, 2] + A[r, 3]
-            J[0, i], J[1, i], J[2, i] = h[0], h[1], h[2]
-            J[3, i] = -(h[1] * pt[2] - h[2] * pt[1])
-            J[4, i] = -(h[2] * pt[0] - h[0] * pt[2])
-            J[5, i] = -(h[0] * pt[1] - h[1] * pt[0])
-            _times_motion(A, H[i], P[i], q[i], R, u, B)
-        for r in range(3):
-            for c in range(4):
-                T[r, c] = A[r, 0] * T0[0, c] + A[r, 1] * T0[1, c] + A[r, 2] * T0[2, c] + (A[r, 3] if c == 3 else 0.0)
-        # d = Rg Rᵀ
-        for r in range(3):
-            for c in range(3):
-                d[r, c] = Tg[r, 0] * T[c, 0] + Tg[r, 1] * T[c, 1] + Tg[r, 2] * T[c, 2]
-        w0, w1, w2 = 0.5 * (d[2, 1] - d[1, 2]), 0.5 * (d[0, 2] - d[2, 0]), 0.5 * (d[1, 0] - d[0, 1])
-        e[0], e[1], e[2] = w0, w1, w2
-        # spatial linear error: goal position minus reached, less ω × reached position
-        e[3] = Tg[0, 3] - T[0, 3] - (w1 * T[2, 3] - w2 * T[1, 3])
-        e[4] = Tg[1, 3] - T[1, 3] - (w2 * T[0, 3] - w0 * T[2, 3])
-        e[5] = Tg[2, 3] - T[2, 3] - (w0 * T[1, 3] - w1 * T[0, 3])
-        if max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5])) < 1e-15:
-            break
-        dq, ok = _gauss(J, e.reshape((6, 1)))
-        if not ok:  # a singular Jacobian: the root is left as it is
-            break
-        step = 0.0
-        for i in range(6):
-            q[i] += dq[i, 0]
-            step = max(step, abs(dq[i, 0]))
-        if step <= 1e-12:  # converged (quadratically): a further step would move q by rounding only
-            break
-    return q
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _mm(A, B):
-    """A @ B by loops (small matrices; no BLAS)."""
-    out = np.zeros((A.shape[0], B.shape[1]))
-    for r in range(A.shape[0]):
-        for k in range(A.shape[1]):
-            a = A[r, k]
-            for c in range(B.shape[1]):
-                out[r, c] += a * B[k, c]
-    return out
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _qr_split(Q, Qp, Nl):
-    """Householder QR with column pivoting of the products' coefficients ``Q`` (14, 8): ``Q Π = U R``.
-    Writes the least-squares solve ``Qp`` (8, 14) = Π R⁻¹ U₁ᵀ and the left null space ``Nl`` (6, 14)
-    (the last 6 columns of U, as rows); returns False when Q is rank deficient (|R₇₇| <= 1e-12 |R₀₀|).
-    About 1 µs, against 20 µs for LAPACK's SVD of so small a matrix."""
-    A = Q.copy()
-    sc = np.empty(14)  # each row scaled by a power of two to unit size (exact): the rows' units differ
-    for r in range(14):
-        big = 0.0
-        for c in range(8):
-            big = max(big, abs(A[r, c]))
-        sc[r] = 2.0 ** -math.floor(math.log2(big)) if big > 0.0 and math.isfinite(big) else 1.0
-        for c in range(8):
-            A[r, c] *= sc[r]
-    V = np.zeros((14, 8))
-    tau = np.zeros(8)
-    perm = np.arange(8)
-    w = np.empty(14)
-    for j in range(8):
-        best, p = -1.0, j
-        for c in range(j, 8):
-            nn = 0.0
-            for r in range(j, 14):
-                nn += A[r, c] * A[r, c]
-            if nn > best:
-                best, p = nn, c
-        if p != j:
-            for r in range(14):
-                A[r, j], A[r, p] = A[r, p], A[r, j]
-            perm[j], perm[p] = perm[p], perm[j]
-        nrm = math.sqrt(best)
-        if not nrm > 0.0:
-            return False
-        alpha = -nrm if A[j, j] >= 0.0 else nrm
-        vv = 0.0
-        for r in range(j, 14):
-            V[r, j] = A[r, j]
-        V[j, j] -= alpha
-        for r in range(j, 14):
-            vv += V[r, j] * V[r, j]
-        tau[j] = 2.0 / vv
-        A[j, j] = alpha
-        for r in range(j + 1, 14):
-            A[r, j] = 0.0
-        for c in range(j + 1, 8):
-            d = 0.0
-            for r in range(j, 14):
-                d += V[r, j] * A[r, c]
-            d *= tau[j]
-            for r in range(j, 14):
-                A[r, c] -= d * V[r, j]
-    if not abs(A[7, 7]) > 1e-12 * abs(A[0, 0]):
-        return False
-    U = np.zeros((14, 14))  # U = H₀ ⋯ H₇, each H = I − τ v vᵀ
-    for r in range(14):
-        U[r, r] = 1.0
-    for j in range(7, -1, -1):
-        for c in range(14):
-            w[c] = 0.0
-        for r in range(j, 14):
-            vr = V[r, j]
-            for c in range(14):
-                w[c] += vr * U[r, c]
-        for r in range(j, 14):
-            f = tau[j] * V[r, j]
-            for c in range(14):
-                U[r, c] -= f * w[c]
-    for k in range(6):
-        for c in range(14):
-            Nl[k, c] = U[c, 8 + k] * sc[c]
-    Y = np.empty((8, 14))  # R Y = U₁ᵀ by back substitution
-    for i in range(7, -1, -1):
-        for c in range(14):
-            acc = U[c, i]
-            for k in range(i + 1, 8):
-                acc -= A[i, k] * Y[k, c]
-            Y[i, c] = acc / A[i, i]
-    for i in range(8):
-        for c in range(14):
-            Qp[perm[i], c] = Y[i, c] * sc[c]
-    return True
-
-
-_RGEEV = _LAPACK().numba_ez_rgeev(numba.types.float64)  # numba's own LAPACK entry (scipy's dgeev): cacheable
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _eigvals(A, wr, wi):
-    """Eigenvalues of the square ``A`` (n, n) into ``wr``, ``wi`` (n,) by LAPACK ``dgeev`` (no vectors);
-    A is overwritten (LAPACK reads the C-ordered array as its transpose: the same eigenvalues).
-    Returns LAPACK's info (0: done)."""
-    n = A.shape[0]
-    vl, vr = np.empty(1), np.empty(1)
-    return _RGEEV(100, 78, 78, n, A.ctypes, n, wr.ctypes, wi.ctypes, vl.ctypes, 1, vr.ctypes, 1)  # 'd', 'N', 'N'
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _eig_hess(a, wr, wi):
-    """Eigenvalues of the square ``a`` (n, n) into ``wr``, ``wi`` (n,), ``a`` overwritten: balanced by
-    powers of two, reduced to Hessenberg form by stabilized elementary similarity transformations,
-    then the Francis double-shift QR iteration on the active block only (eigenvalues, no vectors;
-    the EISPACK algorithms balanc, elmhes and hqr as Press et al., Numerical Recipes, §11.5-11.6,
-    give them). Returns False for a non-finite entry or when an eigenvalue does not converge in 30
-    iterations (the caller then asks LAPACK). On the deflated 16 × 16 here it takes 13-20 µs against
-    LAPACK ``dgeev``'s 27-37 (the same real eigenvalues to 6e-10 on 2 000 goals; Newton polishes them after)."""
-    n = a.shape[0]
-    for i in range(n):
-        for j in range(n):
-            if not math.isfinite(a[i, j]):
-                return False  # (the balancing would not end on an infinity)
-    # balance (powers of two, exact)
-    done = False
-    while not done:
-        done = True
-        for i in range(n):
-            r = 0.0
-            c = 0.0
-            for j in range(n):
-                if j != i:
-                    c += abs(a[j, i])
-                    r += abs(a[i, j])
-            if c != 0.0 and r != 0.0:
-                g = r / 2.0
-                f = 1.0
-                s = c + r
-                while c < g:
-                    f *= 2.0
-                    c *= 4.0
-                g = r * 2.0
-                while c > g:
-                    f /= 2.0
-                    c /= 4.0
-                if (c + r) / f < 0.95 * s:
-                    done = False
-                    g = 1.0 / f
-                    for j in range(n):
-                        a[i, j] *= g
-                    for j in range(n):
-                        a[j, i] *= f
-    # Hessenberg by stabilized elementary similarity transformations
-    for m in range(1, n - 1):
-        x = 0.0
-        i = m
-        for j in range(m, n):
-            if abs(a[j, m - 1]) > abs(x):
-                x = a[j, m - 1]
-                i = j
-        if i != m:
-            for j in range(m - 1, n):
-                a[i, j], a[m, j] = a[m, j], a[i, j]
-            for j in range(n):
-                a[j, i], a[j, m] = a[j, m], a[j, i]
-        if x != 0.0:
-            for i in range(m + 1, n):
-                y = a[i, m - 1]
-                if y != 0.0:
-                    y /= x
-                    a[i, m - 1] = y
-                    for j in range(m, n):
-                        a[i, j] -= y * a[m, j]
-                    for j in range(n):
-                        a[j, m] += y * a[j, i]
-    for i in range(2, n):  # below the subdiagonal: zero
-        for j in range(i - 1):
-            a[i, j] = 0.0
-    # shifted QR on the Hessenberg matrix (eigenvalues only)
-    anorm = 0.0
-    for i in range(n):
-        for j in range(max(i - 1, 0), n):
-            anorm += abs(a[i, j])
-    nn = n - 1
-    t = 0.0
-    its = 0
-    total = 0
-    x = y = w = 0.0
-    while nn >= 0:
-        l = 0
-        for ll in range(nn, 0, -1):
-            s = abs(a[ll - 1, ll - 1]) + abs(a[ll, ll])
-            if s == 0.0:
-                s = anorm
-            if abs(a[ll, ll - 1]) + s == s:
-                a[ll, ll - 1] = 0.0
-                l = ll
-                break
-        x = a[nn, nn]
-        if l == nn:
-            wr[nn] = x + t
-            wi[nn] = 0.0
-            nn -= 1
-            its = 0
-            continue
-        y = a[nn - 1, nn - 1]
-        w = a[nn, nn - 1] * a[nn - 1, nn]
-        if l == nn - 1:
-            p = 0.5 * (y - x)
-            q = p * p + w
-            z = math.sqrt(abs(q))
-            x += t
-            if q >= 0.0:
-                z = p + (z if p >= 0.0 else -z)
-                wr[nn - 1] = wr[nn] = x + z
-                if z != 0.0:
-                    wr[nn] = x - w / z
-                wi[nn - 1] = wi[nn] = 0.0
-            else:
-                wr[nn - 1] = wr[nn] = x + p
-                wi[nn - 1] = -z
-                wi[nn] = z
-            nn -= 2
-            its = 0
-            continue
-        if its == 30 or total > 30 * n:
-            return False
-        if its == 10 or its == 20:  # exceptional shift
-            t += x
-            for i in range(nn + 1):
-                a[i, i] -= x
-            s = abs(a[nn, nn - 1]) + abs(a[nn - 1, nn - 2])
-            x = y = 0.75 * s
-            w = -0.4375 * s * s
-        its += 1
-        total += 1
-        m = nn - 2
-        p = q = r = 0.0
-        while m >= l:
-            z = a[m, m]
-            r = x - z
-            s = y - z
-            p = (r * s - w) / a[m + 1, m] + a[m, m + 1]
-            q = a[m + 1, m + 1] - z - r - s
-            r = a[m + 2, m + 1]
-            s = abs(p) + abs(q) + abs(r)
-            p /= s
-            q /= s
-            r /= s
-            if m == l:
-                break
-            u = abs(a[m, m - 1]) * (abs(q) + abs(r))
-            v = abs(p) * (abs(a[m - 1, m - 1]) + abs(z) + abs(a[m + 1, m + 1]))
-            if u + v == v:
-                break
-            m -= 1
-        for i in range(m + 2, nn + 1):
-            a[i, i - 2] = 0.0
-            if i != m + 2:
-                a[i, i - 3] = 0.0
-        for k in range(m, nn):
-            if k != m:
-                p = a[k, k - 1]
-                q = a[k + 1, k - 1]
-                r = 0.0
-                if k != nn - 1:
-                    r = a[k + 2, k - 1]
-                x = abs(p) + abs(q) + abs(r)
-                if x != 0.0:
-                    p /= x
-                    q /= x
-                    r /= x
-            s = math.sqrt(p * p + q * q + r * r)
-            if p < 0.0:
-                s = -s
-            if s != 0.0:
-                if k == m:
-                    if l != m:
-                        a[k, k - 1] = -a[k, k - 1]
-                else:
-                    a[k, k - 1] = -s * x
-                p += s
-                x = p / s
-                y = q / s
-                z = r / s
-                q /= p
-                r /= p
-                for j in range(k, nn + 1):
-                    p = a[k, j] + q * a[k + 1, j]
-                    if k != nn - 1:
-                        p += r * a[k + 2, j]
-                        a[k + 2, j] -= p * z
-                    a[k + 1, j] -= p * y
-                    a[k, j] -= p * x
-                mmin = nn if nn < k + 3 else k + 3
-                for i in range(l, mmin + 1):
-                    p = x * a[i, k] + y * a[i, k + 1]
-                    if k != nn - 1:
-                        p += z * a[i, k + 2]
-                        a[i, k + 2] -= p * r
-                    a[i, k + 1] -= p * q
-                    a[i, k] -= p
-    return True
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _deflate(pen, comp, B):
-    """The companion ``comp`` (24, 24) with its 8 eigenvalues at ±i removed, into ``B`` (16, 16).
-
-    Whatever the arm, ``(1 + x3²)⁴`` divides the degree-24 determinant (Raghavan & Roth), and the
-    change of variable fixes ±i: the pencil ``N(i) = N0 − N2 + i N1`` has a 4-dimensional null space
-    (complete-pivoting LU, 8 steps, the rest below 1e-9 of the first pivot), whose vectors ``v`` give
-    the companion's invariant subspace ``[Re v; −Im v], [Im v; Re v]`` (24, 8) for ±i, checked to
-    1e-9. With P X = [L1; L2] U (row pivoting, |L| <= 1), the similarity ``[[X1, 0], [X2, I]]``
-    makes P comp Pᵀ block triangular, its other eigenvalues those of ``A22 − L2 L1⁻¹ A12`` (about 7 µs
-    here; the 16 × 16 eigenvalues then take about two thirds of the 24 × 24's time). Returns False where a check fails (the
-    caller then solves the whole companion)."""
-    Nc = np.empty((12, 12), np.complex128)
-    for r in range(12):
-        for c in range(12):
-            Nc[r, c] = complex(pen[0, r, c] - pen[2, r, c], pen[1, r, c])
-    perm = np.arange(12)
-    p0 = 0.0
-    for s_ in range(8):
-        pr, pc, pm = s_, s_, -1.0
-        for r in range(s_, 12):
-            for c in range(s_, 12):
-                a = abs(Nc[r, c].real) + abs(Nc[r, c].imag)
-                if a > pm:
-                    pm, pr, pc = a, r, c
-        if s_ == 0:
-            p0 = pm
-        if not pm > 0.0:
-            return False
-        if pr != s_:
-            for c in range(12):
-                Nc[s_, c], Nc[pr, c] = Nc[pr, c], Nc[s_, c]
-        if pc != s_:
-            for r in range(12):
-                Nc[r, s_], Nc[r, pc] = Nc[r, pc], Nc[r, s_]
-            perm[s_], perm[pc] = perm[pc], perm[s_]
-        inv = 1.0 / Nc[s_, s_]
-        for r in range(s_ + 1, 12):
-            f = Nc[r, s_] * inv
-            for c in range(s_ + 1, 12):
-                Nc[r, c] -= f * Nc[s_, c]
-    for r in range(8, 12):
-        for c in range(8, 12):
-            if not abs(Nc[r, c].real) + abs(Nc[r, c].imag) <= 1e-9 * p0:
-                return False
-    X = np.empty((24, 8))
-    z = np.empty(12, np.complex128)
-    for k in range(4):
-        for j in range(8, 12):
-            z[j] = 1.0 if j == 8 + k else 0.0
-        for i in range(7, -1, -1):
-            acc = -Nc[i, 8 + k]
-            for j in range(i + 1, 8):
-                acc -= Nc[i, j] * z[j]
-            z[i] = acc / Nc[i, i]
-        for j in range(12):
-            c = perm[j]
-            X[c, 2 * k], X[12 + c, 2 * k] = z[j].real, -z[j].imag
-            X[c, 2 * k + 1], X[12 + c, 2 * k + 1] = z[j].imag, z[j].real
-    # check: comp x₂ₖ = −x₂ₖ₊₁ and comp x₂ₖ₊₁ = x₂ₖ (the top half holds by the companion's form)
-    amax, xmax, res = 0.0, 0.0, 0.0
-    for r in range(12, 24):
-        for c in range(24):
-            amax = max(amax, abs(comp[r, c]))
-    for r in range(24):
-        for c in range(8):
-            xmax = max(xmax, abs(X[r, c]))
-    for k in range(4):
-        for r in range(12, 24):
-            ea, eb = 0.0, 0.0
-            for c in range(24):
-                ea += comp[r, c] * X[c, 2 * k]
-                eb += comp[r, c] * X[c, 2 * k + 1]
-            res = max(res, abs(ea + X[r, 2 * k + 1]), abs(eb - X[r, 2 * k]))
-    if not res <= 1e-9 * (amax + 1.0) * xmax:
-        return False
-    # P X = [L1; L2] U by Gaussian elimination with row pivoting; rows[:8] the pivot rows
-    rows = np.arange(24)
-    for j in range(8):
-        p, pm = j, -1.0
-        for r in range(j, 24):
-            if abs(X[r, j]) > pm:
-                pm, p = abs(X[r, j]), r
-        if not pm > 0.0:
-            return False
-        if p != j:
-            for c in range(8):
-                X[j, c], X[p, c] = X[p, c], X[j, c]
-            rows[j], rows[p] = rows[p], rows[j]
-        for r in range(j + 1, 24):
-            f = X[r, j] / X[j, j]
-            X[r, j] = f  # the multiplier: L's entry
-            for c in range(j + 1, 8):
-                X[r, c] -= f * X[j, c]
-    # W = L1⁻¹ A12 (8, 16), then B = A22 − L2 W, in the pivoted order
-    W = np.empty((8, 16))
-    for i in range(8):
-        for c in range(16):
-            acc = comp[rows[i], rows[8 + c]]
-            for k in range(i):
-                acc -= X[i, k] * W[k, c]
-            W[i, c] = acc
-    for r in range(16):
-        for c in range(16):
-            acc = comp[rows[8 + r], rows[8 + c]]
-            for k in range(8):
-                acc -= X[8 + r, k] * W[k, c]
-            B[r, c] = acc
-    return True
 
 
 _MOBIUS = (0.0, 0.25 * math.pi, 0.5 * math.pi, 0.75 * math.pi)  # x3 = tan(atan(y) + φ), tried in this order
@@ -761,8 +123,8 @@ def _pencil(o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, T, mobius):
         for r in range(3):
             pr[r] = RL[k, r, 0] * w[0] + RL[k, r, 1] * w[1] + RL[k, r, 2] * w[2] + RL[k, r, 3] - o[r]
             lr[r] = RL[k, r, 0] * g[0] + RL[k, r, 1] * g[1] + RL[k, r, 2] * g[2]
-        _fourteen_into(pr, lr, Y[k])
-    coef = _mm(Rinv, Y)  # (9, 14), Kronecker order of (s1, c1, 1) ⊗ (s2, c2, 1)
+        fourteen_into(pr, lr, Y[k])
+    coef = mm(Rinv, Y)  # (9, 14), Kronecker order of (s1, c1, 1) ⊗ (s2, c2, 1)
     Q = np.empty((14, 8))
     P1m = P1.copy()
     for t in range(9):
@@ -775,10 +137,10 @@ def _pencil(o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, T, mobius):
     comp = np.zeros((24, 24))
     Qp = np.zeros((8, 14))
     Nl = np.empty((6, 14))  # the left null space of Q
-    if not _qr_split(Q, Qp, Nl):
+    if not qr_split(Q, Qp, Nl):
         return False, comp, (1.0, 0.0, 0.0, 1.0), pen, Qp, P1m
-    Ss, Sc, S1 = _mm(Nl, Ps), _mm(Nl, Pc), _mm(Nl, P1m)
-    A0, A1, A2 = _mm(S1 + Sc, C), _mm(2.0 * Ss, C), _mm(S1 - Sc, C)  # x3^0, x3^1, x3^2: (6, 9) each
+    Ss, Sc, S1 = mm(Nl, Ps), mm(Nl, Pc), mm(Nl, P1m)
+    A0, A1, A2 = mm(S1 + Sc, C), mm(2.0 * Ss, C), mm(S1 - Sc, C)  # x3^0, x3^1, x3^2: (6, 9) each
     M = np.zeros((3, 12, 12))
     for k, Ak in enumerate((A0, A1, A2)):
         for i in range(3):
@@ -792,7 +154,7 @@ def _pencil(o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, T, mobius):
         pen[2] = a * a * M[2] + a * c_ * M[1] + c_ * c_ * M[0]
         pen[1] = 2.0 * a * b * M[2] + (a * d + b * c_) * M[1] + 2.0 * c_ * d * M[0]
         pen[0] = b * b * M[2] + b * d * M[1] + d * d * M[0]
-        X, ok = _gauss(pen[2].copy(), np.hstack((pen[0], pen[1])))  # N2⁻¹ (N0 | N1): (12, 24)
+        X, ok = gauss_solve(pen[2].copy(), np.hstack((pen[0], pen[1])))  # N2⁻¹ (N0 | N1): (12, 24)
         big = 0.0
         for r in range(12):
             for c2 in range(24):
@@ -804,18 +166,6 @@ def _pencil(o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, T, mobius):
                     comp[12 + r, c2] = -X[r, c2]
             return True, comp, (a, b, c_, d), pen, Qp, P1m
     return False, comp, (1.0, 0.0, 0.0, 1.0), pen, Qp, P1m
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _fourteen_into(p, l, out):
-    pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
-    lp = l[0] * p[0] + l[1] * p[1] + l[2] * p[2]
-    cx, cy, cz = l[1] * p[2] - l[2] * p[1], l[2] * p[0] - l[0] * p[2], l[0] * p[1] - l[1] * p[0]
-    for r in range(3):
-        out[r] = l[r]
-        out[3 + r] = p[r]
-        out[11 + r] = pp * l[r] - 2.0 * lp * p[r]
-    out[6], out[7], out[8], out[9], out[10] = pp, lp, cx, cy, cz
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -849,7 +199,7 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
             z0[r, 0] = rhs12[r]
             for c2 in range(12):
                 Nw[r, c2] = Ny[r, c2]
-        z, ok = _gauss(Nw, z0)
+        z, ok = gauss_solve(Nw, z0)
         if ok:
             for r in range(12):
                 mono[r // 3, r % 3] = z[r, 0]
@@ -883,12 +233,12 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
         q[roles[0]], q[roles[1]] = math.atan2(v[4], v[5]), math.atan2(v[6], v[7])
         q[roles[2]], q[roles[3]], q[roles[4]] = f3 + shift[0], f4 + shift[1], f5 + shift[2]
         jp = roles[5]
-        _chain(H, P, q, jp, A)  # the joints before jp (q[jp] not read)
+        chain_into(H, P, q, jp, A)  # the joints before jp (q[jp] not read)
         for r in range(4):
             for cc in range(4):
                 B[r, cc] = 1.0 if r == cc else 0.0
         for i2 in range(jp + 1, 6):  # the joints after it
-            _times_motion(B, H[i2], P[i2], q[i2], Rs, us, Bs)
+            times_motion(B, H[i2], P[i2], q[i2], Rs, us, Bs)
         # R_jp = R_Aᵀ R_G R_Bᵀ, R_G = R_T R_0ᵀ
         for r in range(3):
             for cc in range(3):
@@ -910,7 +260,7 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
               R6[2, 0] * u0 + R6[2, 1] * u1 + R6[2, 2] * u2)
         cr = (u1 * Ru[2] - u2 * Ru[1], u2 * Ru[0] - u0 * Ru[2], u0 * Ru[1] - u1 * Ru[0])
         q[jp] = math.atan2(hp[0] * cr[0] + hp[1] * cr[1] + hp[2] * cr[2], u0 * Ru[0] + u1 * Ru[1] + u2 * Ru[2])
-        qp = _newton(H, P, T0, T, q, steps)
+        qp = newton_polish(H, P, T0, T, q, steps)
         new = True
         for r in range(6):
             x = qp[r]
@@ -949,9 +299,9 @@ def _all_roots(T, rev, o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, mobius, 
         return np.empty((0, 6))
     wr, wi = np.empty(24), np.empty(24)
     B = np.empty((16, 16))
-    A = B if _deflate(pen, comp, B) else comp
+    A = B if deflate(pen, comp, B) else comp
     n = A.shape[0]
-    if not _eig_hess(A.copy(), wr[:n], wi[:n]) and _eigvals(A, wr[:n], wi[:n]) != 0:
+    if not eig_hess(A.copy(), wr[:n], wi[:n]) and eigvals(A, wr[:n], wi[:n]) != 0:
         return np.empty((0, 6))
     ys = np.empty(n)
     k = 0
@@ -1156,10 +506,10 @@ def lines_of(prep: Prepared) -> tuple:
     return prep.memo(("general_6r", "lines"), make)
 
 
-def elimination_args(m: _Model, s: General6RSettings) -> tuple:
+def elimination_args(m: ArmModel, s: General6RSettings) -> tuple:
     """The arm's arguments of :func:`_all_roots` after the goal (``E`` of :func:`general_pose`)."""
     return (m.reversed, m.eP[m.roles[2]], m.eT0, *m.left, m.right_inv, m.right_L, m.right_c, m.right_h, m.C,
-            _KRON_OF, _MOBIUS, m.eH, m.eP, SHIFT, s.polish_steps, m.roles, s.real_tol)
+            KRON_OF, _MOBIUS, m.eH, m.eP, SHIFT, s.polish_steps, m.roles, s.real_tol)
 
 
 def pose_args(prep: Prepared, s: General6RSettings) -> tuple:
@@ -1184,31 +534,31 @@ def bind_pose(prep: Prepared, s: General6RSettings, limits_on: bool, start_row: 
     return solve1
 
 
-def candidates(m: _Model, T: np.ndarray, s: General6RSettings) -> np.ndarray:
+def candidates(m: ArmModel, T: np.ndarray, s: General6RSettings) -> np.ndarray:
     """Every root of the elimination for the goal ``T`` (4, 4) [m], polished: (k, 6) [rad], k <= 16
     (not yet FK-checked; duplicates merged)."""
     return _all_roots(np.ascontiguousarray(T, dtype=float), *elimination_args(m, s))
 
 
-def _found_all(m: _Model) -> bool:
+def _found_all(m: ArmModel) -> bool:
     """The roots of the poses of three configurations of the arm contain each configuration."""
     s = General6RSettings()
     for q in _CHECK_Q:
-        roots = candidates(m, _fk(m, q), s)
+        roots = candidates(m, fk_model(m, q), s)
         if not any(np.abs(wrap_angles(q - r)).max() < 1e-6 for r in roots):
             return False
     return True
 
 
-def _choice(prep: Prepared) -> tuple[_Model, str | None]:
+def _choice(prep: Prepared) -> tuple[ArmModel, str | None]:
     """(the model to solve with, why the elimination does not apply or None), once per robot: the first
     of split 0 on the arm's chain, on the chain read from the tool back, then split 1 on each (:data:`SPLITS`)
     that finds every test configuration. One can degenerate where another does not (axes 1 and 2
     parallel: split 0 from the tool; a spherical wrist or three parallel axes: split 1)."""
 
     def choose():
-        first = _model(prep)
-        for m in (first, _model(prep, True), _model(prep, False, 1), _model(prep, True, 1)):
+        first = build_model(prep)
+        for m in (first, build_model(prep, True), build_model(prep, False, 1), build_model(prep, True, 1)):
             if _found_all(m):
                 return m, None
         return first, ("the general 6R elimination degenerates for this geometry, whichever way the loop is split "
@@ -1218,7 +568,7 @@ def _choice(prep: Prepared) -> tuple[_Model, str | None]:
     return prep.memo(("general_6r", "model"), choose)
 
 
-def model(prep: Prepared) -> _Model:
+def model(prep: Prepared) -> ArmModel:
     return _choice(prep)[0]
 
 
