@@ -238,6 +238,16 @@ def rpy_from_matrix(R: np.ndarray) -> tuple[float, float, float]:
 
     Well conditioned at and near gimbal lock: pitch from ``atan2``, roll from the last row, yaw
     fitted to what remains (so an ill-determined roll is absorbed by yaw).
+
+    Parameters
+    ----------
+    R : ndarray, shape (3, 3) or (4, 4) [1]
+        A rotation matrix, or a homogeneous transform whose rotation block is used.
+
+    Returns
+    -------
+    roll, pitch, yaw : float
+        Angles [rad].
     """
     R = np.asarray(R, dtype=float)[:3, :3]
     pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))

@@ -64,7 +64,19 @@ pz_from_chain = pz_from_dh  # the name says what it takes since chains are not o
 
 
 def axis_angle_matrix(theta: float, u: np.ndarray) -> np.ndarray:
-    """R(theta, u) of eq. 3.12 (rotation by ``theta`` about the unit vector ``u``)."""
+    """R(theta, u) of eq. 3.12 (rotation by ``theta`` about the unit vector ``u``).
+
+    Parameters
+    ----------
+    theta : float
+        Rotation angle [rad].
+    u : ndarray, shape (3,) [1]
+        Unit rotation axis.
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3)
+    """
     ux, uy, uz = u
     c, s = np.cos(theta), np.sin(theta)
     v = 1 - c
