@@ -71,3 +71,18 @@ def test_every_page_is_in_the_navigation_and_built(site):
         assert f"{page.as_posix()}.md" in nav, page
         built = site / ("" if page.name == "index" else page.as_posix()) / "index.html"
         assert built.is_file(), built
+
+
+def test_every_repository_path_the_docs_name_exists():
+    """A file or folder named in code font (``pipeline/io/archive.py``) is there: moved code moves its docs."""
+    pages = [*(ROOT / "docs").rglob("*.md"), ROOT / "README.md", *(ROOT / "benchmarks" / "results").glob("*.md")]
+    missing = []
+    for page in pages:
+        for span in re.findall(r"`([^`\s]+)`", page.read_text(encoding="utf-8")):
+            if not re.match(r"^(pipeline|tests|benchmarks|workflow|data|profiles|docs|\.ci)/", span):
+                continue
+            if re.search(r"[<*{|]|\b[A-Z]{2,}\b", span):  # a pattern or a placeholder (data/studies/ID.yaml)
+                continue
+            if not (ROOT / span).exists():
+                missing.append(f"{page.relative_to(ROOT)}: {span}")
+    assert not missing
