@@ -174,7 +174,17 @@ def _check_keys(d: dict, required, optional, path: str, where: str) -> None:
 
 
 def orthonormality_error(R) -> float:
-    """``max |R Rᵀ - I|`` of a 3x3 matrix (plain float arithmetic: the same on every machine)."""
+    """``max |R Rᵀ - I|`` of a 3x3 matrix (plain float arithmetic: the same on every machine).
+
+    Parameters
+    ----------
+    R : array_like, shape (3, 3) [1]
+        Nested lists or an array; only the first 3 rows and columns are read.
+
+    Returns
+    -------
+    float
+    """
     R = [[float(x) for x in row[:3]] for row in list(R)[:3]]
     return max(abs(sum(R[i][k] * R[j][k] for k in range(3)) - (1.0 if i == j else 0.0))
                for i in range(3) for j in range(3))
@@ -190,6 +200,15 @@ def nearest_rotation(R) -> list[list[float]]:
 
     Björck-Bowie iteration ``R <- R (3 I - Rᵀ R) / 2`` in plain float arithmetic (no BLAS or LAPACK,
     so the result is bit-identical on every machine); converges quadratically for ``|R Rᵀ - I| < 1``.
+
+    Parameters
+    ----------
+    R : array_like, shape (3, 3) [1]
+        Nested lists or an array; only the first 3 rows and columns are read.
+
+    Returns
+    -------
+    list of list of float, shape (3, 3)
     """
     R = [[float(x) for x in row[:3]] for row in list(R)[:3]]
     for _ in range(60):
@@ -238,6 +257,16 @@ def rpy_from_matrix(R: np.ndarray) -> tuple[float, float, float]:
 
     Well conditioned at and near gimbal lock: pitch from ``atan2``, roll from the last row, yaw
     fitted to what remains (so an ill-determined roll is absorbed by yaw).
+
+    Parameters
+    ----------
+    R : ndarray, shape (3, 3) or (4, 4) [1]
+        A rotation matrix, or a homogeneous transform whose rotation block is used.
+
+    Returns
+    -------
+    roll, pitch, yaw : float
+        Angles [rad].
     """
     R = np.asarray(R, dtype=float)[:3, :3]
     pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
@@ -248,7 +277,19 @@ def rpy_from_matrix(R: np.ndarray) -> tuple[float, float, float]:
 
 
 def origin_matrix(xyz, rpy) -> np.ndarray:
-    """URDF ``<origin xyz rpy>`` as a 4x4 transform ``Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll)``."""
+    """URDF ``<origin xyz rpy>`` as a 4x4 transform ``Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll)``.
+
+    Parameters
+    ----------
+    xyz : array_like, shape (3,) [length]
+        Translation.
+    rpy : array_like, shape (3,) [rad]
+        Roll, pitch, yaw.
+
+    Returns
+    -------
+    T : ndarray, shape (4, 4)
+    """
     T = np.eye(4)
     T[:3, :3] = rpy_matrix(*(float(v) for v in rpy))
     T[:3, 3] = [float(v) for v in xyz]
@@ -446,9 +487,26 @@ def load_robot(path: str | Path) -> RobotModel:
 
 
 def describe_general(model: RobotModel, q0=None) -> str:
-    """A plain-text report of a general-form robot: origins (xyz, rpy), axes, limits, base/tool and
-    the zero-position vectors at ``q0`` (default all zero). For the ``robot`` verb, whose DH report
-    cannot describe a general-form chain.
+    """A plain-text report of a general-form robot.
+
+    Origins (xyz, rpy), axes, limits, base/tool and the zero-position vectors at ``q0``. For the
+    ``robot`` verb, whose DH report cannot describe a general-form chain.
+
+    Parameters
+    ----------
+    model : RobotModel
+        A general-form robot.
+    q0 : array_like, shape (n,) [rad | length], optional
+        Where to take the zero-position vectors (default all zero).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        For a DH robot.
     """
     from pipeline.kinematics.zero_position import pz_from_dh
 

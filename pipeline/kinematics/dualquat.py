@@ -33,11 +33,12 @@ _D[4:, :4, 4:] = _H
 
 
 def q_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product (eq. 18 of 000_7e3cb7ad5ee98ff0.txt).
+    """Hamilton product ``p q`` (eq. 18 of 000_7e3cb7ad5ee98ff0.txt).
 
     Parameters
     ----------
-    p, q : ndarray, shape (..., 4), w-first
+    p, q : ndarray, shape (..., 4) [1]
+        Quaternions, w-first; leading axes broadcast.
 
     Returns
     -------
@@ -49,19 +50,50 @@ def q_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def q_conj(q: np.ndarray) -> np.ndarray:
-    """Quaternion conjugate ``(w, -v)``; shape (..., 4)."""
+    """Quaternion conjugate ``(w, -v)``.
+
+    Parameters
+    ----------
+    q : ndarray, shape (..., 4) [1]
+        Quaternions, w-first.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+    """
     return np.asarray(q, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0])
 
 
 def dq_mul(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """Dual-quaternion product (eq. 28 of 000): ``(p_r q_r, p_r q_d + p_d q_r)``; shapes (..., 8)."""
+    """Dual-quaternion product (eq. 28 of 000): ``(p_r q_r, p_r q_d + p_d q_r)``.
+
+    Parameters
+    ----------
+    P, Q : ndarray, shape (..., 8) [1 | length]
+        Dual quaternions ``(w, x, y, z, w_d, x_d, y_d, z_d)``: real part dimensionless, dual part
+        in the chain's length unit; leading axes broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., 8)
+    """
     P = np.asarray(P, dtype=float)
     Q = np.asarray(Q, dtype=float)
     return np.einsum("...i,ijk,...j->...k", P, _D, Q)
 
 
 def dq_conj(Q: np.ndarray) -> np.ndarray:
-    """Quaternion conjugate of both parts (eq. 29 of 000); for a unit DQ this is its inverse."""
+    """Quaternion conjugate of both parts (eq. 29 of 000); for a unit DQ this is its inverse.
+
+    Parameters
+    ----------
+    Q : ndarray, shape (..., 8) [1 | length]
+        Dual quaternions.
+
+    Returns
+    -------
+    ndarray, shape (..., 8)
+    """
     Q = np.asarray(Q, dtype=float)
     return np.concatenate([q_conj(Q[..., :4]), q_conj(Q[..., 4:])], axis=-1)
 
@@ -71,11 +103,13 @@ def quat_from_matrix(R: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    R : ndarray, shape (..., 3, 3) or (..., 4, 4) (the rotation block is used)
+    R : ndarray, shape (..., 3, 3) or (..., 4, 4) [1]
+        Rotation matrices, or homogeneous transforms whose rotation block is used.
 
     Returns
     -------
-    q : ndarray, shape (..., 4), w-first
+    q : ndarray, shape (..., 4)
+        w-first.
     """
     R = np.asarray(R, dtype=float)[..., :3, :3]
     tr = R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2]
@@ -95,7 +129,17 @@ def quat_from_matrix(R: np.ndarray) -> np.ndarray:
 
 
 def matrix_from_quat(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a unit quaternion; (..., 4) -> (..., 3, 3)."""
+    """Rotation matrix of a unit quaternion.
+
+    Parameters
+    ----------
+    q : ndarray, shape (..., 4) [1]
+        Unit quaternions, w-first.
+
+    Returns
+    -------
+    R : ndarray, shape (..., 3, 3)
+    """
     w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
     return np.stack(
         [
@@ -108,7 +152,17 @@ def matrix_from_quat(q: np.ndarray) -> np.ndarray:
 
 
 def dq_from_transform(T: np.ndarray) -> np.ndarray:
-    """Unit DQ of a homogeneous transform; (..., 4, 4) -> (..., 8), ``q_d = 1/2 (0, t) q_r``."""
+    """Unit DQ of a homogeneous transform, ``q_d = 1/2 (0, t) q_r``.
+
+    Parameters
+    ----------
+    T : ndarray, shape (..., 4, 4) [length]
+        Homogeneous transforms; the translation in any length unit, kept in the dual part.
+
+    Returns
+    -------
+    Q : ndarray, shape (..., 8)
+    """
     T = np.asarray(T, dtype=float)
     qr = quat_from_matrix(T)
     t = np.concatenate([np.zeros(T.shape[:-2] + (1,)), T[..., :3, 3]], axis=-1)
@@ -116,7 +170,17 @@ def dq_from_transform(T: np.ndarray) -> np.ndarray:
 
 
 def dq_to_transform(Q: np.ndarray) -> np.ndarray:
-    """Homogeneous transform of a unit DQ (eqs. 37-38 of 000: ``t = 2 q_d q_r*``); (..., 8) -> (..., 4, 4)."""
+    """Homogeneous transform of a unit DQ (eqs. 37-38 of 000: ``t = 2 q_d q_r*``).
+
+    Parameters
+    ----------
+    Q : ndarray, shape (..., 8) [1 | length]
+        Unit dual quaternions.
+
+    Returns
+    -------
+    T : ndarray, shape (..., 4, 4)
+    """
     Q = np.asarray(Q, dtype=float)
     T = np.zeros(Q.shape[:-1] + (4, 4))
     T[..., :3, :3] = matrix_from_quat(Q[..., :4])
@@ -150,12 +214,20 @@ def dq_from_dh(a, alpha, d, theta, convention: str = "standard") -> np.ndarray:
 
     Parameters
     ----------
-    a, alpha, d, theta : array_like, broadcastable (...) [length, rad, length, rad]
+    a, d : array_like, shape (...) [length]
+        Link length and offset; the four parameters broadcast against each other.
+    alpha, theta : array_like, shape (...) [rad]
+        Link twist and joint angle.
     convention : {"standard", "modified"}
 
     Returns
     -------
     Q : ndarray, shape (..., 8)
+
+    Raises
+    ------
+    ValueError
+        For another convention.
     """
     a, alpha, d, theta = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (a, alpha, d, theta)))
     if convention == "standard":
@@ -186,9 +258,12 @@ def dq_axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np
 
     Parameters
     ----------
-    axes : ndarray, shape (n, 3)          unit joint axes
+    axes : ndarray, shape (n, 3) [1]
+        Unit joint axes.
     prismatic : ndarray of bool, shape (n,)
+        Which joints are prismatic.
     q : ndarray, shape (..., n) [rad | length]
+        Joint values.
 
     Returns
     -------

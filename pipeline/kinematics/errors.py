@@ -8,7 +8,17 @@ from pipeline.kinematics.dualquat import dq_conj, dq_from_transform, dq_mul, q_c
 
 
 def position_error(T_goal: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """``p_goal - p``; poses (..., 4, 4) -> (..., 3) [length]."""
+    """Position error ``p_goal - p``.
+
+    Parameters
+    ----------
+    T_goal, T : ndarray, shape (..., 4, 4) [length]
+        Goal and current poses.
+
+    Returns
+    -------
+    ndarray, shape (..., 3) [length]
+    """
     return np.asarray(T_goal)[..., :3, 3] - np.asarray(T)[..., :3, 3]
 
 
@@ -16,7 +26,16 @@ def orientation_error_quat_vec(T_goal: np.ndarray, T: np.ndarray) -> np.ndarray:
     """Vector part of ``q_goal q*`` with the sign chosen so that w >= 0 (eq. 64 of 000).
 
     Equals ``sin(angle/2) * axis`` of the rotation that takes the current orientation to the goal,
-    expressed in the base frame. Poses (..., 4, 4) -> (..., 3) [1].
+    expressed in the base frame.
+
+    Parameters
+    ----------
+    T_goal, T : ndarray, shape (..., 4, 4) [length]
+        Goal and current poses (only the rotation blocks are read).
+
+    Returns
+    -------
+    ndarray, shape (..., 3) [1]
     """
     qrel = q_mul(quat_from_matrix(T_goal), q_conj(quat_from_matrix(T)))
     qrel = np.where(qrel[..., :1] < 0, -qrel, qrel)
@@ -26,7 +45,14 @@ def orientation_error_quat_vec(T_goal: np.ndarray, T: np.ndarray) -> np.ndarray:
 def orientation_error_axis_angle(T_goal: np.ndarray, T: np.ndarray) -> np.ndarray:
     """Rotation vector ``angle * axis`` of ``R_goal R^T`` (base frame), angle in [0, pi].
 
-    Poses (..., 4, 4) -> (..., 3) [rad].
+    Parameters
+    ----------
+    T_goal, T : ndarray, shape (..., 4, 4) [length]
+        Goal and current poses (only the rotation blocks are read).
+
+    Returns
+    -------
+    ndarray, shape (..., 3) [rad]
     """
     qrel = q_mul(quat_from_matrix(T_goal), q_conj(quat_from_matrix(T)))
     qrel = np.where(qrel[..., :1] < 0, -qrel, qrel)
@@ -38,7 +64,17 @@ def orientation_error_axis_angle(T_goal: np.ndarray, T: np.ndarray) -> np.ndarra
 
 
 def orientation_error_angle(T_goal: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Angle of the rotation between the two orientations; (..., 4, 4) -> (...) [rad] in [0, pi]."""
+    """Angle of the rotation between the two orientations, in [0, pi].
+
+    Parameters
+    ----------
+    T_goal, T : ndarray, shape (..., 4, 4) [length]
+        Goal and current poses (only the rotation blocks are read).
+
+    Returns
+    -------
+    ndarray, shape (...) [rad]
+    """
     return np.linalg.norm(orientation_error_axis_angle(T_goal, T), axis=-1)
 
 
@@ -47,7 +83,16 @@ def relative_dq_norm(T_goal: np.ndarray, T: np.ndarray) -> np.ndarray:
 
     000_7e3cb7ad5ee98ff0.txt never gives its error norm (notes §10.2); this is the reading
     under which ‖erro‖ = 1 at the goal. For a unit DQ it equals ``sqrt(1 + |t|^2 / 4)``, with t
-    the translation of ``T_goal T^-1``. Poses (..., 4, 4) -> (...) [1].
+    the translation of ``T_goal T^-1``.
+
+    Parameters
+    ----------
+    T_goal, T : ndarray, shape (..., 4, 4) [length]
+        Goal and current poses.
+
+    Returns
+    -------
+    ndarray, shape (...) [1]
     """
     Q = dq_mul(dq_from_transform(T_goal), dq_conj(dq_from_transform(T)))
     return np.linalg.norm(Q, axis=-1)

@@ -152,17 +152,35 @@ def _errors_of(r0, r1, r2, r3, d0, d1, d2, d3, g, o, st):
 
 @numba.njit(cache=True, error_model="numpy")
 def pose_check(K, axis, offset, prism, q, Tg, buf):
-    """Errors of joint values ``q`` (n,) against the goal ``Tg`` (4, 4); ``buf`` is unused (kept for
-    the callers' signature).
+    """Errors of joint values ``q`` against the goal ``Tg``, one pose, no allocation.
+
+    :func:`pose_check8` gives the same floats, bit for bit, for 8 poses at once.
+
+    Parameters
+    ----------
+    K : ndarray, shape (n + 1, 8) [1 | length]
+        Constant DQs between the motions (base and tool folded in), from :func:`check_model`.
+    axis : ndarray, shape (n, 3) [1]
+        Unit joint axes, each in its motion's own frame.
+    offset : ndarray, shape (n,) [rad | length]
+        Added to the joint values.
+    prism : ndarray of bool, shape (n,)
+        Which joints are prismatic.
+    q : ndarray, shape (n,) [rad | length]
+        Joint values.
+    Tg : ndarray, shape (4, 4) [length]
+        Goal pose.
+    buf : ndarray, shape (m,) [1]
+        Unused (kept for the callers' signature).
 
     Returns
     -------
-    dp : float      |p_goal - p| [length]
-    angle : float   rotation angle of ``R_goal R^T`` in [0, pi] [rad]
-    t : float       |translation of T_goal T^-1| [length]
-    (NaN everywhere when ``q`` holds a non-finite value.)
-
-    :func:`pose_check8` gives the same floats, bit for bit, for 8 poses at once.
+    dp : float
+        ``|p_goal - p|`` [length].
+    angle : float
+        Rotation angle of ``R_goal R^T`` [rad], in [0, pi].
+    t : float
+        ``|translation of T_goal T^-1|`` [length]. All three are NaN when ``q`` holds a non-finite value.
     """
     for i in range(q.shape[0]):
         if not math.isfinite(q[i]):
@@ -183,16 +201,36 @@ CHECK8_SCRATCH = 200  # floats of pose_check8's scratch besides 8 per joint
 
 @numba.njit(cache=True, error_model="numpy")
 def pose_check8(K, axis, offset, prism, Q, goals, k0, W, out):
-    """:func:`pose_check` of the 8 rows ``k0 .. k0 + 7`` of ``Q`` (N, n) against ``goals`` (N, 4, 4), the
-    same floats bit for bit, into ``out`` (3, 8): |dp|, angle and |t| per row. ``W`` (at least
-    :data:`CHECK8_SCRATCH` + 8 n floats) is scratch.
+    """:func:`pose_check` of the 8 rows ``k0 .. k0 + 7`` of ``Q``, the same floats bit for bit.
 
     The poses are the vector lanes. Every value a pass reads or writes lies in the one array ``W`` at a
     constant offset (quantity × 8 + row, indexed unsigned), so the compiler sees that the rows do not
     overlap and runs the pass as vector instructions, 8 rows at once with AVX-512: each row's dual
     quaternion at 0-63, the present joint's values at 64-71, the goals' 12 values at 72-167, the results
     at 168-191, every joint's values from 200. A block with a value :func:`sincos_core` does not take
-    (NaN, infinite, beyond 2e5 [rad | length]) is checked again row by row."""
+    (NaN, infinite, beyond 2e5 [rad | length]) is checked again row by row.
+
+    Parameters
+    ----------
+    K : ndarray, shape (n + 1, 8) [1 | length]
+        Constant DQs between the motions (base and tool folded in), from :func:`check_model`.
+    axis : ndarray, shape (n, 3) [1]
+        Unit joint axes, each in its motion's own frame.
+    offset : ndarray, shape (n,) [rad | length]
+        Added to the joint values.
+    prism : ndarray of bool, shape (n,)
+        Which joints are prismatic.
+    Q : ndarray, shape (N, n) [rad | length]
+        Joint values, one row per pose.
+    goals : ndarray, shape (N, 4, 4) [length]
+        Goal poses.
+    k0 : int
+        First of the 8 rows.
+    W : ndarray, shape (CHECK8_SCRATCH + 8 n,) [1]
+        Scratch (at least :data:`CHECK8_SCRATCH` + 8 n floats).
+    out : ndarray, shape (3, 8) [length | rad]
+        Written: ``|dp|``, angle and ``|t|`` per row.
+    """
     n = Q.shape[1]
     for lane in range(8):
         for c in range(8):
@@ -258,6 +296,28 @@ def meets(crit, tol_pos, tol_rot, tol_dq, dp, ang, t):
 
 @numba.njit(cache=True, error_model="numpy")
 def check_one(K, axis, offset, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, buf):
-    """(meets the criterion, |dp|, angle, |t|) of one solution."""
+    """(meets the criterion, ``|dp|``, angle, ``|t|``) of one solution.
+
+    Parameters
+    ----------
+    K : ndarray, shape (n + 1, 8) [1 | length]
+        Constant DQs between the motions (base and tool folded in), from :func:`check_model`.
+    axis : ndarray, shape (n, 3) [1]
+        Unit joint axes, each in its motion's own frame.
+    offset : ndarray, shape (n,) [rad | length]
+        Added to the joint values.
+    prism : ndarray of bool, shape (n,)
+        Which joints are prismatic.
+    q : ndarray, shape (n,) [rad | length]
+        Joint values.
+    Tg : ndarray, shape (4, 4) [length]
+        Goal pose.
+    crit : int
+        Criterion code (:data:`pipeline.solvers.base.CRITERION_CODE`).
+    tol_pos, tol_rot, tol_dq : float
+        Position [length], orientation [rad] and dual-quaternion-norm tolerances.
+    buf : ndarray, shape (m,) [1]
+        Unused (kept for the callers' signature).
+    """
     dp, ang, t = pose_check(K, axis, offset, prism, q, Tg, buf)
     return meets(crit, tol_pos, tol_rot, tol_dq, dp, ang, t), dp, ang, t

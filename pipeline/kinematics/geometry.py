@@ -91,8 +91,24 @@ def joint_lines(chain: Chain) -> Lines:
 
 
 def line_relation(h1, p1, h2, p2) -> tuple[float, float, np.ndarray | None]:
-    """Angle [rad] between two lines, their closest distance [length] and, when they are not
-    parallel, the midpoint of their common normal (shape (3,))."""
+    """Angle between two lines, their closest distance and the midpoint of their common normal.
+
+    Parameters
+    ----------
+    h1, h2 : array_like, shape (3,) [1]
+        Unit directions.
+    p1, p2 : array_like, shape (3,) [length]
+        A point of each line.
+
+    Returns
+    -------
+    angle : float
+        [rad], in [0, pi/2].
+    distance : float
+        [length].
+    midpoint : ndarray, shape (3,), or None
+        [length]; None when the lines are parallel.
+    """
     h1, h2 = np.asarray(h1, float), np.asarray(h2, float)
     c = np.cross(h1, h2)
     s = float(np.linalg.norm(c))
@@ -112,7 +128,23 @@ def line_relation(h1, p1, h2, p2) -> tuple[float, float, np.ndarray | None]:
 
 
 def common_point(h, p, idx) -> tuple[np.ndarray, float]:
-    """The point nearest (least squares) to the lines ``idx`` and its largest distance to them."""
+    """The point nearest (least squares) to the lines ``idx`` and its largest distance to them.
+
+    Parameters
+    ----------
+    h : ndarray, shape (n, 3) [1]
+        Unit line directions.
+    p : ndarray, shape (n, 3) [length]
+        A point of each line.
+    idx : sequence of int
+        The lines to use.
+
+    Returns
+    -------
+    x : ndarray, shape (3,) [length]
+    worst : float
+        [length].
+    """
     A = np.zeros((3, 3))
     b = np.zeros(3)
     for i in idx:
@@ -254,7 +286,19 @@ def fix_joint(lines: Lines, k: int, value: float) -> Lines:
 
 
 def axis_rotation(h, angle: float) -> np.ndarray:
-    """Rotation matrix (3, 3) by ``angle`` [rad] about the unit vector ``h`` (Rodrigues)."""
+    """Rotation matrix by ``angle`` about the unit vector ``h`` (Rodrigues).
+
+    Parameters
+    ----------
+    h : array_like, shape (3,) [1]
+        Unit rotation axis.
+    angle : float
+        [rad].
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3)
+    """
     h = np.asarray(h, float)
     K = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
     return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * (K @ K)

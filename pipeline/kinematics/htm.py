@@ -10,7 +10,17 @@ from pipeline.kinematics.chain import Chain, dh_transform  # noqa: F401  (re-exp
 
 
 def rot_x(angle: np.ndarray) -> np.ndarray:
-    """Homogeneous rotation about x. ``angle`` (...,) [rad] -> (..., 4, 4)."""
+    """Homogeneous rotation about x.
+
+    Parameters
+    ----------
+    angle : ndarray, shape (...) [rad]
+        Rotation angles.
+
+    Returns
+    -------
+    T : ndarray, shape (..., 4, 4)
+    """
     c, s = np.cos(angle), np.sin(angle)
     T = np.zeros(np.shape(angle) + (4, 4))
     T[..., 0, 0] = 1.0
@@ -20,9 +30,20 @@ def rot_x(angle: np.ndarray) -> np.ndarray:
 
 
 def mul4(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """``A @ B`` of stacks of 4x4 matrices by element-wise arithmetic (no BLAS: the same bits on every
-    machine, whatever BLAS kernel it picks). Each entry is ``((a0 b0 + a1 b1) + a2 b2) + a3 b3``,
-    products and sums rounded one by one."""
+    """``A @ B`` of stacks of 4x4 matrices by element-wise arithmetic.
+
+    No BLAS: the same bits on every machine, whatever BLAS kernel it picks. Each entry is
+    ``((a0 b0 + a1 b1) + a2 b2) + a3 b3``, products and sums rounded one by one.
+
+    Parameters
+    ----------
+    A, B : ndarray, shape (..., 4, 4) [length]
+        Homogeneous transforms; leading axes broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., 4, 4)
+    """
     shape = np.broadcast_shapes(A.shape, B.shape)
     out = np.empty(shape)
     for i in range(4):
@@ -33,7 +54,19 @@ def mul4(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
 
 def transform_points(T: np.ndarray, P: np.ndarray) -> np.ndarray:
-    """Points ``P`` (m, 3) moved by the homogeneous transform ``T`` (4, 4), element-wise (no BLAS)."""
+    """Points moved by a homogeneous transform, element-wise (no BLAS).
+
+    Parameters
+    ----------
+    T : ndarray, shape (4, 4) [length]
+        The transform.
+    P : ndarray, shape (m, 3) [length]
+        The points, in the transform's length unit.
+
+    Returns
+    -------
+    ndarray, shape (m, 3) [length]
+    """
     P = np.asarray(P, dtype=float)
     return np.stack([((T[i, 0] * P[:, 0] + T[i, 1] * P[:, 1]) + T[i, 2] * P[:, 2]) + T[i, 3] for i in range(3)], axis=1)
 
@@ -43,9 +76,12 @@ def axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np.nd
 
     Parameters
     ----------
-    axes : ndarray, shape (n, 3)         unit joint axes
+    axes : ndarray, shape (n, 3) [1]
+        Unit joint axes.
     prismatic : ndarray of bool, shape (n,)
+        Which joints are prismatic.
     q : ndarray, shape (..., n) [rad | length]
+        Joint values.
 
     Returns
     -------
@@ -65,7 +101,23 @@ def axis_motion(axes: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np.nd
 
 
 def link_transforms(chain: Chain, q: np.ndarray) -> np.ndarray:
-    """Every joint's link transform ``T_i(q_i)``, any convention: shape (..., n, 4, 4)."""
+    """Every joint's link transform ``T_i(q_i)``, any convention.
+
+    Parameters
+    ----------
+    chain : Chain
+    q : ndarray, shape (..., n) [rad | length]
+        Joint values.
+
+    Returns
+    -------
+    ndarray, shape (..., n, 4, 4)
+
+    Raises
+    ------
+    ValueError
+        If a general-form chain gets the wrong number of joint values.
+    """
     q = np.asarray(q, dtype=float)
     if chain.general:
         if q.shape[-1] != chain.n:

@@ -46,10 +46,20 @@ class PZModel:
 
 
 def pz_from_dh(chain: Chain, q0) -> PZModel:
-    """Appendix 1 Case 3: a chain at ``q0`` (n,) -> its zero-position description.
+    """Appendix 1 Case 3: a chain at ``q0`` -> its zero-position description.
 
     Any convention: for a DH chain the axis points are the DH origins the joint acts at; for a
     general-form chain each joint's frame after its fixed origin (before its own motion).
+
+    Parameters
+    ----------
+    chain : Chain
+    q0 : array_like, shape (n,) [rad | length]
+        The zero position.
+
+    Returns
+    -------
+    PZModel
     """
     q0 = np.asarray(q0, dtype=float)
     u, o, p = joint_axes(chain, q0)
@@ -64,7 +74,19 @@ pz_from_chain = pz_from_dh  # the name says what it takes since chains are not o
 
 
 def axis_angle_matrix(theta: float, u: np.ndarray) -> np.ndarray:
-    """R(theta, u) of eq. 3.12 (rotation by ``theta`` about the unit vector ``u``)."""
+    """R(theta, u) of eq. 3.12 (rotation by ``theta`` about the unit vector ``u``).
+
+    Parameters
+    ----------
+    theta : float
+        Rotation angle [rad].
+    u : ndarray, shape (3,) [1]
+        Unit rotation axis.
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3)
+    """
     ux, uy, uz = u
     c, s = np.cos(theta), np.sin(theta)
     v = 1 - c
@@ -76,7 +98,16 @@ def axis_angle_matrix(theta: float, u: np.ndarray) -> np.ndarray:
 def pz_fk(pz: PZModel, q) -> np.ndarray:
     """Zero-position forward kinematics (eqs 3.5-3.17; prismatic joints keep their body vector).
 
-    Returns T, shape (4, 4): effector pose in the world frame.
+    Parameters
+    ----------
+    pz : PZModel
+    q : array_like, shape (n,) [rad | length]
+        Joint values.
+
+    Returns
+    -------
+    T : ndarray, shape (4, 4)
+        Effector pose in the world frame [length].
     """
     q = np.asarray(q, float)
     R = np.eye(3)
@@ -96,7 +127,21 @@ def pz_fk(pz: PZModel, q) -> np.ndarray:
 
 
 def pz_axes(pz: PZModel, q) -> tuple[np.ndarray, np.ndarray]:
-    """Joint axes and axis points (n, 3) at ``q`` from the zero-position description (world frame)."""
+    """Joint axes and axis points at ``q`` from the zero-position description (world frame).
+
+    Parameters
+    ----------
+    pz : PZModel
+    q : array_like, shape (n,) [rad | length]
+        Joint values.
+
+    Returns
+    -------
+    axes : ndarray, shape (n, 3)
+        Unit joint axes [1].
+    points : ndarray, shape (n, 3)
+        A point of each axis [length].
+    """
     q = np.asarray(q, float)
     n = len(pz.types)
     R = np.eye(3)
