@@ -313,7 +313,7 @@ def check_one(K, axis, offset, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, buf
     Tg : ndarray, shape (4, 4) [length]
         Goal pose.
     crit : int
-        Criterion code (:data:`pipeline.solvers.base.CRITERION_CODE`).
+        Criterion code (:data:`pipeline.solvers.core.CRITERION_CODE`).
     tol_pos, tol_rot, tol_dq : float
         Position [length], orientation [rad] and dual-quaternion-norm tolerances.
     buf : ndarray, shape (m,) [1]
