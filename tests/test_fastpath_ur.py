@@ -76,7 +76,7 @@ def test_fused_call_equals_the_generic_path_bit_for_bit(name, extra):
 @pytest.mark.parametrize("name", ["ur5", "ur_variant", "puma560_mm"])
 def test_fused_success_is_the_dual_quaternion_check(name):
     """position_error and success come from the independent compiled dual-quaternion FK
-    (:func:`pipeline.solvers.core.check`), never from the closed form's own kinematics."""
+    (:func:`pipeline.solvers.core.finish`), never from the closed form's own kinematics."""
     meth, model, sd = CASES[name]
     s = make_settings(meth, sd)
     prep = prepare(meth, model, s)

@@ -1,7 +1,7 @@
 """What every IK method shares: settings, the prepared robot, the result types, the one result rule
 (``finish``), the driver, the registry and the one timing definition.
 
-Modules, bottom to top: ``settings`` -> ``prepared`` -> ``results`` -> ``finish`` -> ``driver`` ->
+Modules, bottom to top: ``settings`` -> ``prepared`` -> ``results`` -> ``rule`` (``finish``) -> ``driver`` ->
 ``registry``; ``timing`` and ``models`` (the arm as the all-solution methods and the peers take it)
 stand beside them. This package imports nothing from the method folders (``iterative``,
 ``closed_form``, ``peers``); ``tests/test_layers.py`` checks it.
@@ -14,7 +14,7 @@ from pipeline.solvers.core.settings import (MAX_LIBRARY_TIMEOUT_S, MAX_SETTING_F
                                             check_data_path, setting)
 from pipeline.solvers.core.prepared import Prepared, inv_rigid
 from pipeline.solvers.core.results import BatchRaw, BatchResult, IKResult, InfoRows, Raw
-from pipeline.solvers.core.finish import (check, check_fields, check_pack, finish, finish_args, finish_batch,
+from pipeline.solvers.core.rule import (check, check_fields, check_pack, finish, finish_args, finish_batch,
                                           finish_packed, fused_inputs, meets, nearest_of, nearest_rep, pose_errors,
                                           unpack_check, verify, within_limits, wrap_into_limits)
 

@@ -55,7 +55,7 @@ inside the origins), so goals go in as given (world frame, metres) and answers c
 
 Shared by both (and as ``ur_analytic_ik``): ``iterations`` = 0, no trace. Every solution the library
 returns (least-squares ones included, counted in ``info``) is checked by our compiled FK (that of
-:func:`pipeline.solvers.core.check`) against the goal with the settings' criterion and tolerances,
+:func:`pipeline.solvers.core.finish`) against the goal with the settings' criterion and tolerances,
 the ones the result itself is judged by; the FK-valid ones are kept in ``solutions`` (wrapped to
 (−π, π]; under ``require_limits`` only those that lie within the limits after moving revolute joints
 by 2π, as they lie there) and ``info["n_solutions"]`` counts them. ``q`` is the kept solution nearest
@@ -131,7 +131,7 @@ def _result(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Settings
     ls = np.asarray(ls, dtype=bool).reshape(-1)
     returned, n_ls = len(S), int(ls.sum()) if len(ls) == len(S) else 0
     q0 = np.asarray(q_start, dtype=float)
-    # pipeline.solvers.core.check (the compiled FK check every result gets), its per-call set-up hoisted
+    # pipeline.solvers.core.finish (the compiled FK check every result gets), its per-call set-up hoisted
     K, axis, offset, prism = prep.check
     crit, buf = CRITERION_CODE[s.criterion], np.empty(8)
     finite = np.isfinite(S).all(axis=1)

@@ -1,4 +1,4 @@
-"""The one result rule every IK method shares: stop reasons, settings, the prepared robot, the result, the FK check.
+"""The one result rule every IK method shares (``finish``), with the independent FK check and the limits.
 
 Call shape (see :mod:`pipeline.solvers.core.registry`)::
 
