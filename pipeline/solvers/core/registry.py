@@ -93,6 +93,23 @@ _REGISTRY: dict[str, Solver] = {}
 
 
 def register(solver: Solver) -> Solver:
+    """Add a method to the registry (each method module calls this once at import).
+
+    Parameters
+    ----------
+    solver : Solver
+        The method: its name, settings type, applicability test and kernel call.
+
+    Returns
+    -------
+    Solver
+        ``solver`` itself.
+
+    Raises
+    ------
+    ValueError
+        An unknown ``kind``, a name registered twice, or a setting called ``method``.
+    """
     if solver.kind not in KINDS:
         raise ValueError(f"solver {solver.name}: kind {solver.kind!r} not in {KINDS}")
     if solver.name in _REGISTRY:
@@ -104,10 +121,32 @@ def register(solver: Solver) -> Solver:
 
 
 def names() -> list[str]:
+    """The registered solver names, in registration order (the order of ``python -m pipeline solvers``).
+
+    Returns
+    -------
+    list of str
+    """
     return list(_REGISTRY)
 
 
 def get(name: str) -> Solver:
+    """The registered solver ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A registered solver name (:func:`names`).
+
+    Returns
+    -------
+    Solver
+
+    Raises
+    ------
+    SettingsError
+        No solver of that name (the message lists the registered ones).
+    """
     try:
         return _REGISTRY[name]
     except KeyError:
@@ -185,12 +224,15 @@ def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: 
 
     Parameters
     ----------
-    name : str                          a registered solver (``python -m pipeline solvers``)
-    robot : RobotModel or Prepared      the binding of :func:`bind` is cached, so repeated calls
-                                        are cheap: for a Prepared robot with a Settings object,
-                                        and for a robot model with a settings mapping or None
-    T_goal : ndarray, shape (4, 4)      goal pose in the robot file's length unit
-    q_start : ndarray, shape (n,)       start joint values [rad | robot file's length unit]
+    name : str
+        A registered solver (``python -m pipeline solvers``).
+    robot : RobotModel or Prepared
+        The binding of :func:`bind` is cached, so repeated calls are cheap: for a Prepared robot with
+        a Settings object, and for a robot model with a settings mapping or None.
+    T_goal : ndarray, shape (4, 4) [robot file's length unit]
+        Goal pose (homogeneous transform; rotation part unitless).
+    q_start : ndarray, shape (n,) [rad | robot file's length unit]
+        Start joint values.
     settings : Settings, mapping or None
         The solver's settings (SI units); None = the registered defaults.
     seed : int
@@ -237,13 +279,21 @@ def solve_batch(name: str, robot: RobotModel | Prepared, goals: np.ndarray, star
     Parameters
     ----------
     name : str
+        A registered solver (``python -m pipeline solvers``).
     robot : RobotModel or Prepared
-    goals : ndarray, shape (N, 4, 4)     goal poses in the robot file's length unit
-    starts : ndarray, shape (N, n)       start joint values [rad | robot file's length unit]
+        The robot (see :func:`solve` for the cached binding).
+    goals : ndarray, shape (N, 4, 4) [robot file's length unit]
+        Goal poses.
+    starts : ndarray, shape (N, n) [rad | robot file's length unit]
+        Start joint values, one row per goal.
     settings : Settings, mapping or None
-    seeds : array_like of int, shape (N,), optional   per-problem seeds (stochastic methods); default 0..N-1
-    threads : int, optional              compiled threads (default: numba's, i.e. every core)
-    traces : bool                        keep every problem's per-iteration trace
+        The solver's settings (SI units); None = the registered defaults.
+    seeds : array_like of int, shape (N,), optional
+        Per-problem seeds (stochastic methods); default 0..N-1.
+    threads : int, optional
+        Compiled threads (default: numba's, i.e. every core).
+    traces : bool
+        Keep every problem's per-iteration trace.
 
     Returns
     -------

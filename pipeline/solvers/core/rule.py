@@ -105,8 +105,23 @@ def verify(model: RobotModel, T_goal: np.ndarray, q: np.ndarray, settings: Setti
 
     Uses the numpy reference FK (not a compiled kernel). The DQ norm of ``Q_goal Q*`` is taken in
     its closed form ``sqrt(1 + |t|^2 / 4)``, t the translation of ``T_goal T^-1`` (tested against the
-    explicit dual-quaternion product in tests/test_kinematics.py). ``settings`` must already be in
-    the model's unit (:meth:`Settings.converted`).
+    explicit dual-quaternion product in tests/test_kinematics.py).
+
+    Parameters
+    ----------
+    model : RobotModel
+        The robot, in the unit the settings are in.
+    T_goal : ndarray, shape (4, 4) [model's length unit]
+        Goal pose.
+    q : ndarray, shape (n,) [rad | model's length unit]
+        The solution to check.
+    settings : Settings
+        Success criterion and tolerances, already in the model's unit (:meth:`Settings.converted`).
+
+    Returns
+    -------
+    tuple of (bool, float, float)
+        Meets the criterion; ``|dp|`` [length]; rotation angle [rad].
     """
     dp, ang, t = pose_errors(model, T_goal, q)
     return meets(settings, dp, ang, t), dp, ang
@@ -141,6 +156,21 @@ def within_limits(q: np.ndarray, limits: np.ndarray, prismatic: np.ndarray, tol:
 
     A wrapped value just below ``lo + 2 pi`` (within ``tol``) counts as ``lo``. Compiled (called
     once per solve).
+
+    Parameters
+    ----------
+    q : ndarray, shape (n,) [rad | length]
+        Joint values.
+    limits : ndarray, shape (n, 2) [rad | length]
+        Lower and upper limit per joint (+-inf where none).
+    prismatic : ndarray of bool, shape (n,)
+        Which joints are prismatic (never wrapped).
+    tol : float
+        Tolerance [rad | length].
+
+    Returns
+    -------
+    bool
     """
     return bool(_within(np.asarray(q, dtype=float), np.asarray(limits, dtype=float), np.asarray(prismatic, dtype=np.bool_),
                         float(tol)))
@@ -240,12 +270,21 @@ def finish(prep: Prepared, T_goal: np.ndarray, raw: Raw, settings: Settings, cal
     Parameters
     ----------
     prep : Prepared
-    T_goal : ndarray, shape (4, 4)   goal in the working unit
+        The robot prepared for the solver.
+    T_goal : ndarray, shape (4, 4) [working length unit]
+        Goal pose.
     raw : Raw
-    settings : Settings              converted to the working unit
-    call_ns : int                    the whole call's duration so far [ns] (set again by the registry)
-    q_start : ndarray, shape (n,), optional   the start (for an analytic method's choice under
-                                              ``require_limits``)
+        The kernel's output.
+    settings : Settings
+        Converted to the working unit.
+    call_ns : int
+        The whole call's duration so far [ns] (set again by the registry).
+    q_start : ndarray, shape (n,) [rad | working length unit], optional
+        The start (for an analytic method's choice under ``require_limits``).
+
+    Returns
+    -------
+    IKResult
 
     Notes
     -----
