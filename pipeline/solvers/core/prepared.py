@@ -105,6 +105,17 @@ class Prepared:
 
 
 def inv_rigid(T: np.ndarray) -> np.ndarray:
+    """The inverse of a rigid transform.
+
+    Parameters
+    ----------
+    T : ndarray, shape (4, 4) [length]
+        Rotation and translation.
+
+    Returns
+    -------
+    ndarray, shape (4, 4) [length]
+    """
     out = np.eye(4)
     out[:3, :3] = T[:3, :3].T
     out[:3, 3] = -T[:3, :3].T @ T[:3, 3]

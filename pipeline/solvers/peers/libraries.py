@@ -98,7 +98,8 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.chain import Chain
 import pipeline.solvers.kernels.kin as _kin
 from pipeline.solvers.kernels.kin import TRACE_COLS, TRACE_DP
-from pipeline.solvers.core import MAX_LIBRARY_TIMEOUT_S, Prepared, Raw, Settings, StopReason, setting, wrap_into_limits
+from pipeline.solvers.core import (MAX_LIBRARY_TIMEOUT_S, Prepared, Raw, Settings, StopReason, inv_rigid, setting,
+                                   wrap_into_limits)
 from pipeline.solvers.core.models import Metric, metric, wrap_angles
 from pipeline.solvers.core.registry import Solver, register
 from pipeline.solvers.core.timing import clock_ns
@@ -190,13 +191,6 @@ def z_to(axis: np.ndarray) -> np.ndarray:
     return T
 
 
-def _inv(T: np.ndarray) -> np.ndarray:
-    out = np.eye(4)
-    out[:3, :3] = T[:3, :3].T
-    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return out
-
-
 def _peer_code(ok: bool, fail: StopReason) -> int:
     return int(StopReason.SUCCESS if ok else fail)
 
@@ -284,7 +278,7 @@ def _rtb_ets(prep: Prepared):
             R = z_to(m.axes[i])
             fixed(R)
             els.append(kinds[2](jindex=i, qlim=list(box[i])))
-            fixed(_inv(R))
+            fixed(inv_rigid(R))
     fixed(m.tool)
     return ETS(els)
 
@@ -386,7 +380,7 @@ def _urdf_solver(prep: Prepared, timeout: float, eps: float, solve_type: str):
     qs[:, m.prismatic] *= 0.1
     ours = [fk_htm(m.model.chain, q) for q in qs]
     theirs = [np.asarray(pytracik.fk(t, q), dtype=float).reshape(4, 4) for q in qs]
-    binv = _inv(m.base)
+    binv = inv_rigid(m.base)
     errs = {None: max(np.abs(a - b).max() for a, b in zip(ours, theirs)),
             "base": max(np.abs(binv @ a - b).max() for a, b in zip(ours, theirs))}
     key = min(errs, key=errs.get)
@@ -575,7 +569,7 @@ def _ur_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: URAnalyt
     name, offs = prep.memo(("peers", "ur_match"), lambda: _ur_match(prep))
     mod = getattr(lib, name)
     m = metric(prep)
-    Tb = np.ascontiguousarray(_inv(m.base) @ m.goal(T_goal) @ _inv(np.array(m.model.chain.tool, dtype=float)))
+    Tb = np.ascontiguousarray(inv_rigid(m.base) @ m.goal(T_goal) @ inv_rigid(np.array(m.model.chain.tool, dtype=float)))
     t0 = clock_ns()
     sols = mod.inverse_kinematics(Tb)
     ns = clock_ns() - t0
