@@ -99,16 +99,6 @@ def closure_digest(path: Path) -> str:
     return h.hexdigest()[:16]
 
 
-def source_digest(root: Path) -> str:
-    """16 hex digits of SHA-1 over every ``.py`` file under ``root`` (relative path and bytes, sorted)."""
-    h = hashlib.sha1()
-    for f in sorted(root.rglob("*.py")):
-        h.update(f.relative_to(root).as_posix().encode())
-        h.update(b"\0")
-        h.update(f.read_bytes())
-    return h.hexdigest()[:16]
-
-
 def _install_locator() -> None:
     """Put the closure-stamped locator first among numba's cache locators (once)."""
     from numba.core import caching

@@ -9,23 +9,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from pipeline._numba_cache import LAYOUT, PKG, closure, closure_digest, source_digest
+from pipeline._numba_cache import LAYOUT, PKG, closure, closure_digest
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def test_digest_follows_every_source_file(tmp_path):
-    (tmp_path / "a.py").write_text("x = 1\n")
-    (tmp_path / "sub").mkdir()
-    (tmp_path / "sub" / "b.py").write_text("y = 2\n")
-    first = source_digest(tmp_path)
-    assert source_digest(tmp_path) == first
-    (tmp_path / "sub" / "b.py").write_text("y = 3\n")
-    assert source_digest(tmp_path) != first
-    (tmp_path / "sub" / "b.py").write_text("y = 2\n")
-    assert source_digest(tmp_path) == first
-    (tmp_path / "notes.txt").write_text("not source\n")
-    assert source_digest(tmp_path) == first
 
 
 def _rel(files) -> set[str]:
