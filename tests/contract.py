@@ -1,10 +1,10 @@
 """The solver contract: what every registered IK method promises, checked on any machine.
 
-:func:`contract` turns a property ``prop(case)`` into one pytest test per registered solver (peer
-solvers whose optional library is not installed are skipped, with the reason) x call path
-(``solve`` one problem at a time, ``solve_batch`` all at once) x settings variant (``restarts``
-on/off, ``require_limits`` on/off) x chain kind, and runs it on chains, goals and starts that
-hypothesis draws for that kind:
+:func:`contract` runs a property ``prop(case)`` over every registered solver (peer solvers whose
+optional library is not installed are skipped, with the reason) x chain kind (one pytest case each)
+x call path (``solve`` one problem at a time, ``solve_batch`` all at once) x settings variant
+(``restarts`` on/off, ``require_limits`` on/off) (both inside each drawn example), on chains, goals
+and starts that hypothesis draws for the kind:
 
 ``dh``          a standard-DH chain of 4, 6 or 7 revolute joints, random link parameters, base and tool
 ``mdh``         the same in the modified (Craig) convention
@@ -88,8 +88,9 @@ BASE = {"geometric_iterative": {"max_iterations": 200}, "zero_position": {"max_i
         "lbfgsb": {"max_iterations": 1000}, "nelder_mead": {"max_iterations": 1000},
         "jpinv_descent": {"max_iterations": 1000}}
 
-# Known contract failures: (solver, property, kind or None) -> reason. Marked
-# xfail(strict=True), so a fix shows up as an unexpected pass. Filled in from the runs (see the report).
+# Known contract failures: (solver, property name, kind or None) -> reason, marked xfail(strict=True) so that
+# a fix shows up as an unexpected pass. None today (the rtb adapter's one is its own strict xfail,
+# tests/test_contract.py::test_rtb_failed_call_is_repeatable).
 KNOWN: dict = {}
 
 TIMES = {"solve_time_s", "ik_time_s", "call_time_s", "cpu_time_s", "compiled", "compile_time_s"}
