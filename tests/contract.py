@@ -73,14 +73,6 @@ EXAMPLES = 2
 NOT_DETERMINISTIC = {
     "trac_ik": "TRAC-IK races two solvers on threads under a wall-time budget: which one wins depends on the machine",
 }
-# Deterministic in every success, not in a failure: with slimit = 1 (our default) the rtb adapter does not
-# seed the C library's rand(), from which rtb draws the configuration a failed call returns
-# (pipeline/solvers/peers.py; tests/test_contract.py::test_rtb_failed_call_is_repeatable, an xfail); with
-# restarts the driver then keeps the closest of such random failures, so its stop reason and iterations vary
-# too. The determinism and batch properties compare every field of a success, and only the success flag
-# of a failure.
-FAILED_Q_RANDOM = {"rtb_ik_lm", "rtb_ik_nr", "rtb_ik_gn"}
-
 # Settings every variant of a solver starts from: the iteration caps of the methods whose failed search
 # takes a second or more cut (defaults 2000, 20000, 15000, 5000 and 5000), to keep the file's time down;
 # the contract holds for any valid settings.
@@ -278,10 +270,7 @@ def outside_limits(model: RobotModel, q: np.ndarray) -> list[int]:
 
 
 def same_result(a: IKResult, b: IKResult, where: str, skip=(), solver: str = "") -> None:
-    """Every field of two results equal bit for bit, timings (and the compile record) and ``skip`` aside
-    (and a failure's joint values for the solvers of FAILED_Q_RANDOM)."""
-    if solver in FAILED_Q_RANDOM and not a.success and not b.success:
-        return
+    """Every field of two results equal bit for bit, timings (and the compile record) and ``skip`` aside."""
     for f in fields(a):
         if f.name in TIMES or f.name in skip:
             continue

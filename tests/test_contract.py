@@ -17,7 +17,7 @@ import pytest
 
 from pipeline.kinematics import fk_htm
 from pipeline.solvers import StopReason, solve
-from tests.contract import (FAILED_Q_RANDOM, FK_SLACK, STOP_VALUES, Case, contract, outside_limits, pose_errors, reach,
+from tests.contract import (FK_SLACK, STOP_VALUES, Case, contract, outside_limits, pose_errors, reach,
                             same_result)
 
 SUCCESS = int(StopReason.SUCCESS)
@@ -68,7 +68,7 @@ def test_results_finite_or_reported_failure(case: Case):
 @contract(paths=("solve_batch",), deterministic_only=True)
 def test_batch_equals_single_calls(case: Case):
     """(c) ``solve_batch`` on N goals gives what N ``solve`` calls give, every field bit for bit but the
-    timings (the driver's promise: pipeline/solvers/driver.py, tests/test_driver_paths.py); without
+    timings (the driver's promise: pipeline/solvers/core/driver.py, tests/test_driver_paths.py); without
     traces, every field but the trace."""
     batch = case.run(path="solve_batch")
     bare = case.run(path="solve_batch_notrace")
@@ -108,12 +108,11 @@ def test_unreachable_goal_is_reported_failure(case: Case):
         f"{case.where(0)}: unreachable goal reported as success {r.success}, stop {r.stop_reason}, q={r.q.tolist()}"
 
 
-@pytest.mark.parametrize("solver", sorted(FAILED_Q_RANDOM))
-@pytest.mark.xfail(strict=True, reason="rtb adapter (pipeline/solvers/peers.py, _rtb_run): with slimit = 1 it does not "
-                   "call srand(seed), and a failed rtb call returns a configuration drawn from the C library's rand(), "
-                   "so the same call twice returns other joint values")
+@pytest.mark.parametrize("solver", ["rtb_ik_lm", "rtb_ik_nr", "rtb_ik_gn"])
 def test_rtb_failed_call_is_repeatable(solver, ur5):
-    """The same failed call twice returns the same joint values (it does not, yet: see the xfail reason)."""
+    """The same failed call twice returns the same joint values: a failed rtb call returns a configuration
+    drawn from the C library's rand(), which the adapter seeds before every call (it once did so only for
+    slimit > 1, and this test found it)."""
     pytest.importorskip("roboticstoolbox")
     q = np.array([0.3, -1.0, 1.2, -0.5, 0.8, 0.2])
     T = fk_htm(ur5.chain, q)

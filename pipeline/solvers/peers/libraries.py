@@ -26,7 +26,9 @@ never imports a peer library; the first ``prepare`` of a peer solver does).
     one ± the chain's total length, since rtb samples its restarts in that box). After a failed
     search rtb draws the next start with Eigen's ``Random`` (C ``rand()``), also after the last
     one: a failed call returns that random configuration, not the last iterate. ``srand(seed)`` of
-    the C library is called before each call when ``slimit > 1``, which makes restarts repeatable.
+    the C library is called before every call (outside the timed region), which makes restarts and
+    a failed call's returned configuration repeatable (before, a failed single search returned an
+    unseeded draw: the contract test found it).
     Stop reasons: success; every search used its iterations -> iteration cap; otherwise a search
     converged and rtb rejected it for its joint limits -> ``OUT_OF_LIMITS``. ``iterations`` is
     rtb's own counter (1.5.0 counts error evaluations, i.e. steps + 1 per search).
@@ -318,8 +320,7 @@ def _rtb_run(method: str):
         q0 = m.q_in(q_start)
         extra = ({"k": float(s.k), "method": s.damping} if method == "ik_LM"
                  else {"pinv": bool(s.pinv), "pinv_damping": float(s.pinv_damping)})
-        if s.slimit > 1:
-            _srand(seed)
+        _srand(seed)
         fn = getattr(ets, method)
         tol = float(s.tol) if s.tol > 0 else prep.memo(("peers", "rtb_tol", s), lambda: _matched_tol(m, s))
         t0 = clock_ns()
