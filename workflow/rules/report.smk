@@ -14,7 +14,7 @@ rule aggregate_tables:
         ),
     params:
         settings=study_file,
-        study=lambda w: STUDIES[w.study].doc,  # any settings change re-runs the tables
+        study=lambda w: study_doc(w.study),  # any settings change re-runs the tables
         published=f"{DATA}/published",
     log:
         f"{RESULTS}/{{study}}/logs/aggregate_tables.log",
@@ -40,7 +40,7 @@ rule plot_figures:
         ),
     params:
         settings=study_file,
-        study=lambda w: STUDIES[w.study].doc,
+        study=lambda w: study_doc(w.study),
     log:
         f"{RESULTS}/{{study}}/logs/plot_figures.log",
     threads: 1
@@ -79,6 +79,8 @@ rule manifest:
         all_targets(),
     output:
         f"{RESULTS}/MANIFEST.sha256",
+    params:
+        results=lambda w: RESULTS,  # the folder it covers (a function: not a file of the job's own)
     log:
         f"{RESULTS}/logs/manifest.log",
     threads: 1
@@ -86,4 +88,4 @@ rule manifest:
         mem_mb=RES["light"]["mem_mb"],
         runtime=RES["light"]["runtime"],
     shell:
-        "python -m pipeline manifest {RESULTS} --out {output} > {log} 2>&1"
+        "python -m pipeline manifest {params.results} --out {output} > {log} 2>&1"
