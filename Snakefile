@@ -1,6 +1,11 @@
 # Report pipeline: seeded problem sets -> one solve job per (study, robot, solver) writing MCAP ->
 # tables and figures from the archives -> results/report.html. Rules live in workflow/rules/; the
 # config, every study's settings and every robot file are validated first (workflow/rules/common.smk).
+#
+# `snakemake --lint` asks every rule for a conda environment or container, and nothing else: the rules run
+# `python -m pipeline` in the one environment this project builds and tests, the venv installed from the
+# hash-pinned requirements.lock (README set-up, CI); a conda file nothing here builds would be a second,
+# untested description of it.
 from snakemake.utils import min_version
 
 min_version("8.20")

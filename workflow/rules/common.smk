@@ -28,12 +28,12 @@ def _check_inputs():
 
 
 _PLAN = _check_inputs()
-config.update(_PLAN["config"])  # defaults filled, as every rule reads them
+CONFIG = _PLAN["config"]  # the validated run config, defaults filled
 STUDIES = _PLAN["studies"]  # study id -> {doc, solvers, jobs, count, repetitions, caps}
 
-RESULTS = config["results_dir"]
-DATA = config["data_dir"]
-SCALE = config["scale"]
+RESULTS = CONFIG["results_dir"]
+DATA = CONFIG["data_dir"]
+SCALE = CONFIG["scale"]
 # one thread per job: the solvers are sequential, and 2 jobs fill the 2 cores
 ENV = "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1"
 

@@ -61,7 +61,7 @@ rule render_report:
     output:
         report(f"{RESULTS}/report.html", caption="../report/report.rst", category="report"),
     params:
-        sets=" ".join(f"--set {k}={json.dumps(v, separators=(',', ':'))}" for k, v in config.items()),
+        sets=" ".join(f"--set {k}={json.dumps(v, separators=(',', ':'))}" for k, v in CONFIG.items()),
     log:
         f"{RESULTS}/logs/render_report.log",
     threads: 1
