@@ -15,7 +15,11 @@ def _check_inputs():
     """The plan of workflow/scripts/check_inputs.py; an input error stops the run with its one line."""
     files = ["workflow/config/config.yaml", *workflow.overwrite_configfiles]
     proc = subprocess.run(
-        [sys.executable, os.path.join(workflow.basedir, "workflow/scripts/check_inputs.py"), *files],
+        [
+            sys.executable,
+            os.path.join(workflow.basedir, "workflow/scripts/check_inputs.py"),
+            *files,
+        ],
         input=repr(config),
         capture_output=True,
         text=True,
@@ -43,10 +47,14 @@ ENV = "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THRE
 # <= 224 MB and <= 60 s, the per-robot benchmark jobs <= 70 s; with about 2x headroom on memory and
 # 10x on time (a cluster node may be slower, and runtime is a hard limit there).
 RES = {
-    "light": {"mem_mb": 512, "runtime": 10},  # problem sets, tables, RES rows, the report
-    "solve": {"mem_mb": 768, "runtime": 30},  # one solver on one problem set; reruns; measurements
-    "solve_robot": {"mem_mb": 1024, "runtime": 60},  # every solver of one robot (job_per_robot studies)
-    "figures": {"mem_mb": 1024, "runtime": 20},  # matplotlib over a study's archives
+    # problem sets, tables, RES rows, the report
+    "light": {"mem_mb": 512, "runtime": 10},
+    # one solver on one problem set; reruns; measurements
+    "solve": {"mem_mb": 768, "runtime": 30},
+    # every solver of one robot (job_per_robot studies)
+    "solve_robot": {"mem_mb": 1024, "runtime": 60},
+    # matplotlib over a study's archives
+    "figures": {"mem_mb": 1024, "runtime": 20},
 }
 
 
@@ -72,7 +80,9 @@ def _per_robot(sid):
 
 # studies whose solve jobs run one per (problem set, robot, solver), and those (`job_per_robot`) whose
 # solve jobs run one per robot
-SOLO_STUDIES = _alternatives(sid for sid in STUDIES if _generic(sid) and not _per_robot(sid))
+SOLO_STUDIES = _alternatives(
+    sid for sid in STUDIES if _generic(sid) and not _per_robot(sid)
+)
 PER_ROBOT_STUDIES = [sid for sid in STUDIES if _per_robot(sid)]
 
 
@@ -97,14 +107,21 @@ def study_settings(sid):
 
 
 def set_robots(sid, pset):
-    return list(study_doc(sid)["problem_sets"][pset].get("robots") or study_doc(sid)["robots"])
+    return list(
+        study_doc(sid)["problem_sets"][pset].get("robots") or study_doc(sid)["robots"]
+    )
 
 
 def kept_jobs(sid):
     """The study's solve jobs at this run's scale: (problem set, robot, label), refused pairs and the
-    problem sets listed in `study_settings/full_only_problem_sets` (at scale=quick) left out."""
+    problem sets listed in `study_settings/full_only_problem_sets` (at scale=quick) left out.
+    """
     full_only = set(study_settings(sid).get("full_only_problem_sets", []))
-    return [job for job in STUDIES[sid]["jobs"] if SCALE == "full" or job[0] not in full_only]
+    return [
+        job
+        for job in STUDIES[sid]["jobs"]
+        if SCALE == "full" or job[0] not in full_only
+    ]
 
 
 def robot_solvers(sid, pset, robot):
@@ -128,9 +145,12 @@ def _expand_archive(sid, entry):
     jobs = [
         (p, r, s)
         for p, r, s in kept_jobs(sid)
-        if p in entry.get("problem_sets", [p]) and (entry.get("reading") != "default" or s in default)
+        if p in entry.get("problem_sets", [p])
+        and (entry.get("reading") != "default" or s in default)
     ]
-    return list(dict.fromkeys(path.format(pset=p, robot=r, solver=s) for p, r, s in jobs))
+    return list(
+        dict.fromkeys(path.format(pset=p, robot=r, solver=s) for p, r, s in jobs)
+    )
 
 
 # --- input functions ---------------------------------------------------------------------------------
@@ -153,8 +173,13 @@ def solve_archives(sid):
 
 def archives(sid):
     """Every archive a study's tables and figures are computed from: one per solve job, then those its
-    settings list under `archives` (made by the study's own rules, workflow/rules/studies/)."""
-    extra = [f for entry in study_doc(sid).get("archives", []) for f in _expand_archive(sid, entry)]
+    settings list under `archives` (made by the study's own rules, workflow/rules/studies/).
+    """
+    extra = [
+        f
+        for entry in study_doc(sid).get("archives", [])
+        for f in _expand_archive(sid, entry)
+    ]
     return solve_archives(sid) + [f"{RESULTS}/{sid}/{f}" for f in extra]
 
 
@@ -203,14 +228,23 @@ def race_archives(wildcards):
 
 def erthal_catalogue_block():
     """The settings the catalogue job reads (a change re-runs it)."""
-    keys = ("zero_positions", "joint_point_inputs", "jog", "roundtrip_seed", "roundtrip_samples", "workspace")
+    keys = (
+        "zero_positions",
+        "joint_point_inputs",
+        "jog",
+        "roundtrip_seed",
+        "roundtrip_samples",
+        "workspace",
+    )
     return {k: study_settings("erthal1992").get(k) for k in keys}
 
 
 def erthal_path_archive(wildcards):
     """The solve archive a path task's RES rows are written from (the path's `solver`)."""
     solver = study_settings("erthal1992")["paths"][wildcards.pset]["solver"]
-    return f"{RESULTS}/erthal1992/runs/{wildcards.pset}/{wildcards.robot}__{solver}.mcap"
+    return (
+        f"{RESULTS}/erthal1992/runs/{wildcards.pset}/{wildcards.robot}__{solver}.mcap"
+    )
 
 
 # --- mariano2019 (workflow/rules/studies/mariano2019.smk) --------------------------------------------

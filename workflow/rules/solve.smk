@@ -35,20 +35,20 @@ rule make_problems:
         files=problem_set_files,
     output:
         f"{RESULTS}/{{study}}/problems/{{pset}}/{{robot}}.csv.gz",
+    log:
+        f"{RESULTS}/{{study}}/logs/make_problems__{{pset}}__{{robot}}.log",
     wildcard_constraints:
         study=_alternatives(sid for sid in STUDIES if _generic(sid)),
+    threads: 1
+    resources:
+        mem_mb=RES["light"]["mem_mb"],
+        runtime=RES["light"]["runtime"],
     params:
         settings=study_file,
         spec=lambda w: study_doc(w.study)["problem_sets"][w.pset],  # a changed spec re-draws the set
         n_problems=lambda w: STUDIES[w.study]["count"][w.pset],
         scale=SCALE,
         data=data_dir,
-    log:
-        f"{RESULTS}/{{study}}/logs/make_problems__{{pset}}__{{robot}}.log",
-    threads: 1
-    resources:
-        mem_mb=RES["light"]["mem_mb"],
-        runtime=RES["light"]["runtime"],
     shell:
         "python -m pipeline make_problems --study {params.settings} --problem-set {wildcards.pset}"
         " --robot {input.robot} --scale {params.scale} --data {params.data} --out {output} > {log} 2>&1"
@@ -61,22 +61,22 @@ rule solve_problems:
         kernels=ancient(KERNELS),
     output:
         f"{RESULTS}/{{study}}/runs/{{pset}}/{{robot}}__{{solver}}.mcap",
+    log:
+        f"{RESULTS}/{{study}}/logs/solve_problems__{{pset}}__{{robot}}__{{solver}}.log",
+    benchmark:
+        f"{RESULTS}/{{study}}/benchmarks/{{pset}}__{{robot}}__{{solver}}.tsv"
     wildcard_constraints:
         study=SOLO_STUDIES,
+    threads: 1
+    resources:
+        mem_mb=RES["solve"]["mem_mb"],
+        runtime=RES["solve"]["runtime"],
     params:
         settings=study_file,
         solver=lambda w: STUDIES[w.study]["solvers"][w.solver],  # a changed setting re-runs the job
         repetitions=lambda w: STUDIES[w.study]["repetitions"][w.pset],
         scale=SCALE,
         env=ENV,
-    log:
-        f"{RESULTS}/{{study}}/logs/solve_problems__{{pset}}__{{robot}}__{{solver}}.log",
-    benchmark:
-        f"{RESULTS}/{{study}}/benchmarks/{{pset}}__{{robot}}__{{solver}}.tsv"
-    threads: 1
-    resources:
-        mem_mb=RES["solve"]["mem_mb"],
-        runtime=RES["solve"]["runtime"],
     shell:
         "{params.env} python -m pipeline solve_problems --study {params.settings} --problem-set {wildcards.pset}"
         " --robot {input.robot} --solver {wildcards.solver} --problems {input.problems}"
@@ -90,7 +90,10 @@ rule solve_problems:
 # apply differ) needs a rule of its own; `group:` would keep the jobs together on a cluster but not
 # in one process.
 for _sid, _robot in dict.fromkeys(
-    (sid, r) for sid in PER_ROBOT_STUDIES for p in study_doc(sid)["problem_sets"] for r in set_robots(sid, p)
+    (sid, r)
+    for sid in PER_ROBOT_STUDIES
+    for p in study_doc(sid)["problem_sets"]
+    for r in set_robots(sid, p)
 ):
     _sets = robot_sets(_sid, _robot)
     _labels = robot_solvers(_sid, _sets[0], _robot)
@@ -109,7 +112,19 @@ for _sid, _robot in dict.fromkeys(
             robot=f"{DATA}/robots/{_robot}.yaml",
             kernels=ancient(KERNELS),
         output:
-            [f"{RESULTS}/{_sid}/runs/{p}/{_robot}__{lab}.mcap" for p in _sets for lab in _labels],
+            [
+                f"{RESULTS}/{_sid}/runs/{p}/{_robot}__{lab}.mcap"
+                for p in _sets
+                for lab in _labels
+            ],
+        log:
+            f"{RESULTS}/{_sid}/logs/solve_problems__{_robot}.log",
+        benchmark:
+            f"{RESULTS}/{_sid}/benchmarks/{_robot}.tsv"
+        threads: 1
+        resources:
+            mem_mb=RES["solve_robot"]["mem_mb"],
+            runtime=RES["solve_robot"]["runtime"],
         params:
             settings=f"{DATA}/studies/{_sid}.yaml",
             # a changed setting of any solver re-runs the job
@@ -119,14 +134,6 @@ for _sid, _robot in dict.fromkeys(
             psets=" ".join(_sets),
             scale=SCALE,
             env=ENV,
-        log:
-            f"{RESULTS}/{_sid}/logs/solve_problems__{_robot}.log",
-        benchmark:
-            f"{RESULTS}/{_sid}/benchmarks/{_robot}.tsv"
-        threads: 1
-        resources:
-            mem_mb=RES["solve_robot"]["mem_mb"],
-            runtime=RES["solve_robot"]["runtime"],
         shell:
             "{params.env} python -m pipeline solve_problems --study {params.settings} --problem-set {params.psets}"
             " --robot {input.robot} --solver {params.labels} --problems {input.problems}"

@@ -11,9 +11,6 @@ rule race:
         robot=f"{DATA}/robots/{{robot}}.yaml",
     output:
         f"{RESULTS}/{{study}}/race/{{robot}}.mcap",
-    params:
-        settings=study_file,
-        env=ENV,
     log:
         f"{RESULTS}/{{study}}/logs/race__{{robot}}.log",
     benchmark:
@@ -22,6 +19,9 @@ rule race:
     resources:
         mem_mb=RES["solve_robot"]["mem_mb"],
         runtime=RES["solve_robot"]["runtime"],
+    params:
+        settings=study_file,
+        env=ENV,
     shell:
         "{params.env} python -m pipeline race --study {params.settings} --robot {input.robot}"
         " --archives {input.archives} --out {output} > {log} 2>&1"

@@ -10,12 +10,6 @@ rule rerun_failures:
         archive=f"{RESULTS}/cerbaro2019/runs/{{pset}}/{{robot}}__{{solver}}.mcap",
     output:
         f"{RESULTS}/cerbaro2019/reruns/{{pset}}/{{robot}}__{{solver}}.mcap",
-    params:
-        settings=f"{DATA}/studies/cerbaro2019.yaml",
-        rerun=lambda w: study_settings("cerbaro2019")["rerun"],
-        solver=lambda w: STUDIES["cerbaro2019"]["solvers"][w.solver],
-        scale=SCALE,
-        env=ENV,
     log:
         f"{RESULTS}/cerbaro2019/logs/rerun_failures__{{pset}}__{{robot}}__{{solver}}.log",
     benchmark:
@@ -24,6 +18,12 @@ rule rerun_failures:
     resources:
         mem_mb=RES["solve"]["mem_mb"],
         runtime=RES["solve"]["runtime"],
+    params:
+        settings=f"{DATA}/studies/cerbaro2019.yaml",
+        rerun=lambda w: study_settings("cerbaro2019")["rerun"],
+        solver=lambda w: STUDIES["cerbaro2019"]["solvers"][w.solver],
+        scale=SCALE,
+        env=ENV,
     shell:
         "{params.env} python -m pipeline rerun_failures --study {params.settings} --problem-set {wildcards.pset}"
         " --robot {input.robot} --solver {wildcards.solver} --problems {input.problems}"

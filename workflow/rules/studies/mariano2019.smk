@@ -11,11 +11,6 @@ rule mariano_count_ops:
         robot=lambda w: f"{DATA}/robots/{mariano_arm()}.yaml",
     output:
         f"{RESULTS}/mariano2019/runs/counts.mcap",
-    params:
-        settings=f"{DATA}/studies/mariano2019.yaml",
-        block=lambda w: mariano_block("counting"),
-        scale=SCALE,
-        env=ENV,
     log:
         f"{RESULTS}/mariano2019/logs/mariano_count_ops.log",
     benchmark:
@@ -24,6 +19,11 @@ rule mariano_count_ops:
     resources:
         mem_mb=RES["solve"]["mem_mb"],
         runtime=RES["solve"]["runtime"],
+    params:
+        settings=f"{DATA}/studies/mariano2019.yaml",
+        block=lambda w: mariano_block("counting"),
+        scale=SCALE,
+        env=ENV,
     shell:
         "{params.env} python -m pipeline mariano_count_ops --study {params.settings} --robot {input.robot}"
         " --scale {params.scale} --out {output} > {log} 2>&1"
@@ -34,11 +34,6 @@ rule mariano_time_host:
         robot=f"{DATA}/robots/{{robot}}.yaml",
     output:
         f"{RESULTS}/mariano2019/runs/host_{{robot}}.mcap",
-    params:
-        settings=f"{DATA}/studies/mariano2019.yaml",
-        block=lambda w: mariano_block("host_timing"),
-        scale=SCALE,
-        env=ENV,
     log:
         f"{RESULTS}/mariano2019/logs/mariano_time_host__{{robot}}.log",
     benchmark:
@@ -47,6 +42,11 @@ rule mariano_time_host:
     resources:
         mem_mb=RES["solve"]["mem_mb"],
         runtime=RES["solve"]["runtime"],
+    params:
+        settings=f"{DATA}/studies/mariano2019.yaml",
+        block=lambda w: mariano_block("host_timing"),
+        scale=SCALE,
+        env=ENV,
     shell:
         "{params.env} python -m pipeline mariano_time_host --study {params.settings} --robot {input.robot}"
         " --scale {params.scale} --out {output} > {log} 2>&1"
@@ -57,11 +57,6 @@ rule mariano_measure_mcu:
         robot=lambda w: f"{DATA}/robots/{mariano_arm()}.yaml",
     output:
         f"{RESULTS}/mariano2019/runs/mcu.mcap",
-    params:
-        settings=f"{DATA}/studies/mariano2019.yaml",
-        block=lambda w: mariano_block("mcu"),
-        scale=SCALE,
-        build_dir=f"{RESULTS}/mariano2019/mcu_build",
     log:
         f"{RESULTS}/mariano2019/logs/mariano_measure_mcu.log",
     benchmark:
@@ -70,6 +65,11 @@ rule mariano_measure_mcu:
     resources:
         mem_mb=RES["solve"]["mem_mb"],
         runtime=RES["solve"]["runtime"],
+    params:
+        settings=f"{DATA}/studies/mariano2019.yaml",
+        block=lambda w: mariano_block("mcu"),
+        scale=SCALE,
+        build_dir=f"{RESULTS}/mariano2019/mcu_build",
     shell:
         "python -m pipeline mariano_measure_mcu --study {params.settings} --robot {input.robot}"
         " --scale {params.scale} --build-dir {params.build_dir} --out {output} > {log} 2>&1"
