@@ -24,8 +24,8 @@ def _check_inputs():
         capture_output=True,
         text=True,
     )
-    if proc.returncode == 2:
-        sys.exit(f"error: {proc.stderr.strip()}")
+    if proc.returncode == 2:  # its last line (anything printed before it is a library's warning)
+        sys.exit(f"error: {proc.stderr.strip().splitlines()[-1]}")
     if proc.returncode:
         sys.exit(f"error: workflow/scripts/check_inputs.py failed:\n{proc.stderr}")
     return ast.literal_eval(proc.stdout)
