@@ -1,7 +1,11 @@
 # Report pipeline: seeded problem sets -> one solve job per (study, robot, solver) writing MCAP ->
-# tables and figures from the archives -> results/report.html. Rules live in workflow/rules/.
-from pathlib import Path
-
+# tables and figures from the archives -> results/report.html. Rules live in workflow/rules/; the
+# config, every study's settings and every robot file are validated first (workflow/rules/common.smk).
+#
+# `snakemake --lint` asks every rule for a conda environment or container, and nothing else: the rules run
+# `python -m pipeline` in the one environment this project builds and tests, the venv installed from the
+# hash-pinned requirements.lock (README set-up, CI); a conda file nothing here builds would be a second,
+# untested description of it.
 from snakemake.utils import min_version
 
 min_version("8.20")
@@ -10,29 +14,14 @@ min_version("8.20")
 configfile: "workflow/config/config.yaml"
 
 
-# Config validation, first part: every config file (this one and each --configfile) through the one YAML
-# loader and the schema, so that an error names the file that holds it; what is left comes from --config.
-# (workflow/rules/common.smk then validates the studies and robots.)
-import sys
-
-from pipeline.settings import ConfigError, check_config_files
-
-try:
-    check_config_files(["workflow/config/config.yaml", *workflow.overwrite_configfiles], config)
-except ConfigError as exc:
-    sys.exit(f"error: {exc}")
-
-
 include: "workflow/rules/common.smk"
 include: "workflow/rules/solve.smk"
 include: "workflow/rules/report.smk"
-
-
-# studies with rules of their own; each file starts with `if "<id>" in STUDIES:`
-for _rules in sorted(Path(workflow.basedir, "workflow/rules/studies").glob("*.smk")):
-
-    include: str(_rules)
-
+# the rules of studies that make archives beyond the solve jobs (`archives` of their settings)
+include: "workflow/rules/studies/arm_benchmark.smk"
+include: "workflow/rules/studies/cerbaro2019.smk"
+include: "workflow/rules/studies/erthal1992.smk"
+include: "workflow/rules/studies/mariano2019.smk"
 
 
 rule all:
@@ -42,12 +31,10 @@ rule all:
         f"{RESULTS}/MANIFEST.sha256",
 
 
-# one target per configured study: `snakemake --cores 2 cerbaro2019`
-for _sid in STUDIES:
-
-    rule:
-        name:
-            _sid
-        input:
-            study_targets(_sid),
-            STUDY_ARCHIVES.get(_sid, []),
+# one study's archives, tables and figures: `snakemake --cores 2 results/cerbaro2019/.built` (a hidden
+# stamp, outside the manifest)
+rule study:
+    input:
+        study_inputs,
+    output:
+        touch(f"{RESULTS}/{{study}}/.built"),

@@ -12,16 +12,16 @@ rule aggregate_tables:
             category="{study}",
             subcategory="tables",
         ),
-    params:
-        settings=study_file,
-        study=lambda w: STUDIES[w.study].doc,  # any settings change re-runs the tables
-        published=f"{DATA}/published",
     log:
         f"{RESULTS}/{{study}}/logs/aggregate_tables.log",
     threads: 1
     resources:
         mem_mb=RES["light"]["mem_mb"],
         runtime=RES["light"]["runtime"],
+    params:
+        settings=study_file,
+        study=lambda w: study_doc(w.study),  # any settings change re-runs the tables
+        published=f"{DATA}/published",
     shell:
         "python -m pipeline aggregate_tables --study {params.settings} --archives {input}"
         " --published {params.published} --out-dir {output} > {log} 2>&1"
@@ -38,15 +38,15 @@ rule plot_figures:
             category="{study}",
             subcategory="figures",
         ),
-    params:
-        settings=study_file,
-        study=lambda w: STUDIES[w.study].doc,
     log:
         f"{RESULTS}/{{study}}/logs/plot_figures.log",
     threads: 1
     resources:
         mem_mb=RES["figures"]["mem_mb"],
         runtime=RES["figures"]["runtime"],
+    params:
+        settings=study_file,
+        study=lambda w: study_doc(w.study),
     shell:
         "python -m pipeline plot_figures --study {params.settings} --archives {input}"
         " --out-dir {output} > {log} 2>&1"
@@ -57,17 +57,24 @@ rule render_report:
         targets=[t for sid in STUDIES for t in study_targets(sid)],
         settings=[f"{DATA}/studies/{sid}.yaml" for sid in STUDIES],
         # the speed measurements of benchmarks/bench_fast.py (not rebuilt here: measured, committed)
-        performance=[p for p in [f"{DATA}/performance/bench_fast.json"] if os.path.exists(p)],
+        performance=[
+            p for p in [f"{DATA}/performance/bench_fast.json"] if os.path.exists(p)
+        ],
     output:
-        report(f"{RESULTS}/report.html", caption="../report/report.rst", category="report"),
-    params:
-        sets=" ".join(f"--set {k}={json.dumps(v, separators=(',', ':'))}" for k, v in config.items()),
+        report(
+            f"{RESULTS}/report.html", caption="../report/report.rst", category="report"
+        ),
     log:
         f"{RESULTS}/logs/render_report.log",
     threads: 1
     resources:
         mem_mb=RES["light"]["mem_mb"],
         runtime=RES["light"]["runtime"],
+    params:
+        sets=" ".join(
+            f"--set {k}={json.dumps(v, separators=(',', ':'))}"
+            for k, v in CONFIG.items()
+        ),
     shell:
         "python -m pipeline render_report {params.sets} --out {output} > {log} 2>&1"
 
@@ -85,5 +92,7 @@ rule manifest:
     resources:
         mem_mb=RES["light"]["mem_mb"],
         runtime=RES["light"]["runtime"],
+    params:
+        results=lambda w: RESULTS,  # the folder it covers (a function: not a file of the job's own)
     shell:
-        "python -m pipeline manifest {RESULTS} --out {output} > {log} 2>&1"
+        "python -m pipeline manifest {params.results} --out {output} > {log} 2>&1"
