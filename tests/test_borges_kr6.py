@@ -347,8 +347,8 @@ def test_workflow_dry_run_lists_one_archive_per_solver_and_set(tmp_path):
 
     study = load_study(STUDY)
     out = subprocess.run(
-        [sys.executable, "-m", "snakemake", "borges_kr6", "-n", "--nolock", "--cores", "1", "--config",
-         "studies=[borges_kr6]", "scale=quick", f"results_dir={tmp_path}"],
+        [sys.executable, "-m", "snakemake", f"{tmp_path}/borges_kr6/.built", "-n", "--nolock", "--cores", "1",
+         "--config", "studies=[borges_kr6]", "scale=quick", f"results_dir={tmp_path}"],
         cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
     counts = {ln.split()[0]: int(ln.split()[-1]) for ln in out.stdout.splitlines()
