@@ -4,6 +4,7 @@ Usage::
 
     python benchmarks/closed_form_identity.py record out.npz      # in the reference checkout
     python benchmarks/closed_form_identity.py compare out.npz     # in the changed one: exit 1 on a difference
+    python benchmarks/closed_form_identity.py compare a.npz b.npz # two recordings
 
 For every case (an arm and a closed-form method: the geometric ``analytic`` on a spherical-wrist, a
 three-parallel, a searching and a general 6R arm, the 4-DOF arm and 7R arms through the search; the
@@ -19,8 +20,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # this checkout's package, not an installed one
+    sys.path.insert(0, str(ROOT))
 
 from pipeline.kinematics import fk_htm
 from pipeline.robots import load_robot, parse_robot
@@ -115,10 +121,14 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("mode", choices=["record", "compare"])
     ap.add_argument("file")
+    ap.add_argument("other", nargs="?", help="compare: a second recording to compare with, instead of solving now")
     a = ap.parse_args(argv)
     now = {}
-    for case in CASES:
-        now.update(_record(*case))
+    if a.other:
+        now = dict(np.load(a.other))
+    else:
+        for case in CASES:
+            now.update(_record(*case))
     if a.mode == "record":
         np.savez(a.file, **now)
         print(f"recorded {len(now)} arrays to {a.file}")
