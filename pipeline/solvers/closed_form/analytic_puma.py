@@ -244,31 +244,26 @@ def _r06(W, ca6, sa6):
 
 
 @numba.njit(cache=True, inline="always")
+def _dot3(a_, b_):
+    """a · b of two 3-tuples (a0 b0 + a1 b1 + a2 b2, in that order)."""
+    return a_[0] * b_[0] + a_[1] * b_[1] + a_[2] * b_[2]
+
+
+@numba.njit(cache=True, inline="always")
+def _mat3(a_, b_):
+    """The product of two 3 × 3 matrices as row-major 9-tuples."""
+    a00, a01, a02, a10, a11, a12, a20, a21, a22 = a_
+    b00, b01, b02, b10, b11, b12, b20, b21, b22 = b_
+    return (a00 * b00 + a01 * b10 + a02 * b20, a00 * b01 + a01 * b11 + a02 * b21, a00 * b02 + a01 * b12 + a02 * b22,
+            a10 * b00 + a11 * b10 + a12 * b20, a10 * b01 + a11 * b11 + a12 * b21, a10 * b02 + a11 * b12 + a12 * b22,
+            a20 * b00 + a21 * b10 + a22 * b20, a20 * b01 + a21 * b11 + a22 * b21, a20 * b02 + a21 * b12 + a22 * b22)
+
+
+@numba.njit(cache=True, inline="always")
 def _r03(P, a_, th2, th3):
     """R03 = Rz(th1) Rx(al1) Rz(th2) Rx(al2) Rz(th3) Rx(al3), the first factor given (``a_``,
     :func:`_rz_rx` of th1), row-major 9-tuple."""
-    a00, a01, a02, a10, a11, a12, a20, a21, a22 = a_
-    b00, b01, b02, b10, b11, b12, b20, b21, b22 = _rz_rx(P, th2, 1)
-    e00 = a00 * b00 + a01 * b10 + a02 * b20
-    e01 = a00 * b01 + a01 * b11 + a02 * b21
-    e02 = a00 * b02 + a01 * b12 + a02 * b22
-    e10 = a10 * b00 + a11 * b10 + a12 * b20
-    e11 = a10 * b01 + a11 * b11 + a12 * b21
-    e12 = a10 * b02 + a11 * b12 + a12 * b22
-    e20 = a20 * b00 + a21 * b10 + a22 * b20
-    e21 = a20 * b01 + a21 * b11 + a22 * b21
-    e22 = a20 * b02 + a21 * b12 + a22 * b22
-    b00, b01, b02, b10, b11, b12, b20, b21, b22 = _rz_rx(P, th3, 2)
-    f00 = e00 * b00 + e01 * b10 + e02 * b20
-    f01 = e00 * b01 + e01 * b11 + e02 * b21
-    f02 = e00 * b02 + e01 * b12 + e02 * b22
-    f10 = e10 * b00 + e11 * b10 + e12 * b20
-    f11 = e10 * b01 + e11 * b11 + e12 * b21
-    f12 = e10 * b02 + e11 * b12 + e12 * b22
-    f20 = e20 * b00 + e21 * b10 + e22 * b20
-    f21 = e20 * b01 + e21 * b11 + e22 * b21
-    f22 = e20 * b02 + e21 * b12 + e22 * b22
-    return f00, f01, f02, f10, f11, f12, f20, f21, f22
+    return _mat3(_mat3(a_, _rz_rx(P, th2, 1)), _rz_rx(P, th3, 2))
 
 
 @numba.njit(cache=True, inline="always")
@@ -277,15 +272,11 @@ def _wrists(P, f, n, th1, th2, th3, code0, sols, W, m):
     ``sols`` with their branch codes (``code0`` + wrist, + 8 where θ5 is degenerate) into ``W[W_CODES:]``;
     returns m + 2."""
     s4, s5 = P[11], P[12]
-    f00, f01, f02, f10, f11, f12, f20, f21, f22 = f
-    n00, n01, n02, n10, n11, n12, n20, n21, n22 = n
-    # R = R03^T R06r
-    r00 = f00 * n00 + f10 * n10 + f20 * n20
-    r10 = f01 * n00 + f11 * n10 + f21 * n20
-    r20 = f02 * n00 + f12 * n10 + f22 * n20
-    r02 = f00 * n02 + f10 * n12 + f20 * n22
-    r12 = f01 * n02 + f11 * n12 + f21 * n22
-    r22 = f02 * n02 + f12 * n12 + f22 * n22
+    f0, f1, f2 = (f[0], f[3], f[6]), (f[1], f[4], f[7]), (f[2], f[5], f[8])  # R03's columns
+    n0, n2 = (n[0], n[3], n[6]), (n[2], n[5], n[8])
+    # R = R03^T R06r: columns 0 and 2
+    r00, r10, r20 = _dot3(f0, n0), _dot3(f1, n0), _dot3(f2, n0)
+    r02, r12, r22 = _dot3(f0, n2), _dot3(f1, n2), _dot3(f2, n2)
     hyp = math.hypot(r02, r12)
     for wr in range(2):
         w = 1.0 if wr == 0 else -1.0
@@ -293,17 +284,13 @@ def _wrists(P, f, n, th1, th2, th3, code0, sols, W, m):
         deg = hyp < DEGENERATE_S5
         th4 = 0.0 if deg else math.atan2(s5 * w * r12, s5 * w * r02)
         # th6 from (R4 R5)^T R = Rz(th6): column 0 of R45^T R
-        b00, b01, b02, b10, b11, b12, b20, b21, b22 = _rz_rx(P, th4, 3)
-        c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rz_rx(P, th5, 4)
-        h00 = b00 * c00 + b01 * c10 + b02 * c20
-        h01 = b00 * c01 + b01 * c11 + b02 * c21
-        h10 = b10 * c00 + b11 * c10 + b12 * c20
-        h11 = b10 * c01 + b11 * c11 + b12 * c21
-        h20 = b20 * c00 + b21 * c10 + b22 * c20
-        h21 = b20 * c01 + b21 * c11 + b22 * c21
-        rr00 = h00 * r00 + h10 * r10 + h20 * r20
-        rr10 = h01 * r00 + h11 * r10 + h21 * r20
-        th6 = math.atan2(rr10, rr00)
+        b = _rz_rx(P, th4, 3)
+        c = _rz_rx(P, th5, 4)
+        c0, c1 = (c[0], c[3], c[6]), (c[1], c[4], c[7])
+        b0, b1, b2 = (b[0], b[1], b[2]), (b[3], b[4], b[5]), (b[6], b[7], b[8])
+        h0 = (_dot3(b0, c0), _dot3(b1, c0), _dot3(b2, c0))  # R4 R5: columns 0 and 1
+        h1 = (_dot3(b0, c1), _dot3(b1, c1), _dot3(b2, c1))
+        th6 = math.atan2(_dot3(h1, (r00, r10, r20)), _dot3(h0, (r00, r10, r20)))
         sols[m, 0] = th1 - P[13]
         sols[m, 1] = th2 - P[14]
         sols[m, 2] = th3 - P[15]
