@@ -188,7 +188,8 @@ class Packed:
     """The arm and the settings for the kernels: ``ints`` = n, family, position case, reversed, free
     joint (−1 for 6R), search samples, free samples, searched joint; ``G`` = the joint lines H (n, 3)
     and P (n, 3), the home pose RM (3, 3) and pM (3,), (clip, verify_position, verify_rotation) and
-    the limits (n, 2), then (6, 2) of ±inf, flattened (:func:`~pipeline.solvers.closed_form.analytic_kernels.unpack` gives the views)."""
+    the limits (n, 2), then (6, 2) of ±inf, flattened
+    (:func:`~pipeline.solvers.closed_form.analytic_kernels.unpack` gives the views)."""
 
     ints: np.ndarray
     G: np.ndarray
@@ -254,8 +255,8 @@ def bind(prep: Prepared, s: AnalyticSettings):
 
 def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
     """N poses in one compiled call on every core (each pose writes only its own rows): the family's batch
-    kernel (:func:`~pipeline.solvers.closed_form.analytic_kernels.kernels`), or for an arm that fits no family the general elimination's
-    (:func:`_batch_general`)."""
+    kernel (:func:`~pipeline.solvers.closed_form.analytic_kernels.kernels`), or for an arm that fits no family
+    the general elimination's (:func:`_batch_general`)."""
     if _general(prep, s):
         return _batch_general(prep, s, goals, starts, keep_traces)
     k = packed(prep, s)

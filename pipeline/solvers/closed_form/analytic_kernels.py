@@ -132,7 +132,8 @@ def _fix(H, P, RM, pM, k, v, H6, P6, RM6, pM6):
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def unpack(ints, G):
-    """Views of the packed geometry ``G`` (:func:`pipeline.solvers.closed_form.analytic.packed`): H (n, 3), P (n, 3), RM (3, 3), pM (3,),
+    """Views of the packed geometry ``G`` (:func:`pipeline.solvers.closed_form.analytic.packed`): H (n, 3),
+    P (n, 3), RM (3, 3), pM (3,),
     par (3,), lim (n, 2)."""
     n = ints[0]
     o = 6 * n
@@ -535,7 +536,8 @@ def call_pose(ints, GC, Tg, q_start, S, q, trace):
     """The whole public single call in one compiled call: :func:`solve_pose`, then the result rule of
     every finish (:func:`pipeline.solvers.core.finish_packed`: the independent FK check of the chosen
     ``q`` by the dual-quaternion FK, the limit record, the stop reason; without ``require_limits``).
-    ``GC`` = :func:`~pipeline.solvers.closed_form.analytic.packed`'s ``G``, then :func:`~pipeline.solvers.core.check_pack`, then the goal's
+    ``GC`` = :func:`~pipeline.solvers.closed_form.analytic.packed`'s ``G``, then
+    :func:`~pipeline.solvers.core.check_pack`, then the goal's
     unit factor (the robot file's unit to the working unit: ``Tg`` is scaled here, not in Python).
     Solutions ``-1`` (and nothing written) when ``Tg`` is not (4, 4) or ``q_start`` not (n,)."""
     n = ints[0]
@@ -601,7 +603,8 @@ _KERNELS: dict[tuple[int, int], Kernels] = {}
 
 
 def kernels(ints: np.ndarray) -> Kernels:
-    """The compiled kernels of a packed arm's family and joint count (:func:`~pipeline.solvers.closed_form.analytic.packed`'s ``ints``), made once
+    """The compiled kernels of a packed arm's family and joint count
+    (:func:`~pipeline.solvers.closed_form.analytic.packed`'s ``ints``), made once
     per process: each template above (:func:`core6`, :func:`solve_pose`, :func:`solve_batch_kernel`,
     :func:`call_pose`) with the family's closed form and the joint count bound in
     (:func:`pipeline.solvers.kernels.specialise.specialise`), so that a robot's first call compiles what its

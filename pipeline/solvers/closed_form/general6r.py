@@ -415,8 +415,8 @@ def _chosen_q(q, listed, nl, best, kept, nk, q_start, limits_on):
 
 @numba.njit(cache=True, error_model="numpy")
 def general_pose(E, Tg, to_m, L, CK, limits_on, q_start, S, q, trace, start_row):
-    """A goal solved whole in one compiled call, as :func:`pipeline.solvers.closed_form.analytic_kernels.solve_pose` does for
-    the subproblem families.
+    """A goal solved whole in one compiled call, as
+    :func:`pipeline.solvers.closed_form.analytic_kernels.solve_pose` does for the subproblem families.
 
     Every root (:func:`_all_roots`, ``E`` its arm arguments after the goal) wrapped to (−π, π], in
     order of wrapped distance to ``q_start`` (ties in root order); each kept when the dual-quaternion
@@ -485,8 +485,8 @@ def general_pose(E, Tg, to_m, L, CK, limits_on, q_start, S, q, trace, start_row)
 @numba.njit(cache=True, error_model="numpy")
 def general_call(E, L, CK, GC, scale, Tg, q_start, S, q, trace):
     """The whole public single call of a general arm in one compiled call (as
-    :func:`pipeline.solvers.closed_form.analytic_kernels.call_pose`), without limits: the goal scaled to the working unit
-    by ``scale``, :func:`general_pose` (roots decided by ``CK``), then the independent FK check of
+    :func:`pipeline.solvers.closed_form.analytic_kernels.call_pose`), without limits: the goal scaled to the
+    working unit by ``scale``, :func:`general_pose` (roots decided by ``CK``), then the independent FK check of
     ``q`` (:func:`~pipeline.solvers.core.finish_packed` on ``GC``, the solver's own criterion)."""
     Tw = Tg.copy()
     for r in range(3):
