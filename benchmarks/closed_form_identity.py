@@ -49,12 +49,13 @@ CASES = [  # (label, robot name or builder, method, goals)
     ("puma560/analytic_puma", "puma560", "analytic_puma", 40),
     ("kuka_kr6/analytic", "kuka_kr6_r700_sixx", "analytic", 40),
     ("abb_irb2400/analytic", "abb_irb2400", "analytic", 40),
+    ("fanuc_lrmate200id/analytic", "fanuc_lrmate200id", "analytic", 40),
     ("fanuc_crx10ia/analytic", "fanuc_crx10ia", "analytic", 16),
     ("kinova_gen3_lite/analytic", "kinova_gen3_lite", "analytic", 16),
     ("mariano_4dof/analytic_4dof", "mariano_4dof", "analytic_4dof", 40),
-    ("mariano_4dof/analytic", "mariano_4dof", "analytic", 40),
     ("franka_panda/analytic", "franka_panda", "analytic", 6),
     ("kuka_iiwa14/analytic", "kuka_iiwa14", "analytic", 6),
+    ("rethink_sawyer/analytic", "rethink_sawyer", "analytic", 4),
     ("general6/analytic", _general_arm, "analytic", 8),
     ("general6/general_6r", _general_arm, "general_6r", 8),
 ]
@@ -79,9 +80,10 @@ def _record(label, arm, method, n) -> dict:
         s = make_settings(method, {"require_limits": rl})
         prep = prepare(method, model, s)
         key = f"{label}/rl={int(rl)}"
-        q, sols, nsol, flags, errs = [], [], [], [], []
+        q, sols, nsol, flags, errs, family = [], [], [], [], [], ""
         for T, q0 in zip(goals, starts):
             r = solve(method, prep, T, q0, s)
+            family = family or str(r.info.get("family", ""))
             q.append(r.q)
             S = np.zeros((0, model.n)) if r.solutions is None else np.asarray(r.solutions, dtype=float)
             sols.append(S.reshape(-1, model.n))
@@ -104,7 +106,7 @@ def _record(label, arm, method, n) -> dict:
         if b.n_solutions is not None:
             out[f"{key}/batch/nsol"] = np.asarray(b.n_solutions)
         print(f"{key}: success solve {int(np.array(flags)[:, 0].sum())}/{n}, batch {int(b.success.sum())}/{n}, "
-              f"solutions {sum(nsol)}", flush=True)
+              f"solutions {sum(nsol)}; {family}", flush=True)
     return out
 
 
