@@ -2,12 +2,15 @@
 
 Whatever the robot file's form, the joint axes at the zero pose decide the family
 (:func:`pipeline.kinematics.geometry.classify`; ``python -m pipeline robot FILE`` prints it with its
-evidence) and :mod:`pipeline.solvers.closed_form.subproblems` solves it:
+evidence) and the family's module solves it, built on the subproblems of
+:mod:`pipeline.solvers.closed_form.subproblems`:
 
-- 6R, spherical wrist (or spherical shoulder, read from the tool back): all (up to 8) solutions;
-- 6R, three parallel axes with the last two meeting (UR family, or reversed): up to 8;
+- 6R, spherical wrist (or spherical shoulder, read from the tool back): all (up to 8) solutions
+  (:mod:`~pipeline.solvers.closed_form.family_sph`);
+- 6R, three parallel axes with the last two meeting (UR family, or reversed): up to 8
+  (:mod:`~pipeline.solvers.closed_form.family_3p`);
 - 6R, axes 5 and 6 meeting (or 1 and 2) with a position case for the other end: a one-dimensional
-  search over joint 4 (``search_samples`` grid points, sign changes of each branch's residual
+  search (:mod:`~pipeline.solvers.closed_form.family_search`) over joint 4 (``search_samples`` grid points, sign changes of each branch's residual
   refined by regula falsi): up to 16 (the offset-wrist arms);
 - 6R, no family: every solution by algebraic elimination (:mod:`pipeline.solvers.closed_form.general6r`, the
   solver ``general_6r``; Raghavan-Roth / Manocha-Canny), up to 16;
@@ -29,6 +32,10 @@ in one line naming the geometry (e.g. "axes 4, 5 and 6 do not meet (closest comm
 off) ..."). The general path is one compiled call per pose (:func:`pipeline.solvers.closed_form.general6r.general_pose`;
 the public call fused with the independent check, :func:`pipeline.solvers.closed_form.general6r.general_call`;
 a batch on every core, :func:`pipeline.solvers.closed_form.general6r.batch_arrays`).
+
+This module holds the settings, the registration and the Python side of the calls (the arm packed once,
+the results built); the compiled kernels (one pose, the fused call, the batch) are in
+:mod:`pipeline.solvers.closed_form.analytic_kernels`.
 """
 
 from __future__ import annotations
