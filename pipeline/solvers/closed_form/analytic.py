@@ -10,8 +10,9 @@ evidence) and the family's module solves it, built on the subproblems of
 - 6R, three parallel axes with the last two meeting (UR family, or reversed): up to 8
   (:mod:`~pipeline.solvers.closed_form.family_3p`);
 - 6R, axes 5 and 6 meeting (or 1 and 2) with a position case for the other end: a one-dimensional
-  search (:mod:`~pipeline.solvers.closed_form.family_search`) over joint 4 (``search_samples`` grid points, sign changes of each branch's residual
-  refined by regula falsi): up to 16 (the offset-wrist arms);
+  search (:mod:`~pipeline.solvers.closed_form.family_search`) over joint 4 (``search_samples`` grid
+  points, sign changes of each branch's residual refined by regula falsi): up to 16 (the offset-wrist
+  arms);
 - 6R, no family: every solution by algebraic elimination (:mod:`pipeline.solvers.closed_form.general6r`, the
   solver ``general_6r``; Raghavan-Roth / Manocha-Canny), up to 16;
 - 7R: one joint (chosen from the geometry, or ``free_joint``) held at the start's own value, at
