@@ -119,7 +119,8 @@ def test_grid_is_the_reshaped_view():
 def test_check_rows_agrees_with_the_one_row_check():
     """Every candidate row's verdict from the vectorized pass equals the scalar FK check's
     (``fk_linesz`` + ``pose_within``), for row counts around the vector width, valid and invalid rows."""
-    from pipeline.solvers.closed_form import analytic as A
+    from pipeline.solvers.closed_form import analytic_kernels as A
+    from pipeline.solvers.closed_form.lines import fk_linesz, pose_within, twelve
 
     rng = np.random.default_rng(11)
     H = rng.normal(size=(6, 3))
@@ -131,7 +132,7 @@ def test_check_rows_agrees_with_the_one_row_check():
         Z = np.cos(th) + 1j * np.sin(th)
         goal = np.eye(4)
         R, p = np.empty((3, 3)), np.empty(3)
-        A.fk_linesz(H, Pt, RM, pM, Z[0], R, p)
+        fk_linesz(H, Pt, RM, pM, Z[0], R, p)
         goal[:3, :3], goal[:3, 3] = R, p
         th[k // 2] = th[0] + rng.normal(scale=1e-13, size=6)  # a second row on the goal, within tolerance
         Z = np.cos(th) + 1j * np.sin(th)
@@ -139,12 +140,12 @@ def test_check_rows_agrees_with_the_one_row_check():
         kv = (k + 7) // 8 * 8  # rows padded to whole vectors with the zero angle, as _joint_major pads them
         thp = np.vstack([th, np.zeros((kv - k, 6))])
         Cz, Sz = np.cos(thp).T.ravel().copy(), np.sin(thp).T.ravel().copy()  # joint-major: joint i of row r at i kv + r
-        mask = A.check_rows(H, Pt, A._twelve(RM, pM), A._twelve(goal, goal[:, 3]), Cz, Sz, kv, tolp2, fmax)
+        mask = A.check_rows(H, Pt, twelve(RM, pM), twelve(goal, goal[:, 3]), Cz, Sz, kv, tolp2, fmax)
         ok = [float((mask >> r) & 1) for r in range(k)]
         assert mask >> kv == 0  # no bit beyond the rows
         want = []
         for r in range(k):
-            A.fk_linesz(H, Pt, RM, pM, Z[r], R, p)
-            want.append(1.0 if A.pose_within(R, p, goal, tolp2, fmax) else 0.0)
+            fk_linesz(H, Pt, RM, pM, Z[r], R, p)
+            want.append(1.0 if pose_within(R, p, goal, tolp2, fmax) else 0.0)
         assert ok == want
         assert ok[0] == 1.0 and (k < 2 or ok[k // 2] == 1.0)

@@ -16,8 +16,9 @@ from hypothesis import strategies as st
 from pipeline.kinematics import fk_htm
 from pipeline.robots import load_robot
 from pipeline.solvers import make_settings, solve, solve_batch
-from pipeline.solvers.closed_form import lanes
-from pipeline.solvers.closed_form.analytic import packed, unpack
+from pipeline.solvers.closed_form import family_3p, family_sph, lanes
+from pipeline.solvers.closed_form.analytic import packed
+from pipeline.solvers.closed_form.analytic_kernels import candidates8, unpack
 from pipeline.solvers.core.registry import bind
 from tests.conftest import homogeneous, rodrigues
 from pipeline.solvers.closed_form import subproblems as sp
@@ -72,8 +73,8 @@ def _fk(H, P, RM, pM, q) -> np.ndarray:
 def _single(kind, H, P, RM, pM, Tg, pref, Q) -> int:
     pg = (Tg[0, 3], Tg[1, 3], Tg[2, 3])
     if kind == "3p":
-        return sp.solve_3p(H, P, RM, pM, Tg, pg, CLIP, pref, Q)
-    return sp.solve_sph(int(kind[-1]), H, P, RM, pM, Tg, pg, CLIP, pref, Q, NOLIM)
+        return family_3p.solve_3p(H, P, RM, pM, Tg, pg, CLIP, pref, Q)
+    return family_sph.solve_sph(int(kind[-1]), H, P, RM, pM, Tg, pg, CLIP, pref, Q, NOLIM)
 
 
 def _compare(kind, H, P, RM, pM, goals, prefs) -> tuple[int, int]:
@@ -86,7 +87,7 @@ def _compare(kind, H, P, RM, pM, goals, prefs) -> tuple[int, int]:
     Q = np.empty((sp.MAX_SOL, 6), np.complex128)
     compared = free_n = 0
     for i0 in range(0, len(goals) - 7, 8):
-        lanes.candidates8(fam, case, H, P, RM, pM, CLIP, goals, i0, L)
+        candidates8(fam, case, H, P, RM, pM, CLIP, goals, i0, L)
         for lane in range(8):
             k, free = lanes.take(L, lane, Z)
             if free:
@@ -146,7 +147,7 @@ def test_a_free_angle_is_left_to_the_single_call(name):
     L, Z = np.empty(lanes.SIZE), np.empty(6 * sp.MAX_SOL, np.complex128)
     free = []
     for i0 in range(0, 32, 8):
-        lanes.candidates8(int(k.ints[1]), int(k.ints[2]), H, P, RM, pM, par[0], G, i0, L)
+        candidates8(int(k.ints[1]), int(k.ints[2]), H, P, RM, pM, par[0], G, i0, L)
         free += [lanes.take(L, lane, Z)[1] for lane in range(8)]
     if name != "ur5":  # the UR5's θ6 is the free one there: its default e^{i0} needs no start
         assert any(free[::2])

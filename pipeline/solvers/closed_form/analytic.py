@@ -2,13 +2,17 @@
 
 Whatever the robot file's form, the joint axes at the zero pose decide the family
 (:func:`pipeline.kinematics.geometry.classify`; ``python -m pipeline robot FILE`` prints it with its
-evidence) and :mod:`pipeline.solvers.closed_form.subproblems` solves it:
+evidence) and the family's module solves it, built on the subproblems of
+:mod:`pipeline.solvers.closed_form.subproblems`:
 
-- 6R, spherical wrist (or spherical shoulder, read from the tool back): all (up to 8) solutions;
-- 6R, three parallel axes with the last two meeting (UR family, or reversed): up to 8;
+- 6R, spherical wrist (or spherical shoulder, read from the tool back): all (up to 8) solutions
+  (:mod:`~pipeline.solvers.closed_form.family_sph`);
+- 6R, three parallel axes with the last two meeting (UR family, or reversed): up to 8
+  (:mod:`~pipeline.solvers.closed_form.family_3p`);
 - 6R, axes 5 and 6 meeting (or 1 and 2) with a position case for the other end: a one-dimensional
-  search over joint 4 (``search_samples`` grid points, sign changes of each branch's residual
-  refined by regula falsi): up to 16 (the offset-wrist arms);
+  search (:mod:`~pipeline.solvers.closed_form.family_search`) over joint 4 (``search_samples`` grid
+  points, sign changes of each branch's residual refined by regula falsi): up to 16 (the offset-wrist
+  arms);
 - 6R, no family: every solution by algebraic elimination (:mod:`pipeline.solvers.closed_form.general6r`, the
   solver ``general_6r``; Raghavan-Roth / Manocha-Canny), up to 16;
 - 7R: one joint (chosen from the geometry, or ``free_joint``) held at the start's own value, at
@@ -29,6 +33,10 @@ in one line naming the geometry (e.g. "axes 4, 5 and 6 do not meet (closest comm
 off) ..."). The general path is one compiled call per pose (:func:`pipeline.solvers.closed_form.general6r.general_pose`;
 the public call fused with the independent check, :func:`pipeline.solvers.closed_form.general6r.general_call`;
 a batch on every core, :func:`pipeline.solvers.closed_form.general6r.batch_arrays`).
+
+This module holds the settings, the registration and the Python side of the calls (the arm packed once,
+the results built); the compiled kernels (one pose, the fused call, the batch) are in
+:mod:`pipeline.solvers.closed_form.analytic_kernels`.
 """
 
 from __future__ import annotations
@@ -36,20 +44,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from pipeline.kinematics import geometry
 from pipeline.solvers.closed_form import lanes
 from pipeline.solvers.closed_form import subproblems as sp
-from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS, TRACE_COLS, borrowed, grid, now_ns
+from pipeline.solvers.closed_form.analytic_kernels import kernels, scratch
+from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS, TRACE_COLS
 from pipeline.solvers.core import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, SettingsError, check_pack,
-                                   finish_packed, fused_inputs, setting)
+                                   fused_inputs, setting)
 from pipeline.solvers.core.timing import clock_ns
 from pipeline.solvers.core.driver import run_of
 from pipeline.solvers.core.registry import Solver, register
-from pipeline.solvers.closed_form.lines import (EYE_ACC, doc_row, joint_line, poe_step, times_home, twelve, within_goal, fk_lines,
-                                     fk_linesz, pose_within)
 
 SOURCE = ("Paden (1985) and Kahan's subproblems 1-4, as extended by IK-Geo (Elias & Wen 2022) and EAIK "
           "(Ostermeier, Külz & Althoff 2025); the decomposition found from the joint axes")
@@ -190,7 +196,8 @@ class Packed:
     """The arm and the settings for the kernels: ``ints`` = n, family, position case, reversed, free
     joint (−1 for 6R), search samples, free samples, searched joint; ``G`` = the joint lines H (n, 3)
     and P (n, 3), the home pose RM (3, 3) and pM (3,), (clip, verify_position, verify_rotation) and
-    the limits (n, 2), then (6, 2) of ±inf, flattened (:func:`unpack` gives the views)."""
+    the limits (n, 2), then (6, 2) of ±inf, flattened
+    (:func:`~pipeline.solvers.closed_form.analytic_kernels.unpack` gives the views)."""
 
     ints: np.ndarray
     G: np.ndarray
@@ -210,453 +217,6 @@ def packed(prep: Prepared, s: AnalyticSettings) -> Packed:
                         [s.clip, s.verify_position, s.verify_rotation], np.asarray(prep.limits, float).ravel(),
                         np.tile([-np.inf, np.inf], 6)])
     return Packed(ints, np.ascontiguousarray(G))
-
-
-# ---- compiled: one pose ---------------------------------------------------------------------------
-
-
-@numba.njit(cache=True, error_model="numpy")
-def check_rows(H, P, m, g, Cz, Sz, k, tolp2, f_max):
-    """FK check of the closed form's k candidate rows at once, one candidate per vector lane: bit r of
-    the returned int is set where row r's pose lies within the tolerances of the goal ``g``
-    (:func:`within_goal`). ``Cz``, ``Sz``: each joint's cos and sin, joint-major (joint i of row r at
-    ``i k + r``), k a multiple of 8 below 64 (:func:`_joint_major` pads the rows); ``m`` the home pose
-    (12 floats). Written so that the compiler vectorizes the rows on every CPU: the six factors
-    written out, not looped over; the verdicts OR-ed into one integer, not stored (with no store in
-    the loop no run-time check that the rows and the verdicts do not overlap is needed: on a Zen 4
-    the cost of those checks made the compiler keep the stored-verdict loop scalar, 570-640 ns for
-    8 rows); each joint's cos and sin a view indexed by an unsigned row number (no wrap-around
-    select, so contiguous vector loads); the rows in blocks of 8 (a constant trip count, so no
-    scalar remainder). 8 rows take 150-190 ns there."""
-    l0, l1, l2 = joint_line(H, P, 0), joint_line(H, P, 1), joint_line(H, P, 2)
-    l3, l4, l5 = joint_line(H, P, 3), joint_line(H, P, 4), joint_line(H, P, 5)
-    c0, c1, c2, c3, c4, c5 = Cz[0:k], Cz[k:2 * k], Cz[2 * k:3 * k], Cz[3 * k:4 * k], Cz[4 * k:5 * k], Cz[5 * k:6 * k]
-    s0, s1, s2, s3, s4, s5 = Sz[0:k], Sz[k:2 * k], Sz[2 * k:3 * k], Sz[3 * k:4 * k], Sz[4 * k:5 * k], Sz[5 * k:6 * k]
-    ok = 0
-    for b in range(0, k, 8):
-        for lane in range(8):  # a constant trip count: one vector of 8 rows, no scalar remainder
-            r = np.uint64(b + lane)
-            a = poe_step(EYE_ACC, l0, c0[r], s0[r])
-            a = poe_step(a, l1, c1[r], s1[r])
-            a = poe_step(a, l2, c2[r], s2[r])
-            a = poe_step(a, l3, c3[r], s3[r])
-            a = poe_step(a, l4, c4[r], s4[r])
-            a = poe_step(a, l5, c5[r], s5[r])
-            ok |= np.int64(within_goal(times_home(a, m), g, tolp2, f_max)) << r
-    return ok
-
-
-# ---- compiled: one family's closed form ---------------------------------------------------------------
-# The three families behind one signature (case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
-# each kernel below (core6, solve_pose, call_pose, solve_batch_kernel) is compiled per family, with the
-# name FAMILY bound to one of these (:func:`kernels`), so that a robot's first call compiles its own
-# family's closed form only.
-
-
-@numba.njit(cache=True, error_model="numpy")
-def family_sph(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
-    """Spherical wrist (:func:`pipeline.solvers.closed_form.subproblems.solve_sph`)."""
-    return sp.solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim6)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def family_3p(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
-    """Three parallel axes (:func:`pipeline.solvers.closed_form.subproblems.solve_3p`)."""
-    return sp.solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def family_search(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
-    """Two meeting axes and a one-dimensional search (:func:`pipeline.solvers.closed_form.subproblems.solve_search`)."""
-    return sp.solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q)
-
-
-# the names the templates below call, bound per family by :func:`kernels` (never called as they are here),
-# and the constants of each copy: its family code and joint count
-FAMILY = CORE6 = SOLVE_POSE = LANES8 = None
-FAM, NJ = 0, 0
-
-
-def core6(case, rev, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr):
-    """Candidates of a 6R chain of this copy's family into Q (complex (16, 6): rows of e^{iθ} of THIS
-    chain's joints); ``pref`` (6,) the angles [rad] taken where one is free; ``lim6`` (6, 2) the
-    limits a spherical-wrist branch must fit (±inf: every solution). ``Wr`` (75,) and ``Qr`` (16, 6):
-    scratch for a chain read from the tool back. A template: :func:`kernels` compiles it per family."""
-    if rev == 0:
-        return FAMILY(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6)
-    # read from the tool back: lines moved by M⁻¹ in reverse order, home M⁻¹, goal T⁻¹, angles −θ
-    Hr, Pr, RMr = grid(Wr, 6, 3), grid(Wr[18:], 6, 3), grid(Wr[36:], 3, 3)
-    pMr, Rgr, prefr, limr = Wr[45:48], grid(Wr[48:], 3, 3), Wr[57:63], grid(Wr[63:], 6, 2)
-    for i in range(6):
-        j = 5 - i
-        hv = sp.matTvec(RM, (H[j, 0], H[j, 1], H[j, 2]))
-        pv = sp.matTvec(RM, sp.sub((P[j, 0], P[j, 1], P[j, 2]), (pM[0], pM[1], pM[2])))
-        Hr[i, 0], Hr[i, 1], Hr[i, 2] = hv[0], hv[1], hv[2]
-        Pr[i, 0], Pr[i, 1], Pr[i, 2] = pv[0], pv[1], pv[2]
-    pMv = sp.scl(-1.0, sp.matTvec(RM, (pM[0], pM[1], pM[2])))
-    pMr[0], pMr[1], pMr[2] = pMv[0], pMv[1], pMv[2]
-    for r in range(3):
-        for k in range(3):
-            RMr[r, k] = RM[k, r]
-            Rgr[r, k] = Rg[k, r]
-    pgr = sp.scl(-1.0, sp.matTvec(Rg, pg))
-    for i in range(6):
-        prefr[i] = -pref[5 - i]
-        limr[i, 0], limr[i, 1] = -lim6[5 - i, 1], -lim6[5 - i, 0]
-    k = FAMILY(case, mode, Hr, Pr, RMr, pMr, Rgr, pgr, clip, prefr, samples, Qr, limr)
-    for r in range(min(k, Q.shape[0])):
-        for i in range(6):
-            Q[r, i] = Qr[r, 5 - i].conjugate()
-    return k
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _fix(H, P, RM, pM, k, v, H6, P6, RM6, pM6):
-    """The 6R chain with joint k held at v (lines after k and M moved by E_k(v))."""
-    hk = (H[k, 0], H[k, 1], H[k, 2])
-    pk = (P[k, 0], P[k, 1], P[k, 2])
-    c, s_ = math.cos(v), math.sin(v)
-    r = 0
-    for i in range(H.shape[0]):
-        if i == k:
-            continue
-        h = (H[i, 0], H[i, 1], H[i, 2])
-        p = (P[i, 0], P[i, 1], P[i, 2])
-        if i > k:
-            h = sp.rot(hk, c, s_, h)
-            p = sp.add(pk, sp.rot(hk, c, s_, sp.sub(p, pk)))
-        H6[r, 0], H6[r, 1], H6[r, 2] = h[0], h[1], h[2]
-        P6[r, 0], P6[r, 1], P6[r, 2] = p[0], p[1], p[2]
-        r += 1
-    for j in range(3):
-        col = sp.rot(hk, c, s_, (RM[0, j], RM[1, j], RM[2, j]))
-        RM6[0, j], RM6[1, j], RM6[2, j] = col[0], col[1], col[2]
-    pm = sp.add(pk, sp.rot(hk, c, s_, sp.sub((pM[0], pM[1], pM[2]), pk)))
-    pM6[0], pM6[1], pM6[2] = pm[0], pm[1], pm[2]
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def unpack(ints, G):
-    """Views of the packed geometry ``G`` (:func:`packed`): H (n, 3), P (n, 3), RM (3, 3), pM (3,),
-    par (3,), lim (n, 2)."""
-    n = ints[0]
-    o = 6 * n
-    return (grid(G, n, 3), grid(G[3 * n:], n, 3), grid(G[o:], 3, 3), G[o + 9:o + 12], G[o + 12:o + 15],
-            grid(G[o + 15:], n, 2))
-
-
-def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, given=-1, given_ns=0):
-    """The FK-valid solutions of one pose, nearest to ``q_start`` first (wrapped joint distance, sum of
-    squares), at most ``max_solutions`` into ``S``; ``q`` the chosen one. ``Sc`` (:func:`scratch`
-    rows) holds the candidates: 6R, every closed-form candidate wrapped to (−π, π]; 7R, every
-    candidate of every swept value (the start's value first) moved by turns to lie nearest the start
-    within the joint limits (:func:`pipeline.solvers.closed_form.subproblems.near_limits`: a continuous joint does
-    not jump a turn away from the seed; those that do not fit are dropped).
-    Candidates are FK-checked nearest first until ``max_solutions`` pass or none is left, so a 7R
-    sweep checks about as many as it returns. ``W``, ``Z``, ``I``: the float, complex and int scratch of
-    :func:`scratch` (the caller allocates them once, for a batch once per work item). ``start_row``
-    False: the trace's row at ``q_start`` is left unwritten unless no solution is found (a batch
-    that keeps no traces needs only the row at ``q``). ``given`` >= 0: a 6R arm's closed-form candidates
-    are in Z's first rows already, that many (the batch's lanes, :mod:`pipeline.solvers.closed_form.lanes`), and
-    ``given_ns`` [ns] their share of the time. Returns (solutions, candidates, solve time [ns])."""
-    # every array below is a borrowed view: no atomic reference counting on the per-pose path
-    ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace = (
-        borrowed(ints), borrowed(G), borrowed(Tg), borrowed(q_start), borrowed(Sc), borrowed(W), borrowed(Z),
-        borrowed(I), borrowed(S), borrowed(q), borrowed(trace))
-    clk = I[0:2]
-    t0 = now_ns(clk)
-    H, P, RM, pM, par, lim = unpack(ints, G)
-    n = NJ  # this copy's constants (:func:`kernels`): the other arm's and family's branches are not compiled
-    fam = FAM
-    case, rev, free, samples, nfree, mode = ints[2], ints[3], ints[4], ints[5], ints[6], ints[7]
-    max_sol = min(ints[8], S.shape[0])
-    clip, tolp, tolr = par[0], par[1], par[2]
-    tolp2, f_max = tolp * tolp, 8.0 * math.sin(0.5 * tolr) ** 2
-    m12, g12 = twelve(RM, pM), twelve(Tg, Tg[:, 3])  # the home pose and the goal, 12 floats each
-    Rg = Tg  # its rotation block is read
-    pg = (Tg[0, 3], Tg[1, 3], Tg[2, 3])
-    cap = Sc.shape[0]
-    Q, Qr, qrow = grid(Z, sp.MAX_SOL, 6), grid(Z[6 * sp.MAX_SOL:], sp.MAX_SOL, 6), I[2:2 + sp.MAX_SOL]
-    Zf = Z[12 * sp.MAX_SOL:]  # fk_lines' e^{iθ} of each joint
-    R, p, dist = grid(W, 3, 3), W[9:12], W[12:12 + cap]
-    cs = grid(W[12 + cap:], n, 3)
-    cs[:] = math.nan
-    o, o_rev, _, o_ang = _w_blocks(n, cap)
-    Wr, Wa = W[o_rev:o_rev + W_REVERSED], W[o_ang:o_ang + W_ANGLES]
-    chosen = -1  # 6R: the row of Q the chosen solution came from
-    nc = 0  # candidates in Sc
-    tried = 0
-    refine = ints[9]
-    inlim = 0
-    nolim = grid(G[8 * n + 15:], 6, 2)  # ±inf: a 6R arm's closed form keeps every branch
-    lim6 = nolim
-    if n == 7:
-        lim6 = np.empty((6, 2))
-        r_ = 0
-        for i in range(7):
-            if i != free:
-                lim6[r_, 0], lim6[r_, 1] = lim[i, 0], lim[i, 1]
-                r_ += 1
-    for attempt in range(2):
-        if attempt == 1:
-            # nothing within the limits: the search (6R) or the sweep (7R) once more on a finer grid
-            if inlim > 0 or refine <= 1 or (n == 6 and fam != sp.FAM_SEARCH):
-                break
-            samples *= refine
-            nfree *= refine
-            nc = 0  # a 6R search finds its earlier candidates again; a 7R sweep kept none
-        inlim = 0
-        if n == 6:
-            # every candidate is checked (in the order the closed form gives them: shared angles reuse
-            # their sine and cosine); the valid ones compete by distance below
-            if given >= 0:
-                k = given
-            else:
-                k = min(CORE6(case, rev, mode, H, P, RM, pM, Rg, pg, clip, q_start, samples, Q, nolim, Wr, Qr),
-                        sp.MAX_SOL)
-            tried += k
-            search = fam == sp.FAM_SEARCH  # only a search refines when nothing lies within the limits
-            # every candidate FK-checked from the closed form's own cos/sin and turned into angles, both
-            # in vectorized passes over the candidates; the valid ones compete by distance below
-            Cz, Sz, Ang, kv = _joint_major(Q, k, Wa)
-            okv = check_rows(H, P, m12, g12, Cz, Sz, kv, tolp2, f_max)
-            sp.angles_of(Sz, Cz, Ang, 6 * kv)
-            for r in range(k):
-                if not (okv >> r) & 1:
-                    continue
-                if nc >= cap:
-                    break
-                qrow[nc] = r
-                d = 0.0
-                inside = True
-                for j in range(6):
-                    x = Ang[j * kv + r]
-                    Sc[nc, j] = x
-                    if search and not sp.into_limits(x, lim[j, 0], lim[j, 1])[1]:
-                        inside = False
-                    e = sp.wrap(x - q_start[j])
-                    d += e * e
-                dist[nc] = d
-                nc += 1
-                inlim += inside
-        else:
-            H6, P6 = grid(W[o:], 6, 3), grid(W[o + 18:], 6, 3)
-            RM6, pM6, pref = grid(W[o + 36:], 3, 3), W[o + 45:o + 48], W[o + 48:o + 54]
-            r_ = 0
-            for i in range(n):
-                if i != free:
-                    pref[r_] = q_start[i]
-                    r_ += 1
-            lo, hi = lim[free, 0], lim[free, 1]
-            if not (math.isfinite(lo) and math.isfinite(hi)):
-                lo, hi = -math.pi, math.pi
-            if hi - lo > 2.0 * math.pi:  # one turn: v and v + 2π give the same solutions
-                hi = lo + 2.0 * math.pi
-            for it in range(nfree + 1 + N_NEAR):
-                # the start's value, then values beside it (a tracking user's answer lies there), then the grid
-                if attempt == 1 and it <= N_NEAR:
-                    continue
-                if it == 0:
-                    v = q_start[free]
-                elif it <= N_NEAR:
-                    v = q_start[free] + NEAR[it - 1]
-                    if not (lim[free, 0] <= v <= lim[free, 1]):
-                        continue
-                else:
-                    v = lo + (hi - lo) * (it - N_NEAR - 0.5) / nfree
-                _fix(H, P, RM, pM, free, v, H6, P6, RM6, pM6)
-                k = min(CORE6(case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr),
-                        sp.MAX_SOL)
-                tried += k
-                Cz, Sz, Ang, kv = _joint_major(Q, k, Wa)
-                sp.angles_of(Sz, Cz, Ang, 6 * kv)
-                for r in range(k):
-                    if nc >= cap:
-                        break
-                    c_ = 0
-                    inside = True
-                    d = 0.0
-                    for j in range(n):
-                        if j == free:
-                            x = v
-                        else:
-                            x = Ang[c_ * kv + r]
-                            c_ += 1
-                        x, ok = sp.near_limits(x, q_start[j], lim[j, 0], lim[j, 1])
-                        if not ok:
-                            inside = False
-                            break
-                        Sc[nc, j] = x
-                        e = x - q_start[j]
-                        d += e * e
-                    if inside:
-                        dist[nc] = d
-                        nc += 1
-                        inlim += 1
-    m = 0
-    if n == 6:
-        # every candidate is checked already: each one's place among them by distance, ties in
-        # candidate order (the order of a selection nearest first), without a data-dependent branch
-        for i in range(nc):
-            di = dist[i]
-            rk = 0
-            for j in range(nc):
-                dj = dist[j]
-                rk += (dj < di) | ((dj == di) & (j < i))
-            if di < math.inf and rk < max_sol:  # (a NaN distance, from a NaN start, is never taken)
-                for j in range(6):
-                    S[rk, j] = Sc[i, j]
-                if rk == 0:
-                    chosen = qrow[i]
-                m += 1
-    else:  # 7R: nearest first, select, FK-check, keep, until max_solutions pass
-        for _ in range(nc):
-            if m >= max_sol:
-                break
-            best = -1
-            bd = math.inf
-            for r in range(nc):
-                if dist[r] < bd:
-                    bd = dist[r]
-                    best = r
-            if best < 0:
-                break
-            dist[best] = math.inf
-            fk_lines(H, P, RM, pM, Sc[best], R, p, cs, Zf)
-            if pose_within(R, p, Tg, tolp2, f_max):
-                for j in range(n):
-                    S[m, j] = Sc[best, j]
-                m += 1
-    for a_ in range(m, S.shape[0]):
-        for j in range(n):
-            S[a_, j] = math.nan
-    if m == 0:
-        for j in range(n):
-            q[j] = q_start[j]
-    elif n == 6:
-        for j in range(n):
-            q[j] = q_start[j] + sp.wrap(S[0, j] - q_start[j])
-    else:
-        for j in range(n):
-            q[j] = S[0, j]
-    ns = now_ns(clk) - t0 + given_ns
-    if start_row or m == 0:
-        fk_lines(H, P, RM, pM, q_start, R, p, cs, Zf)
-        doc_row(Tg, R, p, trace[0])
-    if m == 0:
-        for c in range(TRACE_COLS):
-            trace[1, c] = trace[0, c]
-    else:
-        if n == 6:  # q differs from the chosen candidate by turns only: its pose from the same cos/sin
-            fk_linesz(H, P, RM, pM, Q[chosen], R, p)
-        else:
-            fk_lines(H, P, RM, pM, q, R, p, cs, Zf)
-        doc_row(Tg, R, p, trace[1])
-    return m, tried, ns
-
-
-def solve_batch_kernel(ints, G, goals, starts, S, Qo, traces, doc, nsol, tried, ns, use_lanes):
-    """:func:`solve_pose` for every row, on every core: work items of 32 poses, one scratch each;
-    every pose writes only its own rows (results independent of the thread count). ``doc`` (N,):
-    the document's error at each ``q``; ``traces`` (N, 2, 8) the trace rows, or (0, 2, 8) when no
-    trace is kept (each pose's rows then go to its work item's scratch, the row at the start unwritten).
-    ``use_lanes`` (:func:`pipeline.solvers.closed_form.lanes.applies`): the closed form's candidates of 8 poses at a
-    time in vector lanes (:func:`~pipeline.solvers.closed_form.lanes.candidates8`; the same floats as the single
-    call), each pose's time its share of the block's; a pose whose closed form takes a default, and
-    the poses past a work item's last 8, solved alone."""
-    N = goals.shape[0]
-    chunk = 32
-    keep = traces.shape[0] == N
-    gb, sb, Sb, Qb, tb = borrowed(goals), borrowed(starts), borrowed(S), borrowed(Qo), borrowed(traces)
-    ib, Gb = borrowed(ints), borrowed(G)  # shared by the threads: no count updates on one cache line
-    case = ints[2]
-    H, P, RM, pM, par, _ = unpack(ib, Gb)
-    clip = par[0]
-    for c in numba.prange((N + chunk - 1) // chunk):
-        Sc, W, Z, I = scratch(ints)
-        own = np.empty((2, TRACE_COLS))
-        L = np.empty(lanes.SIZE)
-        Scb, Wb, Zb, Ib, ob, Lb = borrowed(Sc), borrowed(W), borrowed(Z), borrowed(I), borrowed(own), borrowed(L)
-        hi = min(N, (c + 1) * chunk)
-        for i8 in range(c * chunk, hi, lanes.LANES):
-            block = use_lanes and i8 + lanes.LANES <= hi
-            share = 0
-            if block:
-                t0 = now_ns(Ib)
-                LANES8(case, H, P, RM, pM, clip, gb, i8, Lb)
-                share = (now_ns(Ib) - t0) // lanes.LANES
-            for i in range(i8, min(hi, i8 + lanes.LANES)):
-                given = -1
-                if block:
-                    k, free = lanes.take(Lb, i - i8, Zb)
-                    if not free:
-                        given = k
-                tr = tb[i] if keep else ob
-                m, t, dt = SOLVE_POSE(ib, Gb, gb[i], sb[i], Scb, Wb, Zb, Ib, Sb[i], Qb[i], tr, keep, given,
-                                      share if given >= 0 else 0)
-                doc[i] = tr[1, 0]
-                nsol[i] = m
-                tried[i] = t
-                ns[i] = dt
-        # the work item's scratch read after its last borrowed use (numba frees a local after its last use)
-        I[0] = Sc.shape[0] + W.shape[0] + Z.shape[0] + own.shape[0] + L.shape[0]
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _capacity(ints):
-    """Scratch rows per pose: 16 for 6R, 16 per swept value for 7R."""
-    return sp.MAX_SOL if ints[0] == 6 else sp.MAX_SOL * (ints[6] + 1 + N_NEAR)
-
-
-# 7R: the free joint's values tried beside the start's before the grid [rad] (a warm start's nearest
-# solution usually lies on the self-motion within a few tenths of a radian of the seed's value)
-NEAR = np.array([-0.05, 0.05, -0.15, 0.15, -0.3, 0.3])
-N_NEAR = len(NEAR)
-
-
-# the float scratch W: R (9) and p (3) of a pose, the candidates' distances (capacity), each joint's
-# last angle with its cos and sin (3 n), then these blocks
-W_FIXED = 54  # a 7R sweep's fixed 6R chain: H (18), P (18), RM (9), pM (3), the start's other angles (6)
-W_REVERSED = 75  # a chain read from the tool back (core6): H, P, RM, pM, the goal's R, pref (6), limits (12)
-W_GOAL = 16  # the goal (4, 4) scaled to the working unit (call_pose)
-W_ANGLES = 18 * sp.MAX_SOL  # up to MAX_SOL candidate rows: their cosines, sines and angles (6 each, _joint_major)
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _w_blocks(n, cap):
-    """Offsets in W of the fixed-chain, reversed-chain, goal and angle blocks."""
-    o = 12 + cap + 3 * n
-    return o, o + W_FIXED, o + W_FIXED + W_REVERSED, o + W_FIXED + W_REVERSED + W_GOAL
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _joint_major(Q, k, Wa):
-    """(Cz, Sz, Ang, kv): views of W's angle block ``Wa``, with the cos and sin of the 6 joints of Q's
-    first k rows written joint-major into Cz and Sz (joint i of row r at ``i kv + r``), for the passes
-    over all candidates at once (:func:`check_rows`, :func:`~pipeline.solvers.closed_form.subproblems.angles_of`
-    into Ang). The rows are padded to kv, k rounded up to a multiple of 8 with the zero angle: a
-    vector pass then has no scalar remainder (one of 7 rows took 2.6 times as long per row as 8)."""
-    kv = (k + 7) // 8 * 8
-    Cz, Sz, Ang = Wa[0:6 * sp.MAX_SOL], Wa[6 * sp.MAX_SOL:12 * sp.MAX_SOL], Wa[12 * sp.MAX_SOL:18 * sp.MAX_SOL]
-    for r in range(kv):
-        for i in range(6):
-            z = Q[r, i] if r < k else 1.0 + 0.0j
-            Cz[i * kv + r] = z.real
-            Sz[i * kv + r] = z.imag
-    return Cz, Sz, Ang, kv
-
-
-@numba.njit(cache=True, error_model="numpy")
-def scratch(ints):
-    """The scratch of :func:`solve_pose`: candidates ``Sc`` (capacity, n); floats ``W`` (the pose's R
-    and p, the candidates' distances, each joint's last cos/sin, then the blocks of :func:`_w_blocks`);
-    complex ``Z`` (the closed form's e^{iθ} rows, 16 × 6 its own and 16 × 6 a reversed chain's, then 7
-    for :func:`fk_lines`); ints ``I`` (the clock buffer, each candidate's row)."""
-    n = ints[0]
-    cap = _capacity(ints)
-    return (np.empty((cap, n)), np.empty(_w_blocks(n, cap)[3] + W_ANGLES),
-            np.empty(12 * sp.MAX_SOL + 7, np.complex128),
-            np.zeros(2 + sp.MAX_SOL, np.int64))
 
 
 _MESSAGES = ["no valid closed-form solution"] + [f"{m} FK-verified solutions" for m in range(1, 4097)]
@@ -703,8 +263,8 @@ def bind(prep: Prepared, s: AnalyticSettings):
 
 def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
     """N poses in one compiled call on every core (each pose writes only its own rows): the family's batch
-    kernel (:func:`kernels`), or for an arm that fits no family the general elimination's
-    (:func:`_batch_general`)."""
+    kernel (:func:`~pipeline.solvers.closed_form.analytic_kernels.kernels`), or for an arm that fits no family
+    the general elimination's (:func:`_batch_general`)."""
     if _general(prep, s):
         return _batch_general(prep, s, goals, starts, keep_traces)
     k = packed(prep, s)
@@ -726,89 +286,6 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     code = np.where(nsol > 0, SUCCESS, NO_SOLUTION).astype(np.int64)
     return BatchRaw(q=Q, code=code, iterations=np.ones(N, np.int64), solve_ns=ns, ik_ns=np.zeros(N, np.int64),
                     trace_rows=rows, trace_offsets=offsets, solutions=S, n_solutions=nsol, info=info)
-
-
-def call_pose(ints, GC, Tg, q_start, S, q, trace):
-    """The whole public single call in one compiled call: :func:`solve_pose`, then the result rule of
-    every finish (:func:`pipeline.solvers.core.finish_packed`: the independent FK check of the chosen
-    ``q`` by the dual-quaternion FK, the limit record, the stop reason; without ``require_limits``).
-    ``GC`` = :func:`packed`'s ``G``, then :func:`~pipeline.solvers.core.check_pack`, then the goal's
-    unit factor (the robot file's unit to the working unit: ``Tg`` is scaled here, not in Python).
-    Solutions ``-1`` (and nothing written) when ``Tg`` is not (4, 4) or ``q_start`` not (n,)."""
-    n = ints[0]
-    if Tg.shape[0] != 4 or Tg.shape[1] != 4 or q_start.shape[0] != n:
-        return -1, 0, 0, NO_SOLUTION, False, False, math.nan, math.nan, False, math.nan
-    ng = 8 * n + 27
-    Sc, W, Z, I = scratch(ints)
-    scale = GC[GC.shape[0] - 1]
-    if scale != 1.0:  # the goal in the working unit (W's goal block)
-        o_goal = _w_blocks(n, Sc.shape[0])[2]
-        Tw = grid(W[o_goal:], 4, 4)
-        for r in range(4):
-            for c in range(4):
-                Tw[r, c] = Tg[r, c] * scale if c == 3 and r < 3 else Tg[r, c]
-        Tg = Tw
-    m, tried, ns = SOLVE_POSE(ints, GC[:ng], Tg, q_start, Sc, W, Z, I, S, q, trace)
-    # the check on borrowed views (no atomic reference counting in its calls); Tg itself, which may be a
-    # view of this function's scratch (a borrowed view of it would outlive the scratch's last use)
-    code, claimed, success, dp, ang, inside = finish_packed(borrowed(GC)[ng:], borrowed(q), Tg,
-                                                            SUCCESS if m > 0 else NO_SOLUTION)
-    return m, tried, ns, code, claimed, success, dp, ang, inside, trace[1, 0]
-
-
-_CALL_SIGNATURE = (numba.types.int64[::1], numba.types.float64[::1], numba.types.float64[:, ::1],
-                   numba.types.float64[::1], numba.types.float64[:, ::1], numba.types.float64[::1],
-                   numba.types.float64[:, ::1])
-
-
-FAMILY_NAMES = {sp.FAM_SPH: "spherical_wrist", sp.FAM_3P: "three_parallel", sp.FAM_SEARCH: "search"}
-_OPTIONS = {"cache": True, "error_model": "numpy"}
-
-
-class Kernels:
-    """One family's compiled kernels for arms of ``n`` joints (:func:`kernels`): ``core6``, ``solve_pose``,
-    ``batch`` (:func:`solve_batch_kernel`) and ``call`` (:func:`call_pose` for its one signature), each
-    compiled at its first use."""
-
-    def __init__(self, code: int, n: int):
-        from pipeline.solvers.kernels.specialise import specialise
-
-        tag = f"{FAMILY_NAMES[code]}_{n}r"
-        fam = {sp.FAM_SPH: family_sph, sp.FAM_3P: family_3p, sp.FAM_SEARCH: family_search}[code]
-        lanes8 = {sp.FAM_SPH: lanes.candidates8_sph, sp.FAM_3P: lanes.candidates8_3p}.get(code, lanes.no_lanes)
-        self.core6 = specialise(core6, FAMILY_NAMES[code], _OPTIONS, FAMILY=fam)
-        self.solve_pose = specialise(solve_pose, tag, _OPTIONS, CORE6=self.core6, FAM=code, NJ=n)
-        self.batch = specialise(solve_batch_kernel, tag, {**_OPTIONS, "parallel": True}, SOLVE_POSE=self.solve_pose,
-                                LANES8=lanes8)
-        self._call = specialise(call_pose, tag, _OPTIONS, SOLVE_POSE=self.solve_pose)
-
-    @property
-    def call(self):
-        """:func:`call_pose` compiled for its one signature (C-contiguous float64 arrays) and closed to any
-        other: the fused call hands it the caller's arrays without checking them in Python (about 0.2 µs
-        a call), and any other array (another dtype or layout, read-only, a list) is a TypeError on
-        which the call converts its inputs first."""
-        if _CALL_SIGNATURE not in self._call.overloads:
-            self._call.compile(_CALL_SIGNATURE)
-            self._call.disable_compile()
-        return self._call
-
-
-_KERNELS: dict[tuple[int, int], Kernels] = {}
-
-
-def kernels(ints: np.ndarray) -> Kernels:
-    """The compiled kernels of a packed arm's family and joint count (:func:`packed`'s ``ints``), made once
-    per process: each template above (:func:`core6`, :func:`solve_pose`, :func:`solve_batch_kernel`,
-    :func:`call_pose`) with the family's closed form and the joint count bound in
-    (:func:`pipeline.solvers.kernels.specialise.specialise`), so that a robot's first call compiles what its
-    arm needs only (a UR arm's first call: its closed form, not the spherical wrist's nor the search's,
-    and not the 7R sweep)."""
-    key = (int(ints[1]), int(ints[0]))
-    k = _KERNELS.get(key)
-    if k is None:
-        k = _KERNELS[key] = Kernels(*key)
-    return k
 
 
 def bind_call(prep: Prepared, s: AnalyticSettings):

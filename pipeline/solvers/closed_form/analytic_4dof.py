@@ -130,19 +130,12 @@ def _wrap(x):
     return x - 2.0 * math.pi * math.floor((x + math.pi) / (2.0 * math.pi))
 
 
-@numba.njit(cache=True)
-def solve_kernel(a, alpha, d, offs, prism, modified, base, tool, Tb, T_goal, q_start, g, crit, tol_pos, tol_rot,
-                 tol_dq, reach_tol, elbow, dedupe_tol, sols, info):
-    """Every FK-valid closed-form solution of ``Tb`` (the bare goal) into ``sols`` (MAX_CAND, 4).
-
-    ``elbow``: 0 both branches, 1 only sin(theta3) >= 0, 2 only sin(theta3) <= 0.
-    Returns (number of solutions, index of the one nearest ``q_start`` or -1, solve ns);
-    ``info[0]`` = candidates tried (real wrist-point solutions).
-    """
-    buf = np.zeros(2, np.int64)
-    t0 = _kin.now_ns(buf)
-    s, d1, a1, lat, a2, a3, a4 = g[0], g[1], g[2], g[3], g[4], g[5], g[6]
-    x, y, z = Tb[0, 3], Tb[1, 3], Tb[2, 3]
+@numba.njit(cache=True, inline="always")
+def _first_joint(Tb, s, lat, crit):
+    """theta1's candidates for the bare goal ``Tb``: (up to 3 of them [rad], how many). From the tool z
+    axis (s sin th1, -s cos th1, 0) where it is not vertical; where the orientation is ignored, also
+    eq. 29 and the back branch."""
+    x, y = Tb[0, 3], Tb[1, 3]
     th1 = np.empty(3)
     n1 = 0
     hz = math.sqrt(Tb[0, 2] * Tb[0, 2] + Tb[1, 2] * Tb[1, 2])
@@ -157,6 +150,53 @@ def solve_kernel(a, alpha, d, offs, prism, modified, base, tool, Tb, T_goal, q_s
             th1[n1] = base_ang - math.atan2(-s * lat, r)
             th1[n1 + 1] = base_ang - math.atan2(-s * lat, -r)
             n1 += 2
+    return th1, n1
+
+
+@numba.njit(cache=True, inline="always")
+def _is_new(sols, nsol, q, dedupe_tol):
+    """``q`` differs from each of the first ``nsol`` rows of ``sols`` by more than ``dedupe_tol`` in some
+    joint (wrapped)."""
+    for m in range(nsol):
+        same = True
+        for j in range(4):
+            if abs(_wrap(sols[m, j] - q[j])) > dedupe_tol:
+                same = False
+                break
+        if same:
+            return False
+    return True
+
+
+@numba.njit(cache=True, inline="always")
+def _nearest(sols, nsol, q_start):
+    """The row of ``sols`` (of the first ``nsol``) nearest ``q_start`` (sum of squares), or -1."""
+    best = -1
+    best_dist = np.inf
+    for m in range(nsol):
+        dist = 0.0
+        for j in range(4):
+            dist += (sols[m, j] - q_start[j]) ** 2
+        if dist < best_dist:
+            best_dist = dist
+            best = m
+    return best
+
+
+@numba.njit(cache=True)
+def solve_kernel(a, alpha, d, offs, prism, modified, base, tool, Tb, T_goal, q_start, g, crit, tol_pos, tol_rot,
+                 tol_dq, reach_tol, elbow, dedupe_tol, sols, info):
+    """Every FK-valid closed-form solution of ``Tb`` (the bare goal) into ``sols`` (MAX_CAND, 4).
+
+    ``elbow``: 0 both branches, 1 only sin(theta3) >= 0, 2 only sin(theta3) <= 0.
+    Returns (number of solutions, index of the one nearest ``q_start`` or -1, solve ns);
+    ``info[0]`` = candidates tried (real wrist-point solutions).
+    """
+    buf = np.zeros(2, np.int64)
+    t0 = _kin.now_ns(buf)
+    s, d1, a1, lat, a2, a3, a4 = g[0], g[1], g[2], g[3], g[4], g[5], g[6]
+    x, y, z = Tb[0, 3], Tb[1, 3], Tb[2, 3]
+    th1, n1 = _first_joint(Tb, s, lat, crit)
     q = np.empty(4)
     T = np.empty((4, 4))
     nsol = 0
@@ -190,30 +230,11 @@ def solve_kernel(a, alpha, d, offs, prism, modified, base, tool, Tb, T_goal, q_s
             _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T)
             if not _kin.meets(crit, T_goal, T, tol_pos, tol_rot, tol_dq):
                 continue
-            dup = False
-            for m in range(nsol):
-                same = True
-                for j in range(4):
-                    if abs(_wrap(sols[m, j] - q[j])) > dedupe_tol:
-                        same = False
-                        break
-                if same:
-                    dup = True
-                    break
-            if not dup:
+            if _is_new(sols, nsol, q, dedupe_tol):
                 sols[nsol, :] = q
                 nsol += 1
-    best = -1
-    best_dist = np.inf
-    for m in range(nsol):
-        dist = 0.0
-        for j in range(4):
-            dist += (sols[m, j] - q_start[j]) ** 2
-        if dist < best_dist:
-            best_dist = dist
-            best = m
     info[0] = ncand
-    return nsol, best, _kin.now_ns(buf) - t0
+    return nsol, _nearest(sols, nsol, q_start), _kin.now_ns(buf) - t0
 
 
 def _geometry_cached(prep: Prepared) -> Geometry:

@@ -202,122 +202,111 @@ def _check(P, sols, k, Tg, W, crit):
     return ok, dp, ang
 
 
-@numba.njit(cache=True)
-def puma_core(P, Tg, q_start, W, clk, sols, q, iv, fv):
-    """One pose: every closed-form solution, each checked by the compiled FK, the choice.
-
-    ``P`` from :func:`packed`; ``Tg`` (4, 4) the whole chain's goal; ``W`` (N_W,) and ``clk`` (2,)
-    int64 scratch. Writes the solutions
-    found into the first rows of ``sols`` (8, 6) (NaN below), the returned angles into ``q`` (6,),
-    the counts into ``iv`` (see ``I_*``) and the largest FK errors into ``fv`` (2,). Returns the
-    closed form's time [ns] (the checks excluded, as before).
-    """
-    t0 = now_ns(clk)
+@numba.njit(cache=True, inline="always")
+def _bare_goal(P, Tg, W):
+    """``W[0:12]`` the goal's rows, ``W[12:24]`` the bare goal (base⁻¹ T tool⁻¹, as Prepared.bare_goal),
+    ``W[24:36]`` scratch."""
     for r in range(3):
         for c in range(4):
             W[4 * r + c] = Tg[r, c]
-    # W[0:12] goal rows, W[12:24] bare goal, W[24:36] scratch
     if P[P_PLAIN] != 0.0:
         copy12(W, 0, W, 12)
-    else:  # base^-1 T tool^-1, as Prepared.bare_goal
+    else:
         mul34(P, P_BINV, W, 0, W, 24)
         mul34(W, 24, P, P_TINV, W, 12)
-    a1, d1, d23, a2, a3, d4, a6, d6 = P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7]
-    s1, s4, s5 = P[9], P[11], P[12]
-    ca6, sa6, L, beta = P[P_CA6], P[P_SA6], P[P_L], P[P_BETA]
+
+
+@numba.njit(cache=True, inline="always")
+def _wrist_centre(P, W):
+    """The wrist centre of the bare goal ``W[12:24]``: the origin of frame 5 = T06 (Tz(d6) Tx(a6) Rx(al6))⁻¹ 0."""
+    a6, d6, ca6, sa6 = P[6], P[7], P[P_CA6], P[P_SA6]
     o = 12
-    # wrist centre: the origin of frame 5 = T06 (Tz(d6) Tx(a6) Rx(al6))^-1 0
     pw0 = W[o + 3] - a6 * W[o] - d6 * (sa6 * W[o + 1] + ca6 * W[o + 2])
     pw1 = W[o + 7] - a6 * W[o + 4] - d6 * (sa6 * W[o + 5] + ca6 * W[o + 6])
     pw2 = W[o + 11] - a6 * W[o + 8] - d6 * (sa6 * W[o + 9] + ca6 * W[o + 10])
-    r_xy = math.hypot(pw0, pw1)
-    m = 0
-    if r_xy >= abs(d23):
-        phi = math.atan2(pw1, pw0)
-        asn = math.asin(s1 * d23 / r_xy)
-        # R06 Rx(al6)^T
-        n00 = W[o]
-        n01 = W[o + 1] * ca6 - W[o + 2] * sa6
-        n02 = W[o + 1] * sa6 + W[o + 2] * ca6
-        n10 = W[o + 4]
-        n11 = W[o + 5] * ca6 - W[o + 6] * sa6
-        n12 = W[o + 5] * sa6 + W[o + 6] * ca6
-        n20 = W[o + 8]
-        n21 = W[o + 9] * ca6 - W[o + 10] * sa6
-        n22 = W[o + 9] * sa6 + W[o + 10] * ca6
-        for arm in range(2):
-            th1 = phi + asn if arm == 0 else phi - math.pi - asn
-            c1, sn1 = math.cos(th1), math.sin(th1)
-            X = c1 * pw0 + sn1 * pw1 - a1
-            Y = s1 * (pw2 - d1)
-            cg = (X * X + Y * Y - a2 * a2 - L * L) / (2 * a2 * L)
-            if abs(cg) > 1 + REACH_SLACK:
-                continue
-            cg = max(-1.0, min(1.0, cg))
-            acg = math.acos(cg)
-            sg, cgg = math.sin(acg), math.cos(acg)
-            aty = math.atan2(Y, X)
-            a00, a01, a02, a10, a11, a12, a20, a21, a22 = _rz_rx(P, th1, 0)
-            for el in range(2):
-                elbow = 1.0 if el == 0 else -1.0
-                gam = elbow * acg
-                th2 = aty - math.atan2(L * (elbow * sg), a2 + L * cgg)  # sin is odd, cos even
-                th3 = gam + beta
-                # R03 = Rz(th1) Rx(al1) Rz(th2) Rx(al2) Rz(th3) Rx(al3)
-                b00, b01, b02, b10, b11, b12, b20, b21, b22 = _rz_rx(P, th2, 1)
-                e00 = a00 * b00 + a01 * b10 + a02 * b20
-                e01 = a00 * b01 + a01 * b11 + a02 * b21
-                e02 = a00 * b02 + a01 * b12 + a02 * b22
-                e10 = a10 * b00 + a11 * b10 + a12 * b20
-                e11 = a10 * b01 + a11 * b11 + a12 * b21
-                e12 = a10 * b02 + a11 * b12 + a12 * b22
-                e20 = a20 * b00 + a21 * b10 + a22 * b20
-                e21 = a20 * b01 + a21 * b11 + a22 * b21
-                e22 = a20 * b02 + a21 * b12 + a22 * b22
-                b00, b01, b02, b10, b11, b12, b20, b21, b22 = _rz_rx(P, th3, 2)
-                f00 = e00 * b00 + e01 * b10 + e02 * b20
-                f01 = e00 * b01 + e01 * b11 + e02 * b21
-                f02 = e00 * b02 + e01 * b12 + e02 * b22
-                f10 = e10 * b00 + e11 * b10 + e12 * b20
-                f11 = e10 * b01 + e11 * b11 + e12 * b21
-                f12 = e10 * b02 + e11 * b12 + e12 * b22
-                f20 = e20 * b00 + e21 * b10 + e22 * b20
-                f21 = e20 * b01 + e21 * b11 + e22 * b21
-                f22 = e20 * b02 + e21 * b12 + e22 * b22
-                # R = R03^T R06r
-                r00 = f00 * n00 + f10 * n10 + f20 * n20
-                r10 = f01 * n00 + f11 * n10 + f21 * n20
-                r20 = f02 * n00 + f12 * n10 + f22 * n20
-                r02 = f00 * n02 + f10 * n12 + f20 * n22
-                r12 = f01 * n02 + f11 * n12 + f21 * n22
-                r22 = f02 * n02 + f12 * n12 + f22 * n22
-                hyp = math.hypot(r02, r12)
-                for wr in range(2):
-                    w = 1.0 if wr == 0 else -1.0
-                    th5 = math.atan2(w * hyp, -s4 * s5 * r22)
-                    deg = hyp < DEGENERATE_S5
-                    th4 = 0.0 if deg else math.atan2(s5 * w * r12, s5 * w * r02)
-                    # th6 from (R4 R5)^T R = Rz(th6): column 0 of R45^T R
-                    b00, b01, b02, b10, b11, b12, b20, b21, b22 = _rz_rx(P, th4, 3)
-                    c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rz_rx(P, th5, 4)
-                    h00 = b00 * c00 + b01 * c10 + b02 * c20
-                    h01 = b00 * c01 + b01 * c11 + b02 * c21
-                    h10 = b10 * c00 + b11 * c10 + b12 * c20
-                    h11 = b10 * c01 + b11 * c11 + b12 * c21
-                    h20 = b20 * c00 + b21 * c10 + b22 * c20
-                    h21 = b20 * c01 + b21 * c11 + b22 * c21
-                    rr00 = h00 * r00 + h10 * r10 + h20 * r20
-                    rr10 = h01 * r00 + h11 * r10 + h21 * r20
-                    th6 = math.atan2(rr10, rr00)
-                    sols[m, 0] = th1 - P[13]
-                    sols[m, 1] = th2 - P[14]
-                    sols[m, 2] = th3 - P[15]
-                    sols[m, 3] = th4 - P[16]
-                    sols[m, 4] = th5 - P[17]
-                    sols[m, 5] = th6 - P[18]
-                    W[W_CODES + m] = 4 * arm + 2 * el + wr + (8 if deg else 0)  # branch word code
-                    m += 1
-    ns = now_ns(clk) - t0
+    return pw0, pw1, pw2
+
+
+@numba.njit(cache=True, inline="always")
+def _r06(W, ca6, sa6):
+    """R06 Rx(al6)ᵀ of the bare goal ``W[12:24]``, row-major 9-tuple."""
+    o = 12
+    n00 = W[o]
+    n01 = W[o + 1] * ca6 - W[o + 2] * sa6
+    n02 = W[o + 1] * sa6 + W[o + 2] * ca6
+    n10 = W[o + 4]
+    n11 = W[o + 5] * ca6 - W[o + 6] * sa6
+    n12 = W[o + 5] * sa6 + W[o + 6] * ca6
+    n20 = W[o + 8]
+    n21 = W[o + 9] * ca6 - W[o + 10] * sa6
+    n22 = W[o + 9] * sa6 + W[o + 10] * ca6
+    return n00, n01, n02, n10, n11, n12, n20, n21, n22
+
+
+@numba.njit(cache=True, inline="always")
+def _dot3(a_, b_):
+    """a · b of two 3-tuples (a0 b0 + a1 b1 + a2 b2, in that order)."""
+    return a_[0] * b_[0] + a_[1] * b_[1] + a_[2] * b_[2]
+
+
+@numba.njit(cache=True, inline="always")
+def _mat3(a_, b_):
+    """The product of two 3 × 3 matrices as row-major 9-tuples."""
+    a00, a01, a02, a10, a11, a12, a20, a21, a22 = a_
+    b00, b01, b02, b10, b11, b12, b20, b21, b22 = b_
+    return (a00 * b00 + a01 * b10 + a02 * b20, a00 * b01 + a01 * b11 + a02 * b21, a00 * b02 + a01 * b12 + a02 * b22,
+            a10 * b00 + a11 * b10 + a12 * b20, a10 * b01 + a11 * b11 + a12 * b21, a10 * b02 + a11 * b12 + a12 * b22,
+            a20 * b00 + a21 * b10 + a22 * b20, a20 * b01 + a21 * b11 + a22 * b21, a20 * b02 + a21 * b12 + a22 * b22)
+
+
+@numba.njit(cache=True, inline="always")
+def _r03(P, a_, th2, th3):
+    """R03 = Rz(th1) Rx(al1) Rz(th2) Rx(al2) Rz(th3) Rx(al3), the first factor given (``a_``,
+    :func:`_rz_rx` of th1), row-major 9-tuple."""
+    return _mat3(_mat3(a_, _rz_rx(P, th2, 1)), _rz_rx(P, th3, 2))
+
+
+@numba.njit(cache=True, inline="always")
+def _wrists(P, f, n, th1, th2, th3, code0, sols, W, m):
+    """Both wrist branches of one arm / elbow branch (R03 ``f``, R06 Rx(al6)ᵀ ``n``) into rows m, m + 1 of
+    ``sols`` with their branch codes (``code0`` + wrist, + 8 where θ5 is degenerate) into ``W[W_CODES:]``;
+    returns m + 2."""
+    s4, s5 = P[11], P[12]
+    f0, f1, f2 = (f[0], f[3], f[6]), (f[1], f[4], f[7]), (f[2], f[5], f[8])  # R03's columns
+    n0, n2 = (n[0], n[3], n[6]), (n[2], n[5], n[8])
+    # R = R03^T R06r: columns 0 and 2
+    r00, r10, r20 = _dot3(f0, n0), _dot3(f1, n0), _dot3(f2, n0)
+    r02, r12, r22 = _dot3(f0, n2), _dot3(f1, n2), _dot3(f2, n2)
+    hyp = math.hypot(r02, r12)
+    for wr in range(2):
+        w = 1.0 if wr == 0 else -1.0
+        th5 = math.atan2(w * hyp, -s4 * s5 * r22)
+        deg = hyp < DEGENERATE_S5
+        th4 = 0.0 if deg else math.atan2(s5 * w * r12, s5 * w * r02)
+        # th6 from (R4 R5)^T R = Rz(th6): column 0 of R45^T R
+        b = _rz_rx(P, th4, 3)
+        c = _rz_rx(P, th5, 4)
+        c0, c1 = (c[0], c[3], c[6]), (c[1], c[4], c[7])
+        b0, b1, b2 = (b[0], b[1], b[2]), (b[3], b[4], b[5]), (b[6], b[7], b[8])
+        h0 = (_dot3(b0, c0), _dot3(b1, c0), _dot3(b2, c0))  # R4 R5: columns 0 and 1
+        h1 = (_dot3(b0, c1), _dot3(b1, c1), _dot3(b2, c1))
+        th6 = math.atan2(_dot3(h1, (r00, r10, r20)), _dot3(h0, (r00, r10, r20)))
+        sols[m, 0] = th1 - P[13]
+        sols[m, 1] = th2 - P[14]
+        sols[m, 2] = th3 - P[15]
+        sols[m, 3] = th4 - P[16]
+        sols[m, 4] = th5 - P[17]
+        sols[m, 5] = th6 - P[18]
+        W[W_CODES + m] = code0 + wr + (8 if deg else 0)  # branch word code
+        m += 1
+    return m
+
+
+@numba.njit(cache=True, inline="always")
+def _check_all(P, Tg, q_start, W, sols, q, iv, fv, m):
+    """Every one of the m solutions FK-checked (:func:`_check`), the nearest valid one (wrapped distance)
+    into ``q`` (or ``q_start``), NaN below the m rows of ``sols``, the counts into ``iv`` (``I_*``) and
+    the largest FK errors into ``fv``."""
     crit = int(P[P_CRIT])
     nvalid = 0
     ndeg = 0
@@ -359,6 +348,52 @@ def puma_core(P, Tg, q_start, W, clk, sols, q, iv, fv):
     iv[I_FOUND], iv[I_VALID], iv[I_CHOSEN], iv[I_DEG], iv[I_DISTINCT] = m, nvalid, best, ndeg, ndist
     iv[I_BKEY], iv[I_VKEY] = bkey, vkey
     fv[0], fv[1] = maxdp, maxang
+
+
+@numba.njit(cache=True)
+def puma_core(P, Tg, q_start, W, clk, sols, q, iv, fv):
+    """One pose: every closed-form solution, each checked by the compiled FK, the choice.
+
+    ``P`` from :func:`packed`; ``Tg`` (4, 4) the whole chain's goal; ``W`` (N_W,) and ``clk`` (2,)
+    int64 scratch. Writes the solutions
+    found into the first rows of ``sols`` (8, 6) (NaN below), the returned angles into ``q`` (6,),
+    the counts into ``iv`` (see ``I_*``) and the largest FK errors into ``fv`` (2,). Returns the
+    closed form's time [ns] (the checks excluded, as before).
+    """
+    t0 = now_ns(clk)
+    _bare_goal(P, Tg, W)
+    a1, d1, d23, a2 = P[0], P[1], P[2], P[3]
+    s1 = P[9]
+    ca6, sa6, L, beta = P[P_CA6], P[P_SA6], P[P_L], P[P_BETA]
+    pw0, pw1, pw2 = _wrist_centre(P, W)
+    r_xy = math.hypot(pw0, pw1)
+    m = 0
+    if r_xy >= abs(d23):
+        phi = math.atan2(pw1, pw0)
+        asn = math.asin(s1 * d23 / r_xy)
+        n = _r06(W, ca6, sa6)
+        for arm in range(2):
+            th1 = phi + asn if arm == 0 else phi - math.pi - asn
+            c1, sn1 = math.cos(th1), math.sin(th1)
+            X = c1 * pw0 + sn1 * pw1 - a1
+            Y = s1 * (pw2 - d1)
+            cg = (X * X + Y * Y - a2 * a2 - L * L) / (2 * a2 * L)
+            if abs(cg) > 1 + REACH_SLACK:
+                continue
+            cg = max(-1.0, min(1.0, cg))
+            acg = math.acos(cg)
+            sg, cgg = math.sin(acg), math.cos(acg)
+            aty = math.atan2(Y, X)
+            a_ = _rz_rx(P, th1, 0)
+            for el in range(2):
+                elbow = 1.0 if el == 0 else -1.0
+                gam = elbow * acg
+                th2 = aty - math.atan2(L * (elbow * sg), a2 + L * cgg)  # sin is odd, cos even
+                th3 = gam + beta
+                f = _r03(P, a_, th2, th3)
+                m = _wrists(P, f, n, th1, th2, th3, 4 * arm + 2 * el, sols, W, m)
+    ns = now_ns(clk) - t0
+    _check_all(P, Tg, q_start, W, sols, q, iv, fv, m)
     return ns
 
 

@@ -248,36 +248,28 @@ def _doc_row(Tg, W, o, out):
     out[0] = math.sqrt(s)
 
 
-@numba.njit(cache=True)
-def ur_core(P, Tg, q_start, W, clk, S, q, trace, start_row):
-    """One pose: all 8 branches, their FK check, the choice, the trace.
-
-    ``P`` from :func:`packed`; ``Tg`` (4, 4) the whole chain's goal (working unit); ``W`` (N_W,)
-    and ``clk`` (2,) int64 scratch. Writes the FK-valid branches (row order, wrapped to (−π, π])
-    into the first rows of ``S`` (8, 6) (NaN below), the returned angles into ``q`` (6,) and the
-    document's error at ``q_start`` and ``q`` into ``trace`` (2, 8) (row 0 is NaN when not
-    ``start_row`` and a branch was found: it costs one FK). Returns (number valid, chosen branch row
-    or −1, solve time [ns], the trace excluded).
-    """
-    t0 = now_ns(clk)
+@numba.njit(cache=True, inline="always")
+def _bare_goal(P, Tg, W):
+    """The goal ``Tg`` into ``W[W_TG:]`` and the bare goal (base⁻¹ T tool⁻¹, as Prepared.bare_goal) into
+    ``W[W_TB:]``, 3 × 4 blocks."""
     for r in range(3):
         for c in range(4):
             W[W_TG + 4 * r + c] = Tg[r, c]
     if P[P_PLAIN] != 0.0:
         copy12(W, W_TG, W, W_TB)
-    else:  # base^-1 T tool^-1, as Prepared.bare_goal
+    else:
         mul34(P, P_BINV, W, W_TG, W, W_TMP)
         mul34(W, W_TMP, P, P_TINV, W, W_TB)
-    a2 = P[P_A + 1]
-    a3 = P[P_A + 2]
+
+
+@numba.njit(cache=True, inline="always")
+def _shoulder(P, W):
+    """θ1's two branches as ψ ± φ + π/2 from the bare goal's wrist point p5 (``W[W_TB:]``): (ψ, φ, whether
+    they exist: |cos φ| within 1 + CLIP_TOL and p5 off the base axis)."""
     dsh = P[P_D + 1] + P[P_D + 2] + P[P_D + 3]
     d6 = P[P_D + 5]
-    off0, off1, off2, off3, off4, off5 = P[P_OFF], P[P_OFF + 1], P[P_OFF + 2], P[P_OFF + 3], P[P_OFF + 4], P[P_OFF + 5]
-    wrist_eps, tol_pos, tol_rot = P[P_WEPS], P[P_TOLP], P[P_TOLR]
-    plain = P[P_PLAIN] != 0.0
-    b00, b01, b02, b03 = W[W_TB], W[W_TB + 1], W[W_TB + 2], W[W_TB + 3]
-    b10, b11, b12, b13 = W[W_TB + 4], W[W_TB + 5], W[W_TB + 6], W[W_TB + 7]
-    b22 = W[W_TB + 10]
+    b02, b03 = W[W_TB + 2], W[W_TB + 3]
+    b12, b13 = W[W_TB + 6], W[W_TB + 7]
     p5x = b03 - d6 * b02
     p5y = b13 - d6 * b12
     r5 = math.sqrt(p5x * p5x + p5y * p5y)
@@ -291,7 +283,134 @@ def ur_core(P, Tg, q_start, W, clk, S, q, trace, start_row):
     if c > 1.0 + CLIP_TOL or c < -1.0 - CLIP_TOL:
         ok1 = False
     c = min(1.0, max(-1.0, c))
-    phi = math.acos(c)
+    return psi, math.acos(c), ok1
+
+
+@numba.njit(cache=True, inline="always")
+def _t14(W):
+    """Of T14 = A1⁻¹ T A6⁻¹ A5⁻¹ (``W[W_M:]`` = A1⁻¹ T A6⁻¹, ``W[W_A5I:]`` = A5⁻¹): entries (0, 0), (1, 0),
+    (0, 3), (1, 3)."""
+    m00, m01, m02, m03 = W[W_M], W[W_M + 1], W[W_M + 2], W[W_M + 3]
+    m10, m11, m12, m13 = W[W_M + 4], W[W_M + 5], W[W_M + 6], W[W_M + 7]
+    u0, u1, u2 = W[W_A5I], W[W_A5I + 4], W[W_A5I + 8]
+    v0, v1, v2 = W[W_A5I + 3], W[W_A5I + 7], W[W_A5I + 11]
+    t00 = m00 * u0 + m01 * u1 + m02 * u2
+    t10 = m10 * u0 + m11 * u1 + m12 * u2
+    x = m00 * v0 + m01 * v1 + m02 * v2 + m03
+    y = m10 * v0 + m11 * v1 + m12 * v2 + m13
+    return t00, t10, x, y
+
+
+@numba.njit(cache=True, inline="always")
+def _elbows(P, Tg, W, row0, ac3, aty, at3, th234, sn3, cs3, j0, j4, j5, suf, ok3):
+    """The two elbow branches (rows ``row0`` and ``row0 + 1``) of one (θ1, θ5) branch: their joints into
+    ``W[W_Q8:]``, their FK poses (prefix ``W[W_C0:]``, suffix ``W[suf:]``) into ``W[W_T8:]``, their
+    verdicts into ``W[W_VALID:]``; returns how many are valid."""
+    off1, off2, off3 = P[P_OFF + 1], P[P_OFF + 2], P[P_OFF + 3]
+    tol_pos, tol_rot = P[P_TOLP], P[P_TOLR]
+    nvalid = 0
+    for i3 in range(2):
+        th3 = ac3 if i3 == 0 else -ac3
+        th2 = aty - (at3 if i3 == 0 else -at3)
+        th4 = th234 - th2 - th3
+        row = row0 + i3
+        o = W_Q8 + 6 * row
+        j1 = _wrap(th2 - off1)
+        j2 = _wrap(th3 - off2)
+        j3 = _wrap(th4 - off3)
+        W[o], W[o + 1], W[o + 2], W[o + 3], W[o + 4], W[o + 5] = j0, j1, j2, j3, j4, j5
+        copy12(W, W_C0, W, W_MID)
+        t = off1 + j1
+        mul_link(W, W_MID, math.cos(t), math.sin(t), P[P_A + 1], P[P_CA + 1], P[P_SA + 1], P[P_D + 1])
+        ct, st = _cs(off2 + j2, th3, cs3, sn3 if i3 == 0 else -sn3)  # cos, sin are even, odd
+        mul_link(W, W_MID, ct, st, P[P_A + 2], P[P_CA + 2], P[P_SA + 2], P[P_D + 2])
+        t = off3 + j3
+        mul_link(W, W_MID, math.cos(t), math.sin(t), P[P_A + 3], P[P_CA + 3], P[P_SA + 3], P[P_D + 3])
+        ot = W_T8 + 12 * row
+        mul34(W, W_MID, W, suf, W, ot)
+        dp, ang = pose_errors(Tg, W, ot)
+        good = ok3 and dp <= tol_pos and ang <= tol_rot
+        W[W_VALID + row] = 1.0 if good else 0.0
+        if good:
+            nvalid += 1
+    return nvalid
+
+
+@numba.njit(cache=True, inline="always")
+def _nearest_branch(W, q_start, S, q):
+    """The valid branches (``W[W_VALID:]``) into the first rows of ``S`` (8, 6) in row order, NaN below;
+    ``q`` the nearest to ``q_start`` (wrapped distance) moved by turns to within π of it, or ``q_start``;
+    returns its branch row or −1."""
+    best = -1
+    bestd = 1e300
+    k = 0
+    for r in range(8):
+        if W[W_VALID + r] == 0.0:
+            continue
+        dist = 0.0
+        for j in range(6):
+            S[k, j] = W[W_Q8 + 6 * r + j]
+            dj = _wrap(S[k, j] - q_start[j])
+            dist += dj * dj
+        k += 1
+        if dist < bestd:
+            bestd = dist
+            best = r
+    for r in range(k, 8):
+        for j in range(6):
+            S[r, j] = math.nan
+    for j in range(6):
+        q[j] = q_start[j] if best < 0 else q_start[j] + _wrap(W[W_Q8 + 6 * best + j] - q_start[j])
+    return best
+
+
+@numba.njit(cache=True, inline="always")
+def _ur_trace(P, Tg, q_start, W, trace, start_row, best, plain):
+    """The trace (2, 8): the document's error at the start (FK of q_start; NaN when not ``start_row`` and a
+    branch was found) and at q (the chosen branch's FK pose, ``best``)."""
+    if not start_row and best >= 0:
+        for c in range(8):
+            trace[0, c] = math.nan
+        _doc_row(Tg, W, W_T8 + 12 * best, trace[1])
+        return
+    copy12(P, P_BASE, W, W_MID)
+    for j in range(6):
+        t = P[P_OFF + j] + q_start[j]
+        mul_link(W, W_MID, math.cos(t), math.sin(t), P[P_A + j], P[P_CA + j], P[P_SA + j], P[P_D + j])
+    if plain:
+        copy12(W, W_MID, W, W_TMP)
+    else:
+        mul34(W, W_MID, P, P_TOOL, W, W_TMP)
+    _doc_row(Tg, W, W_TMP, trace[0])
+    if best < 0:
+        for c in range(8):
+            trace[1, c] = trace[0, c]
+    else:
+        _doc_row(Tg, W, W_T8 + 12 * best, trace[1])
+
+
+@numba.njit(cache=True)
+def ur_core(P, Tg, q_start, W, clk, S, q, trace, start_row):
+    """One pose: all 8 branches, their FK check, the choice, the trace.
+
+    ``P`` from :func:`packed`; ``Tg`` (4, 4) the whole chain's goal (working unit); ``W`` (N_W,)
+    and ``clk`` (2,) int64 scratch. Writes the FK-valid branches (row order, wrapped to (−π, π])
+    into the first rows of ``S`` (8, 6) (NaN below), the returned angles into ``q`` (6,) and the
+    document's error at ``q_start`` and ``q`` into ``trace`` (2, 8) (row 0 is NaN when not
+    ``start_row`` and a branch was found: it costs one FK). Returns (number valid, chosen branch row
+    or −1, solve time [ns], the trace excluded).
+    """
+    t0 = now_ns(clk)
+    _bare_goal(P, Tg, W)
+    a2 = P[P_A + 1]
+    a3 = P[P_A + 2]
+    off0, off4, off5 = P[P_OFF], P[P_OFF + 4], P[P_OFF + 5]
+    wrist_eps = P[P_WEPS]
+    plain = P[P_PLAIN] != 0.0
+    b00, b01, b02 = W[W_TB], W[W_TB + 1], W[W_TB + 2]
+    b10, b11, b12 = W[W_TB + 4], W[W_TB + 5], W[W_TB + 6]
+    b22 = W[W_TB + 10]
+    psi, phi, ok1 = _shoulder(P, W)
     nvalid = 0
     for i1 in range(2):
         th1 = psi + (phi if i1 == 0 else -phi) + 0.5 * math.pi
@@ -321,14 +440,7 @@ def ur_core(P, Tg, q_start, W, clk, S, q, trace, start_row):
             c5t, s5t = math.cos(t5), math.sin(t5)
             _link_inv(W, W_A5I, c5t, s5t, P[P_A + 4], P[P_CA + 4], P[P_SA + 4], P[P_D + 4])
             mul34(W, W_B1, W, W_A6I, W, W_M)  # T14 = A1^-1 T A6^-1 A5^-1: columns 0 and 3 of rows 0, 1
-            m00, m01, m02, m03 = W[W_M], W[W_M + 1], W[W_M + 2], W[W_M + 3]
-            m10, m11, m12, m13 = W[W_M + 4], W[W_M + 5], W[W_M + 6], W[W_M + 7]
-            u0, u1, u2 = W[W_A5I], W[W_A5I + 4], W[W_A5I + 8]
-            v0, v1, v2 = W[W_A5I + 3], W[W_A5I + 7], W[W_A5I + 11]
-            t00 = m00 * u0 + m01 * u1 + m02 * u2
-            t10 = m10 * u0 + m11 * u1 + m12 * u2
-            x = m00 * v0 + m01 * v1 + m02 * v2 + m03
-            y = m10 * v0 + m11 * v1 + m12 * v2 + m13
+            t00, t10, x, y = _t14(W)
             c3 = (x * x + y * y - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
             ok3 = ok1
             if c3 > 1.0 + CLIP_TOL or c3 < -1.0 - CLIP_TOL:
@@ -350,71 +462,10 @@ def ur_core(P, Tg, q_start, W, clk, S, q, trace, start_row):
             if not plain:
                 mul34(W, W_S, P, P_TOOL, W, W_S2)
                 suf = W_S2
-            for i3 in range(2):
-                th3 = ac3 if i3 == 0 else -ac3
-                th2 = aty - (at3 if i3 == 0 else -at3)
-                th4 = th234 - th2 - th3
-                row = 4 * i1 + 2 * i5 + i3
-                o = W_Q8 + 6 * row
-                j1 = _wrap(th2 - off1)
-                j2 = _wrap(th3 - off2)
-                j3 = _wrap(th4 - off3)
-                W[o], W[o + 1], W[o + 2], W[o + 3], W[o + 4], W[o + 5] = j0, j1, j2, j3, j4, j5
-                copy12(W, W_C0, W, W_MID)
-                t = off1 + j1
-                mul_link(W, W_MID, math.cos(t), math.sin(t), P[P_A + 1], P[P_CA + 1], P[P_SA + 1], P[P_D + 1])
-                ct, st = _cs(off2 + j2, th3, cs3, sn3 if i3 == 0 else -sn3)  # cos, sin are even, odd
-                mul_link(W, W_MID, ct, st, P[P_A + 2], P[P_CA + 2], P[P_SA + 2], P[P_D + 2])
-                t = off3 + j3
-                mul_link(W, W_MID, math.cos(t), math.sin(t), P[P_A + 3], P[P_CA + 3], P[P_SA + 3], P[P_D + 3])
-                ot = W_T8 + 12 * row
-                mul34(W, W_MID, W, suf, W, ot)
-                dp, ang = pose_errors(Tg, W, ot)
-                good = ok3 and dp <= tol_pos and ang <= tol_rot
-                W[W_VALID + row] = 1.0 if good else 0.0
-                if good:
-                    nvalid += 1
-    best = -1
-    bestd = 1e300
-    k = 0
-    for r in range(8):
-        if W[W_VALID + r] == 0.0:
-            continue
-        dist = 0.0
-        for j in range(6):
-            S[k, j] = W[W_Q8 + 6 * r + j]
-            dj = _wrap(S[k, j] - q_start[j])
-            dist += dj * dj
-        k += 1
-        if dist < bestd:
-            bestd = dist
-            best = r
-    for r in range(k, 8):
-        for j in range(6):
-            S[r, j] = math.nan
-    for j in range(6):
-        q[j] = q_start[j] if best < 0 else q_start[j] + _wrap(W[W_Q8 + 6 * best + j] - q_start[j])
+            nvalid += _elbows(P, Tg, W, 4 * i1 + 2 * i5, ac3, aty, at3, th234, sn3, cs3, j0, j4, j5, suf, ok3)
+    best = _nearest_branch(W, q_start, S, q)
     ns = now_ns(clk) - t0
-    # trace: the document's error at the start (FK of q_start) and at q (the chosen branch's FK pose)
-    if not start_row and best >= 0:
-        for c in range(8):
-            trace[0, c] = math.nan
-        _doc_row(Tg, W, W_T8 + 12 * best, trace[1])
-        return nvalid, best, ns
-    copy12(P, P_BASE, W, W_MID)
-    for j in range(6):
-        t = P[P_OFF + j] + q_start[j]
-        mul_link(W, W_MID, math.cos(t), math.sin(t), P[P_A + j], P[P_CA + j], P[P_SA + j], P[P_D + j])
-    if plain:
-        copy12(W, W_MID, W, W_TMP)
-    else:
-        mul34(W, W_MID, P, P_TOOL, W, W_TMP)
-    _doc_row(Tg, W, W_TMP, trace[0])
-    if best < 0:
-        for c in range(8):
-            trace[1, c] = trace[0, c]
-    else:
-        _doc_row(Tg, W, W_T8 + 12 * best, trace[1])
+    _ur_trace(P, Tg, q_start, W, trace, start_row, best, plain)
     return nvalid, best, ns
 
 

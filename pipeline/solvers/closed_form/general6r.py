@@ -168,6 +168,87 @@ def _pencil(o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, T, mobius):
     return False, comp, (1.0, 0.0, 0.0, 1.0), pen, Qp, P1m
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _null_monomials(pen, y, rhs12, Ny, Nw, z0, mono):
+    """The null vector of the pencil at ``y`` (its monomials x4^i x5^j, i <= 3, j <= 2, into ``mono``
+    (4, 3)) by one step of inverse iteration from ``rhs12`` (12,), the matrix nudged off exact
+    singularity by a relative 1e-13 on its diagonal; on a zero pivot (a monomial no equation holds, on
+    special arms) the SVD's null vector. ``Ny``, ``Nw`` (12, 12), ``z0`` (12, 1): scratch."""
+    big = 0.0
+    for r in range(12):
+        for c2 in range(12):
+            x_ = pen[2, r, c2] * (y * y) + pen[1, r, c2] * y + pen[0, r, c2]
+            Ny[r, c2] = x_
+            big = max(big, abs(x_))
+    for r in range(12):
+        Ny[r, r] += 1e-13 * big
+    for r in range(12):
+        z0[r, 0] = rhs12[r]
+        for c2 in range(12):
+            Nw[r, c2] = Ny[r, c2]
+    z, ok = gauss_solve(Nw, z0)
+    if ok:
+        for r in range(12):
+            mono[r // 3, r % 3] = z[r, 0]
+    else:
+        vt = np.linalg.svd(Ny)[2]
+        for r in range(12):
+            mono[r // 3, r % 3] = vt[11, r]
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _point_joint(H, P, T0, T, q, jp, A, B, Bs, R6, RG, Rs, us):
+    """The angle [rad] of joint ``jp`` (the one whose axis carries the point) from the others' in ``q``:
+    R_jp = R_Aᵀ R_G R_Bᵀ (A the joints before jp, B those after it, R_G = R_T R_0ᵀ), read as the turn
+    of a unit vector ⟂ its axis. ``A``, ``B``, ``Bs`` (4, 4), ``R6``, ``RG``, ``Rs`` (3, 3), ``us`` (3,):
+    scratch."""
+    chain_into(H, P, q, jp, A)  # the joints before jp (q[jp] not read)
+    for r in range(4):
+        for cc in range(4):
+            B[r, cc] = 1.0 if r == cc else 0.0
+    for i2 in range(jp + 1, 6):  # the joints after it
+        times_motion(B, H[i2], P[i2], q[i2], Rs, us, Bs)
+    for r in range(3):
+        for cc in range(3):
+            g = T[r, 0] * T0[cc, 0] + T[r, 1] * T0[cc, 1] + T[r, 2] * T0[cc, 2]
+            RG[r, cc] = g
+    for r in range(3):
+        for cc in range(3):
+            acc = 0.0
+            for k2 in range(3):
+                for k3 in range(3):
+                    acc += A[k2, r] * RG[k2, k3] * B[cc, k3]
+            R6[r, cc] = acc
+    hp = H[jp]
+    ux, uy, uz = (1.0, 0.0, 0.0) if abs(hp[0]) < 0.9 else (0.0, 1.0, 0.0)
+    u0, u1, u2 = hp[1] * uz - hp[2] * uy, hp[2] * ux - hp[0] * uz, hp[0] * uy - hp[1] * ux
+    un = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    u0, u1, u2 = u0 / un, u1 / un, u2 / un
+    Ru = (R6[0, 0] * u0 + R6[0, 1] * u1 + R6[0, 2] * u2, R6[1, 0] * u0 + R6[1, 1] * u1 + R6[1, 2] * u2,
+          R6[2, 0] * u0 + R6[2, 1] * u1 + R6[2, 2] * u2)
+    cr = (u1 * Ru[2] - u2 * Ru[1], u2 * Ru[0] - u0 * Ru[2], u0 * Ru[1] - u1 * Ru[0])
+    return math.atan2(hp[0] * cr[0] + hp[1] * cr[1] + hp[2] * cr[2], u0 * Ru[0] + u1 * Ru[1] + u2 * Ru[2])
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _new_root(qp, out, k):
+    """``qp`` (6,) wrapped to (−π, π] in place: whether it is finite and not within 1e-7 (every joint,
+    wrapped) of one of the first k rows of ``out``."""
+    new = True
+    for r in range(6):
+        x = qp[r]
+        if not math.isfinite(x):
+            new = False
+        qp[r] = wrap(x)
+    for r in range(k):
+        far = 0.0
+        for t in range(6):
+            far = max(far, abs(wrap(qp[t] - out[r, t])))
+        if far <= 1e-7:
+            new = False
+    return new
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
     """Joint values of each real eigenvalue ``y`` of the pencil, polished by ``steps`` Newton steps and
@@ -185,28 +266,7 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
         rhs12[r] = 1.0 + 0.1 * r * (-1.0) ** r
     Ny, Nw, z0, mono, v = np.empty((12, 12)), np.empty((12, 12)), np.empty((12, 1)), np.empty((4, 3)), np.empty(8)
     for y in ys:
-        big = 0.0
-        for r in range(12):
-            for c2 in range(12):
-                x_ = pen[2, r, c2] * (y * y) + pen[1, r, c2] * y + pen[0, r, c2]
-                Ny[r, c2] = x_
-                big = max(big, abs(x_))
-        # the null vector (x4^i x5^j, i <= 3, j <= 2) by one step of inverse iteration, the matrix nudged
-        # off exact singularity by a relative 1e-13 on its diagonal
-        for r in range(12):
-            Ny[r, r] += 1e-13 * big
-        for r in range(12):
-            z0[r, 0] = rhs12[r]
-            for c2 in range(12):
-                Nw[r, c2] = Ny[r, c2]
-        z, ok = gauss_solve(Nw, z0)
-        if ok:
-            for r in range(12):
-                mono[r // 3, r % 3] = z[r, 0]
-        else:  # a zero pivot (a monomial no equation holds, on special arms): the SVD's null vector
-            vt = np.linalg.svd(Ny)[2]
-            for r in range(12):
-                mono[r // 3, r % 3] = vt[11, r]
+        _null_monomials(pen, y, rhs12, Ny, Nw, z0, mono)
         j, i = 0, 0
         for r in range(3):
             if abs(mono[0, r]) > abs(mono[0, j]):
@@ -233,47 +293,9 @@ def _roots(H, P, T0, T, Ps, Pc, P1m, Qp, abcd, pen, ys, shift, steps, roles):
         q[roles[0]], q[roles[1]] = math.atan2(v[4], v[5]), math.atan2(v[6], v[7])
         q[roles[2]], q[roles[3]], q[roles[4]] = f3 + shift[0], f4 + shift[1], f5 + shift[2]
         jp = roles[5]
-        chain_into(H, P, q, jp, A)  # the joints before jp (q[jp] not read)
-        for r in range(4):
-            for cc in range(4):
-                B[r, cc] = 1.0 if r == cc else 0.0
-        for i2 in range(jp + 1, 6):  # the joints after it
-            times_motion(B, H[i2], P[i2], q[i2], Rs, us, Bs)
-        # R_jp = R_Aᵀ R_G R_Bᵀ, R_G = R_T R_0ᵀ
-        for r in range(3):
-            for cc in range(3):
-                g = T[r, 0] * T0[cc, 0] + T[r, 1] * T0[cc, 1] + T[r, 2] * T0[cc, 2]
-                RG[r, cc] = g
-        for r in range(3):
-            for cc in range(3):
-                acc = 0.0
-                for k2 in range(3):
-                    for k3 in range(3):
-                        acc += A[k2, r] * RG[k2, k3] * B[cc, k3]
-                R6[r, cc] = acc
-        hp = H[jp]
-        ux, uy, uz = (1.0, 0.0, 0.0) if abs(hp[0]) < 0.9 else (0.0, 1.0, 0.0)
-        u0, u1, u2 = hp[1] * uz - hp[2] * uy, hp[2] * ux - hp[0] * uz, hp[0] * uy - hp[1] * ux
-        un = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-        u0, u1, u2 = u0 / un, u1 / un, u2 / un
-        Ru = (R6[0, 0] * u0 + R6[0, 1] * u1 + R6[0, 2] * u2, R6[1, 0] * u0 + R6[1, 1] * u1 + R6[1, 2] * u2,
-              R6[2, 0] * u0 + R6[2, 1] * u1 + R6[2, 2] * u2)
-        cr = (u1 * Ru[2] - u2 * Ru[1], u2 * Ru[0] - u0 * Ru[2], u0 * Ru[1] - u1 * Ru[0])
-        q[jp] = math.atan2(hp[0] * cr[0] + hp[1] * cr[1] + hp[2] * cr[2], u0 * Ru[0] + u1 * Ru[1] + u2 * Ru[2])
+        q[jp] = _point_joint(H, P, T0, T, q, jp, A, B, Bs, R6, RG, Rs, us)
         qp = newton_polish(H, P, T0, T, q, steps)
-        new = True
-        for r in range(6):
-            x = qp[r]
-            if not math.isfinite(x):
-                new = False
-            qp[r] = wrap(x)
-        for r in range(k):
-            far = 0.0
-            for t in range(6):
-                far = max(far, abs(wrap(qp[t] - out[r, t])))
-            if far <= 1e-7:
-                new = False
-        if new:
+        if _new_root(qp, out, k):
             out[k] = qp
             k += 1
     return out[:k].copy()
@@ -322,10 +344,79 @@ def _all_roots(T, rev, o, T0, Ps, Pc, P1, Rinv, RL, RC, RH, C, kron_of, mobius, 
 _TURNS = (0.0, -2.0 * math.pi, 2.0 * math.pi, -4.0 * math.pi, 4.0 * math.pi)  # nearest the start first
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _nearest_order(roots, q_start):
+    """The roots (k, 6) wrapped to (−π, π] in place, and their order by wrapped distance (sum of squares)
+    to ``q_start``, ties in root order (a stable sort)."""
+    k = roots.shape[0]
+    dist = np.empty(k)
+    for i in range(k):
+        d = 0.0
+        for j in range(6):
+            roots[i, j] = wrap(roots[i, j])
+            e = wrap(roots[i, j] - q_start[j])
+            d += e * e
+        dist[i] = d
+    return np.argsort(dist, kind="mergesort")
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _listed(kept, nk, q_start, limits_on, lim):
+    """The kept roots as listed (nk, 6): with ``limits_on`` each one's representative within the limits
+    ``lim`` (6, 2) nearest the start (by whole turns, joint by joint), those with none dropped; else as
+    they are. (listed, their count, the one nearest the start or -1)."""
+    listed = np.empty((nk, 6))
+    nl, best, bd = 0, -1, math.inf
+    for i in range(nk):
+        inside = True
+        dd = 0.0
+        for j in range(6):
+            y = q_start[j] + wrap(kept[i, j] - q_start[j])
+            if limits_on:
+                found = False
+                for t in _TURNS:
+                    if lim[j, 0] - 1e-9 <= y + t <= lim[j, 1] + 1e-9:
+                        y += t
+                        found = True
+                        break
+                inside &= found
+                listed[nl, j] = y
+            else:
+                listed[nl, j] = kept[i, j]
+            dd += (y - q_start[j]) ** 2
+        if inside:
+            if dd < bd:
+                bd, best = dd, nl
+            nl += 1
+    return listed, nl, best
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _chosen_q(q, listed, nl, best, kept, nk, q_start, limits_on):
+    """``q``: the nearest listed root (moved by whole turns to within π of the start without limits);
+    under limits with none listed, the nearest kept root's representative near the start; else the start."""
+    if nl > 0:
+        for j in range(6):
+            q[j] = listed[best, j] if limits_on else q_start[j] + wrap(listed[best, j] - q_start[j])
+    elif nk > 0:  # under limits_on: FK-valid, none within the limits
+        bd2, b2 = math.inf, 0
+        for i in range(nk):
+            dd = 0.0
+            for j in range(6):
+                dd += wrap(kept[i, j] - q_start[j]) ** 2
+            if dd < bd2:
+                bd2, b2 = dd, i
+        for j in range(6):
+            q[j] = q_start[j] + wrap(kept[b2, j] - q_start[j])
+    else:
+        for j in range(6):
+            q[j] = q_start[j]
+
+
 @numba.njit(cache=True, error_model="numpy")
 def general_pose(E, Tg, to_m, L, CK, limits_on, q_start, S, q, trace, start_row):
-    """A goal solved whole in one compiled call, as :func:`pipeline.solvers.closed_form.analytic.solve_pose` does for
-    the subproblem families.
+    """A goal solved whole in one compiled call, as
+    :func:`pipeline.solvers.closed_form.analytic_kernels.solve_pose` does for the subproblem families.
 
     Every root (:func:`_all_roots`, ``E`` its arm arguments after the goal) wrapped to (−π, π], in
     order of wrapped distance to ``q_start`` (ties in root order); each kept when the dual-quaternion
@@ -356,15 +447,7 @@ def general_pose(E, Tg, to_m, L, CK, limits_on, q_start, S, q, trace, start_row)
     k = roots.shape[0]
     F, prism, crit, tolp, tolr, toldq = check_fields(CK, 6)
     K, axis, offset, lim, buf = unpack_check(F, 6)
-    dist = np.empty(k)
-    for i in range(k):
-        d = 0.0
-        for j in range(6):
-            roots[i, j] = wrap(roots[i, j])
-            e = wrap(roots[i, j] - q_start[j])
-            d += e * e
-        dist[i] = d
-    order = np.argsort(dist, kind="mergesort")  # stable: ties in root order
+    order = _nearest_order(roots, q_start)
     kept = np.empty((k, 6))
     nk = 0
     for i in order:
@@ -374,46 +457,9 @@ def general_pose(E, Tg, to_m, L, CK, limits_on, q_start, S, q, trace, start_row)
         if ok and check_one(K, axis, offset, prism, roots[i], Tg, crit, tolp, tolr, toldq, buf)[0]:
             kept[nk] = roots[i]
             nk += 1
-    listed = np.empty((nk, 6))
-    nl, best, bd = 0, -1, math.inf
-    for i in range(nk):
-        inside = True
-        dd = 0.0
-        for j in range(6):
-            y = q_start[j] + wrap(kept[i, j] - q_start[j])
-            if limits_on:
-                found = False
-                for t in _TURNS:
-                    if lim[j, 0] - 1e-9 <= y + t <= lim[j, 1] + 1e-9:
-                        y += t
-                        found = True
-                        break
-                inside &= found
-                listed[nl, j] = y
-            else:
-                listed[nl, j] = kept[i, j]
-            dd += (y - q_start[j]) ** 2
-        if inside:
-            if dd < bd:
-                bd, best = dd, nl
-            nl += 1
+    listed, nl, best = _listed(kept, nk, q_start, limits_on, lim)
     code = SUCCESS if nk > 0 else NO_SOLUTION
-    if nl > 0:
-        for j in range(6):
-            q[j] = listed[best, j] if limits_on else q_start[j] + wrap(listed[best, j] - q_start[j])
-    elif nk > 0:  # under limits_on: FK-valid, none within the limits
-        bd2, b2 = math.inf, 0
-        for i in range(nk):
-            dd = 0.0
-            for j in range(6):
-                dd += wrap(kept[i, j] - q_start[j]) ** 2
-            if dd < bd2:
-                bd2, b2 = dd, i
-        for j in range(6):
-            q[j] = q_start[j] + wrap(kept[b2, j] - q_start[j])
-    else:
-        for j in range(6):
-            q[j] = q_start[j]
+    _chosen_q(q, listed, nl, best, kept, nk, q_start, limits_on)
     m = min(nl, S.shape[0])
     for a in range(m):  # the chosen row first, then the others in their order
         src = best if a == 0 else (a - 1 if a <= best else a)
@@ -439,8 +485,8 @@ def general_pose(E, Tg, to_m, L, CK, limits_on, q_start, S, q, trace, start_row)
 @numba.njit(cache=True, error_model="numpy")
 def general_call(E, L, CK, GC, scale, Tg, q_start, S, q, trace):
     """The whole public single call of a general arm in one compiled call (as
-    :func:`pipeline.solvers.closed_form.analytic.call_pose`), without limits: the goal scaled to the working unit
-    by ``scale``, :func:`general_pose` (roots decided by ``CK``), then the independent FK check of
+    :func:`pipeline.solvers.closed_form.analytic_kernels.call_pose`), without limits: the goal scaled to the
+    working unit by ``scale``, :func:`general_pose` (roots decided by ``CK``), then the independent FK check of
     ``q`` (:func:`~pipeline.solvers.core.finish_packed` on ``GC``, the solver's own criterion)."""
     Tw = Tg.copy()
     for r in range(3):

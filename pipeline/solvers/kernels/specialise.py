@@ -46,24 +46,43 @@ def _compiled_copy(py, g: dict, tag: str, options: dict):
     return numba.njit(**{k: v for k, v in options.items() if k != "nopython"})(f)
 
 
-def inlined_twin(module, suffix: str = "inline"):
-    """A module object holding ``module``'s globals with each of its compiled functions replaced by a twin
-    that numba inlines at every call site (``inline="always"``), calling the other twins.
+def inlined_twin(*modules, suffix: str = "inline"):
+    """A module object holding the globals of ``modules`` with each of their compiled functions replaced,
+    by name, by a twin that numba inlines at every call site (``inline="always"``), calling the other twins.
 
     For code that must see a chain of small kernels as one body, such as a pass that the compiler turns
-    into vector code only when no call is left in it (:mod:`pipeline.solvers.closed_form.lanes`), while the kernels
-    themselves stay separate functions elsewhere (inlining at numba's level copies a callee's code into
-    every call site, which multiplies the compiler's work: a single closed-form call compiled in minutes
-    with it and seconds without). The twins compute the same floats as the originals (the same
-    operations in the same order; no fast-math).
+    into vector code only when no call is left in it (the 8-goal lane passes of
+    :mod:`pipeline.solvers.closed_form.family_sph` and :mod:`~pipeline.solvers.closed_form.family_3p`), while
+    the kernels themselves stay separate functions elsewhere (inlining at numba's level copies a callee's
+    code into every call site, which multiplies the compiler's work: a single closed-form call compiled
+    in minutes with it and seconds without). The twins compute the same floats as the originals (the
+    same operations in the same order; no fast-math).
+
+    Parameters
+    ----------
+    *modules : module     whose compiled functions (those defined in the module itself) are twinned; a
+                          module's globals that are another one's compiled functions (``from x import f``)
+                          point to the twin of ``f``, so a stage of one module calls the twins of the
+                          building blocks of another. A module may be the one being loaded
+                          (``sys.modules[__name__]``): its functions defined so far are twinned.
+    suffix : str          the twins' qualified-name suffix
+
+    Two modules defining compiled functions of the same name are refused (ValueError): the twins share
+    one namespace.
     """
-    twin = types.ModuleType(f"{module.__name__}__{suffix}")
+    twin = types.ModuleType(f"{modules[-1].__name__}__{suffix}")
     g = twin.__dict__
-    g.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__spec__", "__loader__")})
-    for name, obj in vars(module).items():
-        py = getattr(obj, "py_func", None)
-        if py is None or getattr(py, "__module__", None) != module.__name__ or not hasattr(obj, "targetoptions"):
-            continue
-        options = {k: v for k, v in obj.targetoptions.items() if k not in ("inline", "cache")}
+    own = {}
+    for module in modules:
+        g.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__spec__", "__loader__")})
+        for name, obj in vars(module).items():
+            py = getattr(obj, "py_func", None)
+            if py is None or getattr(py, "__module__", None) != module.__name__ or not hasattr(obj, "targetoptions"):
+                continue
+            if name in own:
+                raise ValueError(f"inlined_twin: {name} is defined in both {own[name][0]} and {module.__name__}")
+            own[name] = (module.__name__, py, obj.targetoptions)
+    for name, (_, py, targetoptions) in own.items():
+        options = {k: v for k, v in targetoptions.items() if k not in ("inline", "cache")}
         g[name] = _compiled_copy(py, g, suffix, {**options, "inline": "always"})
     return twin
