@@ -15,9 +15,13 @@ Layout (bottom to top; ``tests/test_layers.py`` checks the order and that no met
                   ``lean``); inverse Jacobian, Levenberg-Marquardt, PSO (002: ``fd_jacobian``, ``lm``,
                   ``pso``); J+ descent, BFGS, L-BFGS-B, Nelder-Mead (004: ``optimizers``); Zero-Position,
                   Newton-Raphson, geometric (001)
-``closed_form/``  subproblems, closed forms found from the joint axes (``analytic``, with the 8-goal
-                  ``lanes``), the documents' transcriptions (``analytic_ur`` 004, ``analytic_puma`` 001,
-                  ``analytic_4dof`` 003), every solution of any other 6R arm (``general6r``)
+``closed_form/``  ``subproblems`` (the building blocks: SP1-SP4, position and wrist stages); one file per
+                  family holding its scalar stages and its 8-goal lane pass side by side (``family_sph``,
+                  ``family_3p``, ``family_search``; ``lanes``: the lanes' shared scratch layout); the
+                  closed forms found from the joint axes (``analytic``: settings, registration, binding;
+                  ``analytic_kernels``: the compiled per-goal and batch kernels); the documents'
+                  transcriptions (``analytic_ur`` 004, ``analytic_puma`` 001, ``analytic_4dof`` 003);
+                  every solution of any other 6R arm (``general6r``, ``general6r_model``, ``eigen``)
 ``peers/``        peer libraries as registered solvers (``libraries``: Robotics Toolbox, TRAC-IK,
                   Pinocchio, ur_analytic_ik; ``geo``: EAIK, IK-Geo)
 
