@@ -1,0 +1,70 @@
+"""The one compiled loop of the iterative IK methods: :func:`iterate` (issue 41, item 2).
+
+The loop owns what every iterative method shares: the clocks (solve time, IK-block time, the
+thread's CPU time), the copy of the start into ``q``, the first forward kinematics and trace row,
+the stop rule (:func:`pipeline.solvers.kernels.kin.stop_rule`: non-finite error, success, stall,
+growth, iteration cap), and the trace rows. A method supplies three compiled functions and its own
+state (a tuple of scratch arrays it allocates):
+
+``start(problem, q) -> (state, err, ok, stalled)``
+    allocate the method's scratch, run the first forward kinematics at ``q`` (n,) and its error;
+    ``err`` the scalar error the stop rule tests for finiteness and growth, ``ok`` the method's
+    success test, ``stalled`` its stall test (a method whose start can already stall, else False).
+``step(problem, state, q, it) -> (err, ok, stalled, ik_ns)``
+    iteration ``it`` (1, 2, ...): update ``q`` in place, the forward kinematics and error at the new
+    ``q``; ``ik_ns`` the nanoseconds of the IK block the method times (0 when it does not).
+``record(problem, state, trace, row)``
+    write trace row ``row`` (``TRACE_COLS`` floats) from the state.
+
+``problem`` is the method's read-only input as one tuple (chain arrays, goal, packed settings).
+:func:`iterate` is inlined into each method's kernel (``inline="always"``: numba then compiles the
+method's functions into one loop, calls them directly and caches the kernel on disk; a compiled
+function passed as an argument to a function that is not inlined cannot be cached).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from pipeline.solvers.kernels.kin import NEVER, now_ns, stop_rule, thread_cpu_ns
+
+
+@numba.njit(cache=True, inline="always")
+def iterate(start, step, record, problem, q0, q, trace, times, grow_limit, max_iter):
+    """Run one iterative search from ``q0`` (n,) to a stop code.
+
+    Writes the last iterate into ``q`` (n,), trace rows ``0..iterations`` into ``trace`` (k, TRACE_COLS)
+    (rows past k are not written; k >= 1), and ``times`` (2,) or (3,) [ns]: the solve time (scratch
+    allocation included), the IK-block time the step reports, and with three slots the thread's CPU
+    time over the solve. ``grow_limit``: stop (DIVERGING) after the error grew this many iterations in
+    a row (:data:`pipeline.solvers.kernels.kin.NEVER` to turn it off); ``max_iter``: the iteration cap.
+    Returns ``(stop code, iterations, state)``.
+    """
+    clk = np.zeros(2, np.int64)
+    cpu = times.shape[0] > 2
+    c_start = thread_cpu_ns(clk) if cpu else 0
+    t_start = now_ns(clk)
+    for i in range(q0.shape[0]):
+        q[i] = q0[i]
+    state, err, ok, stalled = start(problem, q)
+    record(problem, state, trace, 0)
+    code = stop_rule(err, ok, stalled, 0, NEVER, 0, NEVER)
+    rows = trace.shape[0]
+    it = 0
+    grew = 0
+    t_ik = 0
+    while code == 0:
+        it += 1
+        prev = err
+        err, ok, stalled, dt = step(problem, state, q, it)
+        t_ik += dt
+        if it < rows:
+            record(problem, state, trace, it)
+        grew = grew + 1 if err > prev else 0
+        code = stop_rule(err, ok, stalled, grew, grow_limit, it, max_iter)
+    times[0] = now_ns(clk) - t_start
+    times[1] = t_ik
+    if cpu:
+        times[2] = thread_cpu_ns(clk) - c_start
+    return code, it, state
