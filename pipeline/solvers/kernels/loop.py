@@ -26,6 +26,9 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from pipeline.solvers.kernels.kin import NEVER, now_ns, stop_rule, thread_cpu_ns
 
@@ -47,8 +50,10 @@ def iterate(start, step, record, problem, q0, q, trace, times, grow_limit, max_i
     t_start = now_ns(clk)
     for i in range(q0.shape[0]):
         q[i] = q0[i]
-    state, err, ok, stalled = start(problem, q)
-    record(problem, state, trace, 0)
+    own, err, ok, stalled = start(problem, q)
+    state = borrowed_tuple(own)
+    prob = borrowed_tuple(problem)
+    record(prob, state, trace, 0)
     code = stop_rule(err, ok, stalled, 0, NEVER, 0, NEVER)
     rows = trace.shape[0]
     it = 0
@@ -57,14 +62,45 @@ def iterate(start, step, record, problem, q0, q, trace, times, grow_limit, max_i
     while code == 0:
         it += 1
         prev = err
-        err, ok, stalled, dt = step(problem, state, q, it)
+        err, ok, stalled, dt = step(prob, state, q, it)
         t_ik += dt
         if it < rows:
-            record(problem, state, trace, it)
+            record(prob, state, trace, it)
         grew = grew + 1 if err > prev else 0
         code = stop_rule(err, ok, stalled, grew, grow_limit, it, max_iter)
     times[0] = now_ns(clk) - t_start
     times[1] = t_ik
     if cpu:
         times[2] = thread_cpu_ns(clk) - c_start
-    return code, it, state
+    keep_alive(problem)
+    return code, it, own
+
+
+@intrinsic
+def borrowed_tuple(typingctx, tup):
+    """``tup`` with every array in it as a view that carries no reference count (see
+    :func:`pipeline.solvers.kernels.kin.borrowed`): unpacking a state tuple in a step then costs no
+    atomic reference-count operations per array and iteration. Valid while the arrays' owners live."""
+    if not isinstance(tup, types.BaseTuple):
+        return None
+
+    def codegen(context, builder, signature, args):
+        val = args[0]
+        for i, ty in enumerate(signature.args[0].types):
+            if isinstance(ty, types.Array):
+                ary = context.make_array(ty)(context, builder, builder.extract_value(val, i))
+                ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+                val = builder.insert_value(val, ary._getvalue(), i)
+        return val
+
+    return tup(tup), codegen
+
+
+@intrinsic
+def keep_alive(typingctx, x):
+    """A use of ``x`` that does nothing: numba keeps ``x`` (and what it owns) alive until this point."""
+
+    def codegen(context, builder, signature, args):
+        return context.get_dummy_value()
+
+    return types.none(x), codegen
