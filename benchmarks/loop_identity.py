@@ -9,8 +9,11 @@ iterations, claimed success, within limits, errors, ``info`` counters) and each 
 
 Usage::
 
-    python benchmarks/loop_identity.py --record out.npz [--only dls,newton_raphson]   # on the reference build
-    python benchmarks/loop_identity.py --check out.npz [--only ...]                   # on the changed build
+    python benchmarks/loop_identity.py --record out.json [--only dls,newton_raphson]   # on the reference build
+    python benchmarks/loop_identity.py --check out.json [--only ...]                   # on the changed build
+
+``--extra`` runs instead each method's settings of ``EXTRA`` (iteration caps, other stop tests, tolerances
+out of reach, the switches) so that every stop code a method has is reached.
 
 ``--check`` prints each method's number of cases and of cases that differ, and exits 1 on any difference.
 """
@@ -34,6 +37,25 @@ ROBOTS = ("ur5e", "kuka_kr6_r700_sixx", "kuka_lwr", "kuka_iiwa14", "franka_panda
 VARIANTS = (("default", {}), ("restarts", {"restarts": 2}), ("limits", {"require_limits": True}),
             ("limits_restarts", {"require_limits": True, "restarts": 1}), ("position", {"criterion": "position"}),
             ("dq_norm", {"criterion": "dq_norm"}), ("mm", {"length_unit": "mm"}))
+_JAC = (("cap", {"max_iterations": 3}), ("ik_time", {"time_ik_block": True}),
+        ("no_stops", {"disable_stall": True, "disable_grow": True, "max_iterations": 40, "tol_pos": 1e-13,
+                      "tol_rot": 1e-13}))
+EXTRA = {  # --extra: settings that reach each method's other stop codes
+    **{m: _JAC for m in ("jacobian_transpose", "pseudoinverse", "dls", "sdls")},
+    "newton_raphson": (("error_norm", {"stop_test": "error_norm"}), ("cap", {"max_iterations": 2}),
+                       ("tight", {"tol_pos": 1e-13, "tol_rot": 1e-13, "max_iterations": 30})),
+    "zero_position": (("error_norm", {"stop_test": "delta_sum"}), ("cap", {"max_iterations": 2}),
+                      ("tight", {"tol_pos": 1e-13, "tol_rot": 1e-13, "max_iterations": 30})),
+    "geometric_iterative": (("cap", {"max_iterations": 2}), ("base_to_tip", {"order": "base_to_tip"})),
+    "levenberg_marquardt": (("vector", {"residual": "vector"}), ("cap", {"max_iterations": 3}),
+                            ("tight", {"tol_pos": 1e-13, "tol_rot": 1e-13})),
+    "inverse_jacobian_fd": (("change", {"stop": "change"}), ("cap", {"max_iterations": 3}),
+                            ("tight", {"stop": "change", "tol_pos": 1e-13, "tol_rot": 1e-13})),
+    "pso": (("no_stop", {"stop_at_tolerance": False, "max_iterations": 20}), ("cap", {"max_iterations": 3})),
+    "jpinv_descent": (("listing", {"halvings": 0, "damping": 0.0, "stop_at_tolerance": False, "max_iterations": 30}),
+                      ("cap", {"max_iterations": 3}), ("clamp", {"max_step": 0.05, "max_iterations": 100}),
+                      ("tight", {"halvings": 2, "tol_pos": 1e-13, "tol_rot": 1e-13, "tolerance": 1e-16})),
+}
 SLOW = {"pso", "nelder_mead", "bfgs", "lbfgsb", "jpinv_descent", "levenberg_marquardt", "inverse_jacobian_fd"}
 
 
@@ -70,7 +92,7 @@ def fields(r) -> dict[str, str]:
             "info": json.dumps(info, sort_keys=True, default=str)}
 
 
-def collect(only: set[str] | None) -> dict[str, dict[str, str]]:
+def collect(only: set[str] | None, extra: bool = False) -> dict[str, dict[str, str]]:
     """case key ``method/robot/variant/way/i`` -> fields."""
     from pipeline.robots import load_robot
     from pipeline.solvers import NotApplicableError, SettingsError, bind, get, make_settings, prepare, solve_batch
@@ -84,7 +106,7 @@ def collect(only: set[str] | None) -> dict[str, dict[str, str]]:
         for k, (r, model) in enumerate(models.items()):
             goals, starts = problems(model, n_goals, 11 + k)
             seeds = np.arange(n_goals, dtype=np.int64) + 500
-            for vname, mapping in VARIANTS:
+            for vname, mapping in EXTRA.get(name, ()) if extra else VARIANTS:
                 try:
                     s = make_settings(name, mapping)
                     prep = prepare(name, model, s)
@@ -109,10 +131,11 @@ def main() -> int:
     ap.add_argument("--record", type=Path)
     ap.add_argument("--check", type=Path)
     ap.add_argument("--only", default="")
+    ap.add_argument("--extra", action="store_true", help="the settings of EXTRA instead of VARIANTS")
     a = ap.parse_args()
     sys.path.insert(0, str(ROOT))
     only = set(a.only.split(",")) - {""} or None
-    now = collect(only)
+    now = collect(only, a.extra)
     if a.record:
         a.record.write_text(json.dumps(now, sort_keys=True))
         print(f"{len(now)} cases recorded in {a.record}")
