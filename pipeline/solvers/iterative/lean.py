@@ -30,9 +30,9 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.pose as _jit
-from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NEVER, TRACE_DP, now_ns, quat_from_rot, quat_relative,
+from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NEVER, now_ns, quat_from_rot, quat_relative,
                                           relative_translation_norm, rodrigues)
-from pipeline.solvers.kernels.loop import iterate
+from pipeline.solvers.kernels.loop import error_row, iterate
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -300,11 +300,8 @@ def _advance(problem, state, q, it):
 @numba.njit(cache=True, inline="always")
 def _record(problem, state, trace, row):
     """``record``: ``[error, e (6), |dp|]``."""
-    e, m = state[6], state[13]
-    trace[row, 0] = m[0]
-    for r in range(6):
-        trace[row, 1 + r] = e[r]
-    trace[row, TRACE_DP] = m[1]
+    m = state[13]
+    error_row(trace, row, m[0], state[6], m[1])
 
 
 @numba.njit(cache=True)

@@ -34,8 +34,8 @@ import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import NEVER, TRACE_DP
-from pipeline.solvers.kernels.loop import iterate
+from pipeline.solvers.kernels.kin import NEVER
+from pipeline.solvers.kernels.loop import iterate, pose_row
 from pipeline.solvers.core import POSITION_CRITERIA, Prepared, Raw, Settings, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
@@ -126,15 +126,9 @@ def _jacobian_central(a, alpha, d, offs, prism, modified, base, tool, Tg, q, kin
 
 @numba.njit(cache=True)
 def _trace_row(trace, k, e, Tg, T, pose, qa, qb, rv):
-    trace[k, 0] = e
-    trace[k, 1], trace[k, 2], trace[k, 3] = Tg[0, 3] - T[0, 3], Tg[1, 3] - T[1, 3], Tg[2, 3] - T[2, 3]
     if pose:
         _kin.rotation_vector(Tg, T, qa, qb, rv)
-        trace[k, 4], trace[k, 5], trace[k, 6] = rv[0], rv[1], rv[2]
-    else:
-        trace[k, 4], trace[k, 5], trace[k, 6] = 0.0, 0.0, 0.0
-    dx, dy, dz = trace[k, 1], trace[k, 2], trace[k, 3]
-    trace[k, TRACE_DP] = np.sqrt(dx * dx + dy * dy + dz * dz)
+    pose_row(trace, k, e, Tg, T, rv, pose)
 
 
 @numba.njit(cache=True)

@@ -24,8 +24,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import CRIT_POSITION, CRIT_POS_ORIENT, NEVER, TRACE_DP
-from pipeline.solvers.kernels.loop import iterate
+from pipeline.solvers.kernels.kin import CRIT_POSITION, CRIT_POS_ORIENT, NEVER
+from pipeline.solvers.kernels.loop import error_row, iterate
 import pipeline.solvers.kernels.pose as _jit
 from pipeline.solvers.kernels.pose import pose_error
 from pipeline.solvers.core import CRITERION_CODE, Prepared, Raw, Settings, setting
@@ -178,10 +178,8 @@ def _step(problem, state, q, it):
 @numba.njit(cache=True)
 def _record(problem, state, trace, row):
     """``record``: ``[|e|, e (6), |dp|]``."""
-    e, m = state[6], state[12]
-    trace[row, 0] = m[0]
-    trace[row, 1:7] = e
-    trace[row, TRACE_DP] = m[1]
+    m = state[12]
+    error_row(trace, row, m[0], state[6], m[1])
 
 
 @numba.njit(cache=True)

@@ -44,7 +44,7 @@ import numpy as np
 
 import pipeline.solvers.kernels.kin as _kin
 from pipeline.solvers.kernels.kin import ITERATION_CAP, NEVER, NON_FINITE, STALLED, SUCCESS, TRACE_COLS, TRACE_DP
-from pipeline.solvers.kernels.loop import iterate
+from pipeline.solvers.kernels.loop import error_row, iterate
 from pipeline.solvers.core import Prepared, Raw, Settings, SettingsError, StopReason, check_data_path, meets, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
@@ -186,11 +186,8 @@ def _step(problem, state, q, it):
 @numba.njit(cache=True)
 def _record(problem, state, trace, row):
     """``record``: ``[‖e‖, e (6), |Δp|]``."""
-    e, m = state[5], state[10]
-    trace[row, 0] = m[0]
-    for k in range(6):
-        trace[row, 1 + k] = e[k]
-    trace[row, TRACE_DP] = m[1]
+    m = state[10]
+    error_row(trace, row, m[0], state[5], m[1])
 
 
 @numba.njit(cache=True)

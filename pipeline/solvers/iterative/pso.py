@@ -37,8 +37,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import NEVER, TRACE_DP
-from pipeline.solvers.kernels.loop import iterate
+from pipeline.solvers.kernels.kin import NEVER
+from pipeline.solvers.kernels.loop import iterate, pose_row
 from pipeline.solvers.core import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
@@ -203,16 +203,8 @@ def _step(problem, state, q, it):
 @numba.njit(cache=True)
 def _record(problem, state, trace, row):
     """``record``: ``[best fitness, p_goal - p (3), rotation vector (3) (0 for position goals), |dp|]``."""
-    Tg, pose = problem[8], problem[19]
-    T, rv, bf, gb = state[0], state[3], state[8], state[9]
-    trace[row, 0] = bf[gb[0]]
-    trace[row, 1], trace[row, 2], trace[row, 3] = Tg[0, 3] - T[0, 3], Tg[1, 3] - T[1, 3], Tg[2, 3] - T[2, 3]
-    if pose:
-        trace[row, 4], trace[row, 5], trace[row, 6] = rv[0], rv[1], rv[2]
-    else:
-        trace[row, 4], trace[row, 5], trace[row, 6] = 0.0, 0.0, 0.0
-    dx, dy, dz = trace[row, 1], trace[row, 2], trace[row, 3]
-    trace[row, TRACE_DP] = np.sqrt(dx * dx + dy * dy + dz * dz)
+    bf, gb = state[8], state[9]
+    pose_row(trace, row, bf[gb[0]], problem[8], state[0], state[3], problem[19])
 
 
 @numba.njit(cache=True)

@@ -16,10 +16,19 @@ state (a tuple of scratch arrays it allocates):
 ``record(problem, state, trace, row)``
     write trace row ``row`` (``TRACE_COLS`` floats) from the state.
 
-``problem`` is the method's read-only input as one tuple (chain arrays, goal, packed settings).
-:func:`iterate` is inlined into each method's kernel (``inline="always"``: numba then compiles the
-method's functions into one loop, calls them directly and caches the kernel on disk; a compiled
-function passed as an argument to a function that is not inlined cannot be cached).
+``problem`` is the method's read-only input as one tuple (chain arrays, goal, packed settings): the
+kernel's own arguments, which its caller keeps alive. A method's kernel is a few lines: it builds
+``problem`` and calls :func:`iterate`, e.g. ``code, it, state = iterate(_start, _step, _record, problem,
+q0, q, trace, times, NEVER, max_iter)``; ``state`` is returned for the method's own counters.
+
+Compiled form. :func:`iterate` is inlined into each method's kernel (``inline="always"``): numba then
+compiles one loop per method that calls the method's functions directly, and caches it on disk (a
+compiled function passed as an argument to a function that is not inlined cannot be cached). The
+step and record see ``problem`` and ``state`` as borrowed views (:func:`borrowed_tuple`): unpacking a
+tuple of arrays otherwise costs two atomic reference-count operations per array per call, which made
+a Jacobian-transpose iteration 0.25 us (80 %) slower; without them every method runs faster than its
+hand-written loop did (benchmarks/loop_speed.py). Results are bit-identical to those loops
+(benchmarks/loop_identity.py).
 """
 
 from __future__ import annotations
@@ -30,7 +39,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from pipeline.solvers.kernels.kin import NEVER, now_ns, stop_rule, thread_cpu_ns
+from pipeline.solvers.kernels.kin import NEVER, TRACE_DP, now_ns, stop_rule, thread_cpu_ns
 
 
 @numba.njit(cache=True, inline="always")
@@ -104,3 +113,27 @@ def keep_alive(typingctx, x):
         return context.get_dummy_value()
 
     return types.none(x), codegen
+
+
+# ---- trace rows the methods share (TRACE_COLS = 8 columns) -------------------------------------
+@numba.njit(cache=True, inline="always")
+def error_row(trace, row, err, e, dp):
+    """Trace row ``row`` := ``[err, e (6), dp]``: a scalar error, the error 6-vector, |dp| [length unit]."""
+    trace[row, 0] = err
+    for r in range(6):
+        trace[row, 1 + r] = e[r]
+    trace[row, TRACE_DP] = dp
+
+
+@numba.njit(cache=True)
+def pose_row(trace, row, err, Tg, T, rv, pose):
+    """Trace row ``row`` := ``[err, p_goal - p (3), rv (3) (0 when not pose), |p_goal - p|]`` of the pose
+    ``T`` (4, 4) against the goal ``Tg``; ``rv`` (3,) the rotation vector the method computed."""
+    trace[row, 0] = err
+    trace[row, 1], trace[row, 2], trace[row, 3] = Tg[0, 3] - T[0, 3], Tg[1, 3] - T[1, 3], Tg[2, 3] - T[2, 3]
+    if pose:
+        trace[row, 4], trace[row, 5], trace[row, 6] = rv[0], rv[1], rv[2]
+    else:
+        trace[row, 4], trace[row, 5], trace[row, 6] = 0.0, 0.0, 0.0
+    dx, dy, dz = trace[row, 1], trace[row, 2], trace[row, 3]
+    trace[row, TRACE_DP] = np.sqrt(dx * dx + dy * dy + dz * dz)
