@@ -192,7 +192,8 @@ def _start(problem, q):
     """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``: scratch, first FK and error.
 
     State: ``(T, Tp, X, Xp, qa, qb, rv, rg, qp, J, dx, m)`` with ``m`` = (error, |dp|) of the iterate."""
-    a, alpha, d, offs, prism, modified, base, tool, Tg, gain, delta, rows, scale, stop, tol_pos, tol_rot, tol_change = problem
+    a, alpha, d, offs, prism, modified, base, tool, Tg, gain, delta, rows, scale, stop = problem[:14]
+    tol_pos, tol_rot, tol_change = problem[14:]
     n = q.shape[0]
     m_rows = 3 if rows == ROWS_POSITION else 6
     state = (np.empty((4, 4)), np.empty((4, 4)), np.empty(3), np.empty(3), np.empty(4), np.empty(4), np.empty(3),
@@ -209,7 +210,8 @@ def _step(problem, state, q, it):
     """``step``: ``q += alpha J^+ (X_goal - X)`` with the finite-difference J; the stop test of ``stop``
     (reach: within the tolerances; change: the error changed by less than ``tol_change``, success when
     within the tolerances, else a stall)."""
-    a, alpha, d, offs, prism, modified, base, tool, Tg, gain, delta, rows, scale, stop, tol_pos, tol_rot, tol_change = problem
+    a, alpha, d, offs, prism, modified, base, tool, Tg, gain, delta, rows, scale, stop = problem[:14]
+    tol_pos, tol_rot, tol_change = problem[14:]
     T, Tp, X, Xp, qa, qb, rv, rg, qp, J, dx, m = state
     if rows == ROWS_HOLD:
         rpy(T, X)
@@ -245,9 +247,9 @@ def ji_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, gain, delta
              tol_pos, tol_rot, tol_change, max_iter, q, trace, times):
     """Inverse Jacobian loop (eqs. 5-6; :func:`pipeline.solvers.kernels.loop.iterate` with this module's
     step). Returns (code, iterations); ``times`` = (wall ns, 0, thread CPU ns)."""
-    code, it, _ = iterate(_start, _step, _record, (a, alpha, d, offs, prism, modified, base, tool, Tg, gain, delta, rows,
-                                                   scale, stop, tol_pos, tol_rot, tol_change), q0, q, trace, times,
-                          NEVER, max_iter)
+    problem = (a, alpha, d, offs, prism, modified, base, tool, Tg, gain, delta, rows, scale, stop, tol_pos, tol_rot,
+               tol_change)
+    code, it, _ = iterate(_start, _step, _record, problem, q0, q, trace, times, NEVER, max_iter)
     return code, it
 
 

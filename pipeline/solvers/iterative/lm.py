@@ -244,9 +244,9 @@ def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose,
              min_shrink, tol_change, tol_pos, tol_rot, q, trace, times):
     """Levenberg-Marquardt loop (:func:`pipeline.solvers.kernels.loop.iterate` with this module's step).
     Returns (code, iterations); ``times`` = (wall ns, 0, thread CPU ns)."""
-    code, it, _ = iterate(_start, _step, _record, (a, alpha, d, offs, prism, modified, base, tool, Tg, kind, pose, scale,
-                                                   incr, max_iter, tau, e1, e2, min_shrink, tol_change, tol_pos,
-                                                   tol_rot), q0, q, trace, times, NEVER, max_iter)
+    problem = (a, alpha, d, offs, prism, modified, base, tool, Tg, kind, pose, scale, incr, max_iter, tau, e1, e2,
+               min_shrink, tol_change, tol_pos, tol_rot)
+    code, it, _ = iterate(_start, _step, _record, problem, q0, q, trace, times, NEVER, max_iter)
     return code, it
 
 

@@ -303,8 +303,8 @@ def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, 
     ``cfix[i]`` is the weight c of joint i or NaN for A4.30 evaluated before the step. ``times``
     receives (solve ns, IK-block ns): the IK block is the joint steps' own arithmetic.
     """
-    code, it, state = iterate(_start, _step, _record, (a, alpha, d, offs, prism, modified, base, tool, Tg, cfix, ip, fp),
-                              q0, q, trace, times, NEVER, ip[I_MAX_ITER])
+    problem = (a, alpha, d, offs, prism, modified, base, tool, Tg, cfix, ip, fp)
+    code, it, state = iterate(_start, _step, _record, problem, q0, q, trace, times, NEVER, ip[I_MAX_ITER])
     return code, it, state[9][0]
 
 
