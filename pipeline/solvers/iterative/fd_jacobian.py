@@ -39,7 +39,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_DP
+from pipeline.solvers.kernels.kin import NEVER, TRACE_DP
+from pipeline.solvers.kernels.loop import iterate
 from pipeline.solvers.core import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
@@ -187,62 +188,69 @@ def fd_jacobian(a, alpha, d, offs, prism, modified, base, tool, q, T, X, delta, 
 
 
 @numba.njit(cache=True)
-def ji_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, gain, delta, rows, scale, stop_rule,
-             tol_pos, tol_rot, tol_change, max_iter, q, trace, times):
-    """Inverse Jacobian loop (eqs. 5-6). Returns (code, iterations); ``times`` = (wall ns, thread CPU ns)."""
-    clk = np.zeros(2, np.int64)
-    c0 = _kin.thread_cpu_ns(clk)
-    t0 = _kin.now_ns(clk)
-    n = q0.shape[0]
-    m = 3 if rows == ROWS_POSITION else 6
-    T = np.empty((4, 4))
-    Tp = np.empty((4, 4))
-    X = np.empty(3)
-    Xp = np.empty(3)
-    qa = np.empty(4)
-    qb = np.empty(4)
-    rv = np.empty(3)
-    rg = np.empty(3)
-    qp = np.empty(n)
-    J = np.empty((m, n))
-    dx = np.zeros(m)
-    for j in range(n):
-        q[j] = q0[j]
+def _start(problem, q):
+    """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``: scratch, first FK and error.
+
+    State: ``(T, Tp, X, Xp, qa, qb, rv, rg, qp, J, dx, m)`` with ``m`` = (error, |dp|) of the iterate."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, gain, delta, rows, scale, stop = problem[:14]
+    tol_pos, tol_rot, tol_change = problem[14:]
+    n = q.shape[0]
+    m_rows = 3 if rows == ROWS_POSITION else 6
+    state = (np.empty((4, 4)), np.empty((4, 4)), np.empty(3), np.empty(3), np.empty(4), np.empty(4), np.empty(3),
+             np.empty(3), np.empty(n), np.empty((m_rows, n)), np.zeros(m_rows), np.empty(2))
+    T, Tp, X, Xp, qa, qb, rv, rg, qp, J, dx, m = state
     _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T)
     e, dp, ang = _error(Tg, T, rows, scale, qa, qb, rg)
-    _trace_row(trace, 0, e, Tg, T, rows, rg, dp)
-    code = ITERATION_CAP
-    k = 0
-    if stop_rule == STOP_REACH and _within(dp, ang, rows, tol_pos, tol_rot):
-        code = SUCCESS
-    while code == ITERATION_CAP and k < max_iter:
-        if rows == ROWS_HOLD:
-            rpy(T, X)
-        fd_jacobian(a, alpha, d, offs, prism, modified, base, tool, q, T, X, delta, rows, scale, J, qp, Tp, Xp,
-                    qa, qb, rv)
+    m[0], m[1] = e, dp
+    return state, e, stop == STOP_REACH and _within(dp, ang, rows, tol_pos, tol_rot), False
+
+
+@numba.njit(cache=True)
+def _step(problem, state, q, it):
+    """``step``: ``q += alpha J^+ (X_goal - X)`` with the finite-difference J; the stop test of ``stop``
+    (reach: within the tolerances; change: the error changed by less than ``tol_change``, success when
+    within the tolerances, else a stall)."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, gain, delta, rows, scale, stop = problem[:14]
+    tol_pos, tol_rot, tol_change = problem[14:]
+    T, Tp, X, Xp, qa, qb, rv, rg, qp, J, dx, m = state
+    if rows == ROWS_HOLD:
+        rpy(T, X)
+    fd_jacobian(a, alpha, d, offs, prism, modified, base, tool, q, T, X, delta, rows, scale, J, qp, Tp, Xp,
+                qa, qb, rv)
+    for r in range(3):
+        dx[r] = Tg[r, 3] - T[r, 3]
+    if rows == ROWS_POSE:
         for r in range(3):
-            dx[r] = Tg[r, 3] - T[r, 3]
-        if rows == ROWS_POSE:
-            for r in range(3):
-                dx[3 + r] = scale * rg[r]
-        dq = pinv_solve(J, dx)
-        for j in range(n):
-            q[j] += gain * dq[j]
-        _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T)
-        e_new, dp, ang = _error(Tg, T, rows, scale, qa, qb, rg)
-        k += 1
-        _trace_row(trace, k, e_new, Tg, T, rows, rg, dp)
-        if not np.isfinite(e_new):
-            code = NON_FINITE
-        elif stop_rule == STOP_REACH:
-            if _within(dp, ang, rows, tol_pos, tol_rot):
-                code = SUCCESS
-        elif abs(e - e_new) < tol_change:
-            code = SUCCESS if _within_or_equal(dp, ang, rows, tol_pos, tol_rot) else STALLED
-        e = e_new
-    times[0] = _kin.now_ns(clk) - t0
-    times[1] = _kin.thread_cpu_ns(clk) - c0
-    return code, k
+            dx[3 + r] = scale * rg[r]
+    dq = pinv_solve(J, dx)
+    for j in range(q.shape[0]):
+        q[j] += gain * dq[j]
+    _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T)
+    e_new, dp, ang = _error(Tg, T, rows, scale, qa, qb, rg)
+    e = m[0]
+    m[0], m[1] = e_new, dp
+    if stop == STOP_REACH:
+        return e_new, _within(dp, ang, rows, tol_pos, tol_rot), False, 0
+    changed = abs(e - e_new) < tol_change
+    ok = changed and _within_or_equal(dp, ang, rows, tol_pos, tol_rot)
+    return e_new, ok, changed and not ok, 0
+
+
+@numba.njit(cache=True)
+def _record(problem, state, trace, row):
+    T, rg, m = state[0], state[7], state[11]
+    _trace_row(trace, row, m[0], problem[8], T, problem[11], rg, m[1])
+
+
+@numba.njit(cache=True)
+def ji_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, gain, delta, rows, scale, stop,
+             tol_pos, tol_rot, tol_change, max_iter, q, trace, times):
+    """Inverse Jacobian loop (eqs. 5-6; :func:`pipeline.solvers.kernels.loop.iterate` with this module's
+    step). Returns (code, iterations); ``times`` = (wall ns, 0, thread CPU ns)."""
+    problem = (a, alpha, d, offs, prism, modified, base, tool, Tg, gain, delta, rows, scale, stop, tol_pos, tol_rot,
+               tol_change)
+    code, it, _ = iterate(_start, _step, _record, problem, q0, q, trace, times, NEVER, max_iter)
+    return code, it
 
 
 @numba.njit(cache=True)
@@ -257,9 +265,9 @@ def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: FDJacobianSe
     q, trace, times, (code, it) = run_loop(
         ji_solve, (*prep.args, T_goal, q_start, float(s.alpha), float(s.delta), s.rows(), float(s.orientation_scale),
                    STOP_REACH if s.stop == "reach" else STOP_CHANGE, float(s.tol_pos), float(s.tol_rot),
-                   float(s.error_change_stop), int(s.max_iterations)), q_start, s.max_iterations)
+                   float(s.error_change_stop), int(s.max_iterations)), q_start, s.max_iterations, clocks=3)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
-               info={"cpu_time_s": int(times[1]) * 1e-9})
+               info={"cpu_time_s": int(times[2]) * 1e-9})
 
 
 register(Solver("inverse_jacobian_fd", "inverse Jacobian from an undivided finite-difference Jacobian, "

@@ -27,7 +27,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_DP
+from pipeline.solvers.kernels.kin import NEVER, TRACE_DP
+from pipeline.solvers.kernels.loop import iterate
 from pipeline.solvers.core import Prepared, Raw, Settings, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
@@ -65,70 +66,86 @@ def _fill(trace, row, Tg, T):
 
 
 @numba.njit(cache=True)
+def _distance(problem, q, axes, origins, T):
+    """FK at ``q`` (axes, origins, T); returns |p_goal - p|."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, tol, reverse = problem
+    _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
+    dx, dy, dz = Tg[0, 3] - T[0, 3], Tg[1, 3] - T[1, 3], Tg[2, 3] - T[2, 3]
+    return np.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@numba.njit(cache=True)
+def _start(problem, q):
+    """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``. State: ``(axes, origins, T, v1, v2, clk)``."""
+    n = q.shape[0]
+    state = (np.empty((n, 3)), np.empty((n, 3)), np.empty((4, 4)), np.empty(3), np.empty(3), np.zeros(2, np.int64))
+    err = _distance(problem, q, state[0], state[1], state[2])
+    return state, err, err <= problem[9], False
+
+
+@numba.njit(cache=True)
+def _turn(ux, uy, uz, v1, v2):
+    """Signed angle about the unit axis u from v1 to v2 projected on the plane normal to u (0 when either
+    projection is shorter than ZERO_LENGTH); ``v1``, ``v2`` (3,) are overwritten by their projections."""
+    a1 = v1[0] * ux + v1[1] * uy + v1[2] * uz
+    a2 = v2[0] * ux + v2[1] * uy + v2[2] * uz
+    v1[0] -= a1 * ux
+    v1[1] -= a1 * uy
+    v1[2] -= a1 * uz
+    v2[0] -= a2 * ux
+    v2[1] -= a2 * uy
+    v2[2] -= a2 * uz
+    n1 = np.sqrt(v1[0] * v1[0] + v1[1] * v1[1] + v1[2] * v1[2])
+    n2 = np.sqrt(v2[0] * v2[0] + v2[1] * v2[1] + v2[2] * v2[2])
+    if n1 > ZERO_LENGTH and n2 > ZERO_LENGTH:
+        cx = v1[1] * v2[2] - v1[2] * v2[1]
+        cy = v1[2] * v2[0] - v1[0] * v2[2]
+        cz = v1[0] * v2[1] - v1[1] * v2[0]
+        return np.arctan2(cx * ux + cy * uy + cz * uz, v1[0] * v2[0] + v1[1] * v2[1] + v1[2] * v2[2]), True
+    return 0.0, False
+
+
+@numba.njit(cache=True)
+def _step(problem, state, q, it):
+    """``step``: one sweep over the joints; stops at the first joint after which the distance is non-finite
+    or within ``tol``."""
+    prism, Tg, tol, reverse = problem[4], problem[8], problem[9], problem[10]
+    axes, origins, T, v1, v2, clk = state
+    n = q.shape[0]
+    t_ik = 0
+    err = 0.0
+    for k in range(n):
+        i = n - 1 - k if reverse else k
+        t0 = _kin.now_ns(clk)
+        ux, uy, uz = axes[i, 0], axes[i, 1], axes[i, 2]
+        if prism[i]:
+            q[i] += (Tg[0, 3] - T[0, 3]) * ux + (Tg[1, 3] - T[1, 3]) * uy + (Tg[2, 3] - T[2, 3]) * uz
+        else:
+            for r in range(3):
+                v1[r] = T[r, 3] - origins[i, r]
+                v2[r] = Tg[r, 3] - origins[i, r]
+            angle, turned = _turn(ux, uy, uz, v1, v2)
+            if turned:
+                q[i] += angle
+        t_ik += _kin.now_ns(clk) - t0
+        err = _distance(problem, q, axes, origins, T)
+        if not np.isfinite(err) or err <= tol:
+            break
+    return err, err <= tol, False, t_ik
+
+
+@numba.njit(cache=True)
+def _record(problem, state, trace, row):
+    _fill(trace, row, problem[8], state[2])
+
+
+@numba.njit(cache=True)
 def geometric_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, max_iter, tol, reverse, q, trace,
                      times):
-    """Position-only cyclic coordinate descent; returns (stop code, sweeps)."""
-    clk = np.zeros(2, np.int64)
-    t_start = _kin.now_ns(clk)
-    n = q0.shape[0]
-    for i in range(n):
-        q[i] = q0[i]
-    axes = np.empty((n, 3))
-    origins = np.empty((n, 3))
-    T = np.empty((4, 4))
-    v1 = np.empty(3)
-    v2 = np.empty(3)
-    _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
-    err = _fill(trace, 0, Tg, T)
-    code = 0
-    it = 0
-    t_ik = 0
-    if not np.isfinite(err):
-        code = NON_FINITE
-    elif err <= tol:
-        code = SUCCESS
-    while code == 0:
-        it += 1
-        for k in range(n):
-            i = n - 1 - k if reverse else k
-            t0 = _kin.now_ns(clk)
-            ux, uy, uz = axes[i, 0], axes[i, 1], axes[i, 2]
-            if prism[i]:
-                q[i] += (Tg[0, 3] - T[0, 3]) * ux + (Tg[1, 3] - T[1, 3]) * uy + (Tg[2, 3] - T[2, 3]) * uz
-            else:
-                for r in range(3):
-                    v1[r] = T[r, 3] - origins[i, r]
-                    v2[r] = Tg[r, 3] - origins[i, r]
-                a1 = v1[0] * ux + v1[1] * uy + v1[2] * uz
-                a2 = v2[0] * ux + v2[1] * uy + v2[2] * uz
-                v1[0] -= a1 * ux
-                v1[1] -= a1 * uy
-                v1[2] -= a1 * uz
-                v2[0] -= a2 * ux
-                v2[1] -= a2 * uy
-                v2[2] -= a2 * uz
-                n1 = np.sqrt(v1[0] * v1[0] + v1[1] * v1[1] + v1[2] * v1[2])
-                n2 = np.sqrt(v2[0] * v2[0] + v2[1] * v2[1] + v2[2] * v2[2])
-                if n1 > ZERO_LENGTH and n2 > ZERO_LENGTH:
-                    cx = v1[1] * v2[2] - v1[2] * v2[1]
-                    cy = v1[2] * v2[0] - v1[0] * v2[2]
-                    cz = v1[0] * v2[1] - v1[1] * v2[0]
-                    q[i] += np.arctan2(cx * ux + cy * uy + cz * uz, v1[0] * v2[0] + v1[1] * v2[1] + v1[2] * v2[2])
-            t_ik += _kin.now_ns(clk) - t0
-            _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
-            dx, dy, dz = Tg[0, 3] - T[0, 3], Tg[1, 3] - T[1, 3], Tg[2, 3] - T[2, 3]
-            err = np.sqrt(dx * dx + dy * dy + dz * dz)
-            if not np.isfinite(err):
-                code = NON_FINITE
-                break
-            if err <= tol:
-                code = SUCCESS
-                break
-        _fill(trace, it, Tg, T)
-        if code == 0 and it >= max_iter:
-            code = ITERATION_CAP
-    times[0] = _kin.now_ns(clk) - t_start
-    times[1] = t_ik
+    """Position-only cyclic coordinate descent (:func:`pipeline.solvers.kernels.loop.iterate` with this
+    module's sweep as its step); returns (stop code, sweeps)."""
+    code, it, _ = iterate(_start, _step, _record, (a, alpha, d, offs, prism, modified, base, tool, Tg, tol, reverse),
+                          q0, q, trace, times, NEVER, max_iter)
     return code, it
 
 

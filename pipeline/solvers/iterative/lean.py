@@ -30,8 +30,9 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.pose as _jit
-from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NON_FINITE, SUCCESS, TRACE_DP, now_ns, quat_from_rot,
-                                    quat_relative, relative_translation_norm, rodrigues, thread_cpu_ns)
+from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NEVER, now_ns, quat_from_rot, quat_relative,
+                                          relative_translation_norm, rodrigues)
+from pipeline.solvers.kernels.loop import error_row, iterate
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -212,20 +213,23 @@ def _step(method, J, e, lam2, A, y, dq):
     return True
 
 
-@numba.njit(cache=True)
-def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace, times):
-    """One problem of the Jacobian loop (000 §3; stop rule :func:`pipeline.solvers.kernels.pose.stop_code`).
+@numba.njit(cache=True, inline="always")
+def _met(crit, err, dp, ang, fp):
+    """The success test: ``err <= tol_dq`` (dq_norm criteria) or ``|dp| <= tol_pos`` and ``angle <= tol_rot``."""
+    if crit == CRIT_DQ_NORM or crit == CRIT_DQ_BODY:
+        return err <= fp[_jit.F_TOL_DQ]
+    return dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]
 
-    Writes the solution into ``q`` (n,), trace rows ``0..iterations`` of ``trace`` (k, 8) (rows
-    beyond its length are not written; it needs at least one row), and ``times`` (3,) = (total,
-    IK block, the thread's CPU time over the total) [ns]. Returns ``(stop code, iterations)``.
+
+@numba.njit(cache=True, inline="always")
+def _start(problem, q):
+    """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``: the scratch, the first FK and error.
+
+    State: ``(axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk)`` with ``qg`` the goal's
+    quaternion (once per solve), ``qt``/``qp`` this and the previous iterate's, ``m`` = (error, |dp|).
     """
-    clk = np.zeros(2, np.int64)
-    c_start = thread_cpu_ns(clk)
-    t_start = now_ns(clk)
-    n = q0.shape[0]
-    for i in range(n):
-        q[i] = q0[i]
+    form, a, ca, sa, d, offs, prism, base, tool, Tg, ip, fp = problem
+    n = q.shape[0]
     axes = np.empty((n, 3))
     origins = np.empty((n, 3))
     T = np.zeros((4, 4))
@@ -238,77 +242,81 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     A = np.empty((6, 6))
     y = np.empty(6)
     dq = np.empty(n)
-    qg = np.empty(4)  # goal orientation, once per solve
-    qt = np.empty(4)  # this iterate's orientation
-    qp = np.empty(4)  # the previous iterate's (stall test)
+    qg = np.empty(4)
+    qt = np.empty(4)
+    qp = np.empty(4)
+    m = np.empty(2)
+    clk = np.zeros(2, np.int64)
     quat_from_rot(Tg, qg)
-    method = ip[_jit.I_METHOD]
-    crit = ip[_jit.I_CRITERION]  # pipeline.solvers.kernels.kin.CRITERION_CODE
-    dq_crit = crit == CRIT_DQ_NORM or crit == CRIT_DQ_BODY
-    time_ik = ip[_jit.I_TIME_IK] != 0
-    t0 = 0
-    lam = fp[_jit.F_LAMBDA] if method == 2 else 0.0
-    lam2 = lam * lam
-    rows = trace.shape[0]
     fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
     err, dp, ang = _jit.pose_error_q(Tg, T, qg, qt, ip, fp, e)
-    trace[0, 0] = err
-    for r in range(6):
-        trace[0, 1 + r] = e[r]
-    trace[0, TRACE_DP] = dp
-    t_ik = 0
-    code = 0
-    it = 0
-    grew = 0
-    if not math.isfinite(err):
-        code = NON_FINITE
-    elif (dq_crit and err <= fp[_jit.F_TOL_DQ]) or (not dq_crit and dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]):
-        code = SUCCESS
-    while code == 0:
-        it += 1
-        _jacobian(prism, axes, origins, T, J)
-        if time_ik:
-            t0 = now_ns(clk)
-        if method == 3 or not _step(method, J, e, lam2, A, y, dq):
-            ref = _jit.step(method, J, e, ip, fp)
-            for j in range(n):
-                dq[j] = ref[j]
-        if time_ik:
-            t_ik += now_ns(clk) - t0
+    m[0], m[1] = err, dp
+    ok = _met(ip[_jit.I_CRITERION], err, dp, ang, fp)
+    return (axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk), err, ok, False
+
+
+@numba.njit(cache=True, inline="always")
+def _advance(problem, state, q, it):
+    """``step``: the method's update (Cholesky fast path, else the reference step), FK, error and stall test."""
+    form, a, ca, sa, d, offs, prism, base, tool, Tg, ip, fp = problem
+    axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk = state
+    n = q.shape[0]
+    method = ip[_jit.I_METHOD]
+    crit = ip[_jit.I_CRITERION]  # pipeline.solvers.kernels.kin.CRITERION_CODE
+    time_ik = ip[_jit.I_TIME_IK] != 0
+    lam = fp[_jit.F_LAMBDA] if method == 2 else 0.0
+    _jacobian(prism, axes, origins, T, J)
+    t0 = now_ns(clk) if time_ik else 0
+    if method == 3 or not _step(method, J, e, lam * lam, A, y, dq):
+        ref = _jit.step(method, J, e, ip, fp)
         for j in range(n):
-            q[j] += dq[j]
-        for r in range(3):
-            for c in range(4):
-                Tprev[r, c] = T[r, c]
-        for k in range(4):
-            qp[k] = qt[k]
-        fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
-        prev_err = err
-        err, dp, ang = _jit.pose_error_q(Tg, T, qg, qt, ip, fp, e)
-        if it < rows:
-            trace[it, 0] = err
-            for r in range(6):
-                trace[it, 1 + r] = e[r]
-            trace[it, TRACE_DP] = dp
-        if dq_crit:
-            if crit == CRIT_DQ_NORM:
-                t = relative_translation_norm(T, Tprev)
-            else:
-                t = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
-            stalled = math.sqrt(1.0 + 0.25 * t * t) < fp[_jit.F_STALL_DQ]
-            ok = err <= fp[_jit.F_TOL_DQ]
+            dq[j] = ref[j]
+    t_ik = now_ns(clk) - t0 if time_ik else 0
+    for j in range(n):
+        q[j] += dq[j]
+    for r in range(3):
+        for c in range(4):
+            Tprev[r, c] = T[r, c]
+    for k in range(4):
+        qp[k] = qt[k]
+    fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
+    err, dp, ang = _jit.pose_error_q(Tg, T, qg, qt, ip, fp, e)
+    m[0], m[1] = err, dp
+    if crit == CRIT_DQ_NORM or crit == CRIT_DQ_BODY:
+        if crit == CRIT_DQ_NORM:
+            t = relative_translation_norm(T, Tprev)
         else:
-            dmove = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
-            stalled = False
-            if dmove < fp[_jit.F_STALL_POS]:  # the rotation only matters when the position stalled
-                w, x, yy, z = quat_relative(qt, qp)
-                stalled = 2.0 * math.atan2(math.sqrt(x * x + yy * yy + z * z), w) < fp[_jit.F_STALL_ROT]
-            ok = dp <= fp[_jit.F_TOL_POS] and ang <= fp[_jit.F_TOL_ROT]
-        grew = grew + 1 if err > prev_err else 0
-        code = _jit.stop_code(err, ok, stalled, grew, it, ip)
-    times[0] = now_ns(clk) - t_start
-    times[1] = t_ik
-    times[2] = thread_cpu_ns(clk) - c_start
+            t = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
+        stalled = math.sqrt(1.0 + 0.25 * t * t) < fp[_jit.F_STALL_DQ]
+    else:
+        dmove = math.sqrt((T[0, 3] - Tprev[0, 3]) ** 2 + (T[1, 3] - Tprev[1, 3]) ** 2 + (T[2, 3] - Tprev[2, 3]) ** 2)
+        stalled = False
+        if dmove < fp[_jit.F_STALL_POS]:  # the rotation only matters when the position stalled
+            w, x, yy, z = quat_relative(qt, qp)
+            stalled = 2.0 * math.atan2(math.sqrt(x * x + yy * yy + z * z), w) < fp[_jit.F_STALL_ROT]
+    return err, _met(crit, err, dp, ang, fp), stalled and ip[_jit.I_NO_STALL] == 0, t_ik
+
+
+@numba.njit(cache=True, inline="always")
+def _record(problem, state, trace, row):
+    """``record``: ``[error, e (6), |dp|]``."""
+    m = state[13]
+    error_row(trace, row, m[0], state[6], m[1])
+
+
+@numba.njit(cache=True)
+def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace, times):
+    """One problem of the Jacobian loop (000 §3; :func:`pipeline.solvers.kernels.loop.iterate` with this
+    module's step; stop rule :func:`pipeline.solvers.kernels.kin.stop_rule` with ``disable_stall`` and
+    ``disable_grow`` applied).
+
+    Writes the solution into ``q`` (n,), trace rows ``0..iterations`` of ``trace`` (k, 8) (rows
+    beyond its length are not written; it needs at least one row), and ``times`` (3,) = (total,
+    IK block, the thread's CPU time over the total) [ns]. Returns ``(stop code, iterations)``.
+    """
+    grow = ip[_jit.I_GROW_LIMIT] if ip[_jit.I_NO_GROW] == 0 else NEVER
+    code, it, _ = iterate(_start, _advance, _record, (form, a, ca, sa, d, offs, prism, base, tool, Tg, ip, fp), q0, q,
+                          trace, times, grow, ip[_jit.I_MAX_ITER])
     return code, it
 
 

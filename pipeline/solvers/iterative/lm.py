@@ -34,7 +34,8 @@ import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_DP
+from pipeline.solvers.kernels.kin import NEVER
+from pipeline.solvers.kernels.loop import iterate, pose_row
 from pipeline.solvers.core import POSITION_CRITERIA, Prepared, Raw, Settings, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
@@ -125,130 +126,127 @@ def _jacobian_central(a, alpha, d, offs, prism, modified, base, tool, Tg, q, kin
 
 @numba.njit(cache=True)
 def _trace_row(trace, k, e, Tg, T, pose, qa, qb, rv):
-    trace[k, 0] = e
-    trace[k, 1], trace[k, 2], trace[k, 3] = Tg[0, 3] - T[0, 3], Tg[1, 3] - T[1, 3], Tg[2, 3] - T[2, 3]
     if pose:
         _kin.rotation_vector(Tg, T, qa, qb, rv)
-        trace[k, 4], trace[k, 5], trace[k, 6] = rv[0], rv[1], rv[2]
+    pose_row(trace, k, e, Tg, T, rv, pose)
+
+
+@numba.njit(cache=True)
+def _linearise(problem, state, q):
+    """J (central differences), H = J^T J and g = J^T f at ``q`` into the state (``T`` used as scratch)."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, kind, pose, scale, incr = problem[:13]
+    T, Tlast, qa, qb, rv, f, fnew, rp, rm, qp, xnew, J, H, g, sc = state
+    _jacobian_central(a, alpha, d, offs, prism, modified, base, tool, Tg, q, kind, pose, scale, incr, J, rp, rm, qp,
+                      T, qa, qb, rv)
+    H[:, :] = J.T @ J
+
+
+@numba.njit(cache=True)
+def _start(problem, q):
+    """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``: J, H, f, g at the start, lambda = tau max H_ii.
+
+    State: ``(T, Tlast, qa, qb, rv, f, fnew, rp, rm, qp, xnew, J, H, g, sc)`` with ``Tlast`` the pose of the
+    last accepted iterate, ``sc`` = (e, lambda, nu, F = |f|^2)."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, kind, pose, scale, incr = problem[:13]
+    tau, e1 = problem[14], problem[15]
+    n = q.shape[0]
+    m = 1 if kind == RES_SCALAR else (6 if pose else 3)
+    state = (np.empty((4, 4)), np.empty((4, 4)), np.empty(4), np.empty(4), np.empty(3), np.empty(m), np.empty(m),
+             np.empty(m), np.empty(m), np.empty(n), np.empty(n), np.empty((m, n)), np.empty((n, n)), np.empty(n),
+             np.empty(4))
+    T, Tlast, qa, qb, rv, f, fnew, rp, rm, qp, xnew, J, H, g, sc = state
+    _linearise(problem, state, q)
+    _residual(a, alpha, d, offs, prism, modified, base, tool, Tg, q, kind, pose, scale, f, T, qa, qb, rv)
+    e, dp, ang = _errors(Tg, T, pose, scale, qa, qb, rv)
+    g[:] = J.T @ f
+    found = np.max(np.abs(g)) <= e1
+    dmax = 0.0
+    for i in range(n):
+        dmax = max(dmax, H[i, i])
+    Fx = 0.0
+    for i in range(m):
+        Fx += f[i] * f[i]
+    sc[0], sc[1], sc[2], sc[3] = e, tau * dmax, 2.0, Fx
+    Tlast[:, :] = T
+    ok, stalled = _claim(problem, state, found)
+    return state, e, ok, stalled
+
+
+@numba.njit(cache=True)
+def _claim(problem, state, found):
+    """(success, stall): a claimed convergence ``found`` is a success when the last accepted pose is within
+    tol_pos (and tol_rot for pose goals), else a stall."""
+    Tg, pose, scale, tol_pos, tol_rot = problem[8], problem[10], problem[11], problem[19], problem[20]
+    if not found:
+        return False, False
+    T, Tlast, qa, qb, rv = state[:5]
+    e_last, dp, ang = _errors(Tg, Tlast, pose, scale, qa, qb, rv)
+    within = not (dp > tol_pos or (pose and ang > tol_rot))
+    return within, not within
+
+
+@numba.njit(cache=True)
+def _step(problem, state, q, it):
+    """``step``: MRPT's iteration (the damped system, the gain ratio, Nielsen's update); no step at the cap
+    (MRPT counts the last test as an iteration)."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, kind, pose, scale, incr, max_iter = problem[:14]
+    e1, e2, min_shrink, tol_change = problem[15], problem[16], problem[17], problem[18]
+    T, Tlast, qa, qb, rv, f, fnew, rp, rm, qp, xnew, J, H, g, sc = state
+    n = q.shape[0]
+    if it >= max_iter:
+        return sc[0], False, False, 0
+    e, lam, nu, Fx = sc[0], sc[1], sc[2], sc[3]
+    A = H.copy()
+    for i in range(n):
+        A[i, i] += lam
+    try:
+        h = -np.linalg.solve(A, g)
+    except Exception:  # singular damped system (lambda = 0 and J^T J singular)
+        return np.nan, False, False, 0
+    found = False
+    if np.sqrt(np.sum(h * h)) < e2 * (np.sqrt(np.sum(q * q)) + e2):
+        found = True
     else:
-        trace[k, 4], trace[k, 5], trace[k, 6] = 0.0, 0.0, 0.0
-    dx, dy, dz = trace[k, 1], trace[k, 2], trace[k, 3]
-    trace[k, TRACE_DP] = np.sqrt(dx * dx + dy * dy + dz * dz)
+        for i in range(n):
+            xnew[i] = q[i] + h[i]
+        _residual(a, alpha, d, offs, prism, modified, base, tool, Tg, xnew, kind, pose, scale, fnew, T, qa, qb, rv)
+        Fnew = 0.0
+        for i in range(fnew.shape[0]):
+            Fnew += fnew[i] * fnew[i]
+        denom = 0.0
+        for i in range(n):
+            denom += h[i] * (lam * h[i] - g[i])
+        rho = (Fx - Fnew) / denom
+        if rho > 0:
+            q[:] = xnew
+            f[:] = fnew
+            sc[3] = Fnew
+            Tlast[:, :] = T
+            _linearise(problem, state, q)
+            g[:] = J.T @ f
+            found = np.max(np.abs(g)) <= e1
+            e_new, dp, ang = _errors(Tg, Tlast, pose, scale, qa, qb, rv)
+            found = found or abs(e - e_new) < tol_change
+            sc[0] = e_new
+        sc[1], sc[2] = nielsen(lam, nu, rho, min_shrink)
+    ok, stalled = _claim(problem, state, found)
+    return sc[0] if np.isfinite(sc[1]) else np.nan, ok, stalled, 0
+
+
+@numba.njit(cache=True)
+def _record(problem, state, trace, row):
+    """``record``: ``[e, p_goal - p (3), rotation vector of R_goal R^T (3), |dp|]`` at the last accepted pose."""
+    _trace_row(trace, row, state[14][0], problem[8], state[1], problem[10], state[2], state[3], state[4])
 
 
 @numba.njit(cache=True)
 def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose, scale, incr, max_iter, tau, e1, e2,
              min_shrink, tol_change, tol_pos, tol_rot, q, trace, times):
-    """Levenberg-Marquardt loop. Returns (code, iterations); ``times`` = (wall ns, thread CPU ns)."""
-    clk = np.zeros(2, np.int64)
-    c0 = _kin.thread_cpu_ns(clk)
-    t0 = _kin.now_ns(clk)
-    n = q0.shape[0]
-    if kind == RES_SCALAR:
-        m = 1
-    else:
-        m = 6 if pose else 3
-    T = np.empty((4, 4))
-    Tlast = np.empty((4, 4))
-    qa = np.empty(4)
-    qb = np.empty(4)
-    rv = np.empty(3)
-    f = np.empty(m)
-    fnew = np.empty(m)
-    rp = np.empty(m)
-    rm = np.empty(m)
-    qp = np.empty(n)
-    xnew = np.empty(n)
-    J = np.empty((m, n))
-    for j in range(n):
-        q[j] = q0[j]
-    _jacobian_central(a, alpha, d, offs, prism, modified, base, tool, Tg, q, kind, pose, scale, incr, J, rp, rm, qp,
-                      T, qa, qb, rv)
-    H = J.T @ J
-    _residual(a, alpha, d, offs, prism, modified, base, tool, Tg, q, kind, pose, scale, f, T, qa, qb, rv)
-    e, dp, ang = _errors(Tg, T, pose, scale, qa, qb, rv)
-    _trace_row(trace, 0, e, Tg, T, pose, qa, qb, rv)
-    g = J.T @ f
-    found = np.max(np.abs(g)) <= e1
-    dmax = 0.0
-    for i in range(n):
-        dmax = max(dmax, H[i, i])
-    lam = tau * dmax
-    nu = 2.0
-    Fx = 0.0
-    for i in range(m):
-        Fx += f[i] * f[i]
-    code = SUCCESS if found else ITERATION_CAP
-    it = 0
-    Tlast[:, :] = T
-    while not found:
-        it += 1
-        if it >= max_iter:
-            _trace_row(trace, it, e, Tg, Tlast, pose, qa, qb, rv)
-            break
-        A = H.copy()
-        for i in range(n):
-            A[i, i] += lam
-        ok = True
-        try:
-            h = -np.linalg.solve(A, g)
-        except Exception:  # singular damped system (lambda = 0 and J^T J singular)
-            ok = False
-            h = np.zeros(n)
-        if not ok:
-            code = NON_FINITE
-            _trace_row(trace, it, e, Tg, Tlast, pose, qa, qb, rv)
-            break
-        nh = np.sqrt(np.sum(h * h))
-        nx = np.sqrt(np.sum(q * q))
-        if nh < e2 * (nx + e2):
-            found = True
-            code = SUCCESS
-        else:
-            for i in range(n):
-                xnew[i] = q[i] + h[i]
-            _residual(a, alpha, d, offs, prism, modified, base, tool, Tg, xnew, kind, pose, scale, fnew, T, qa, qb, rv)
-            Fnew = 0.0
-            for i in range(m):
-                Fnew += fnew[i] * fnew[i]
-            denom = 0.0
-            for i in range(n):
-                denom += h[i] * (lam * h[i] - g[i])
-            rho = (Fx - Fnew) / denom
-            if rho > 0:
-                for i in range(n):
-                    q[i] = xnew[i]
-                for i in range(m):
-                    f[i] = fnew[i]
-                Fx = Fnew
-                Tlast[:, :] = T
-                _jacobian_central(a, alpha, d, offs, prism, modified, base, tool, Tg, q, kind, pose, scale, incr, J,
-                                  rp, rm, qp, T, qa, qb, rv)
-                H = J.T @ J
-                g = J.T @ f
-                if np.max(np.abs(g)) <= e1:
-                    found = True
-                    code = SUCCESS
-                lam, nu = nielsen(lam, nu, rho, min_shrink)
-                e_new, dp, ang = _errors(Tg, Tlast, pose, scale, qa, qb, rv)
-                if abs(e - e_new) < tol_change:
-                    found = True
-                    code = SUCCESS
-                e = e_new
-            else:
-                lam, nu = nielsen(lam, nu, rho, min_shrink)
-        _trace_row(trace, it, e, Tg, Tlast, pose, qa, qb, rv)
-        if not (np.isfinite(e) and np.isfinite(lam)):
-            code = NON_FINITE
-            break
-    if it >= max_iter:
-        it = max_iter
-    if code == SUCCESS:
-        e_last, dp, ang = _errors(Tg, Tlast, pose, scale, qa, qb, rv)
-        if dp > tol_pos or (pose and ang > tol_rot):
-            code = STALLED
-    times[0] = _kin.now_ns(clk) - t0
-    times[1] = _kin.thread_cpu_ns(clk) - c0
+    """Levenberg-Marquardt loop (:func:`pipeline.solvers.kernels.loop.iterate` with this module's step).
+    Returns (code, iterations); ``times`` = (wall ns, 0, thread CPU ns)."""
+    problem = (a, alpha, d, offs, prism, modified, base, tool, Tg, kind, pose, scale, incr, max_iter, tau, e1, e2,
+               min_shrink, tol_change, tol_pos, tol_rot)
+    code, it, _ = iterate(_start, _step, _record, problem, q0, q, trace, times, NEVER, max_iter)
     return code, it
 
 
@@ -259,9 +257,9 @@ def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: LMSettings, 
         lm_solve, (*prep.args, T_goal, q_start, RES_SCALAR if s.residual == "scalar" else RES_VECTOR, s.pose(),
                    float(s.orientation_scale), float(s.increment), int(s.max_iterations), float(s.tau), float(e1),
                    float(s.step_tol), float(s.min_shrink), float(s.error_change_stop), float(s.tol_pos),
-                   float(s.tol_rot)), q_start, s.max_iterations)
+                   float(s.tol_rot)), q_start, s.max_iterations, clocks=3)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
-               info={"cpu_time_s": int(times[1]) * 1e-9})
+               info={"cpu_time_s": int(times[2]) * 1e-9})
 
 
 register(Solver("levenberg_marquardt", "Levenberg-Marquardt with Nielsen's damping update and a central-difference "

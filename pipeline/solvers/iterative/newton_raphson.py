@@ -24,7 +24,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import CRIT_POSITION, CRIT_POS_ORIENT, NON_FINITE, SUCCESS, TRACE_DP
+from pipeline.solvers.kernels.kin import CRIT_POSITION, CRIT_POS_ORIENT, NEVER
+from pipeline.solvers.kernels.loop import error_row, iterate
 import pipeline.solvers.kernels.pose as _jit
 from pipeline.solvers.kernels.pose import pose_error
 from pipeline.solvers.core import CRITERION_CODE, Prepared, Raw, Settings, setting
@@ -90,19 +91,24 @@ def _error(Tg, T, pip, pfp, qa, qb, e, inv_l, crit):
 
 
 @numba.njit(cache=True)
-def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q, trace, times):
-    """Newton-Raphson with Whitney step control; returns (stop code, iterations, step halvings used)."""
-    clk = np.zeros(2, np.int64)
-    t_start = _kin.now_ns(clk)
-    max_iter, halvings, stall = ip[I_MAX_ITER], ip[I_HALVINGS], ip[I_STALL] != 0
-    norm_stop = ip[I_STOP] == 1
-    crit = ip[I_CRIT]
-    eps, tol_pos, tol_rot, tol_dq, inv_l = fp[F_EPS], fp[F_TOL_POS], fp[F_TOL_ROT], fp[F_TOL_DQ], fp[F_INV_L]
-    rcond = fp[F_RCOND]
-    n = q0.shape[0]
-    for i in range(n):
-        q[i] = q0[i]
-    pip = np.zeros(_jit.N_IP, np.int64)  # pose_error's slots: orientation error = axis-angle, scalar = |e|
+def _met(problem, T, err):
+    """The stop test: ``|e| < epsilon`` (error_norm) or the FK check's criterion (tolerance)."""
+    Tg, ip, fp = problem[8], problem[9], problem[10]
+    if ip[I_STOP] == 1:
+        return err < fp[F_EPS]
+    return _kin.meets(ip[I_CRIT], Tg, T, fp[F_TOL_POS], fp[F_TOL_ROT], fp[F_TOL_DQ])
+
+
+@numba.njit(cache=True)
+def _start(problem, q):
+    """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``: scratch, first FK and error.
+
+    State: ``(pip, pfp, axes, origins, T, J, e, e_try, qa, qb, p, q_try, m, clk, halved)`` with ``pip``,
+    ``pfp`` pose_error's slots (orientation error = axis-angle, scalar = |e|), ``m`` = (|e|, |dp|),
+    ``halved`` (1,) the step halvings used."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, ip, fp = problem
+    n = q.shape[0]
+    pip = np.zeros(_jit.N_IP, np.int64)
     pip[_jit.I_CRITERION] = CRIT_POS_ORIENT
     pip[_jit.I_ORIENT] = 1
     pfp = np.zeros(_jit.N_FP)
@@ -116,64 +122,73 @@ def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q,
     qb = np.empty(4)
     p = np.empty(3)
     q_try = np.empty(n)
+    m = np.empty(2)
     _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
-    err, dp, ang = _error(Tg, T, pip, pfp, qa, qb, e, inv_l, crit)
-    trace[0, 0] = err
-    trace[0, 1:7] = e
-    trace[0, TRACE_DP] = dp
-    t_ik = 0
-    code = 0
-    it = 0
-    halved = 0
-    if not np.isfinite(err):
-        code = NON_FINITE
-    elif (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-        code = SUCCESS
-    while code == 0:
-        it += 1
+    err, dp, ang = _error(Tg, T, pip, pfp, qa, qb, e, fp[F_INV_L], ip[I_CRIT])
+    m[0], m[1] = err, dp
+    state = (pip, pfp, axes, origins, T, J, e, e_try, qa, qb, p, q_try, m, np.zeros(2, np.int64), np.zeros(1, np.int64))
+    return state, err, _met(problem, T, err), False
+
+
+@numba.njit(cache=True)
+def _step(problem, state, q, it):
+    """``step``: least-squares Newton step J^+ e, halved until |e| decreases (Whitney)."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, ip, fp = problem
+    pip, pfp, axes, origins, T, J, e, e_try, qa, qb, p, q_try, m, clk, halved = state
+    n = q.shape[0]
+    crit, inv_l = ip[I_CRIT], fp[F_INV_L]
+    err = m[0]
+    for r in range(3):
+        p[r] = T[r, 3]
+    _kin.jacobian(prism, axes, origins, p, J)
+    if inv_l != 1.0:
         for r in range(3):
-            p[r] = T[r, 3]
-        _kin.jacobian(prism, axes, origins, p, J)
-        if inv_l != 1.0:
-            for r in range(3):
-                for c in range(n):
-                    J[r, c] *= inv_l
-        if crit == CRIT_POSITION:  # no orientation rows
-            for r in range(3, 6):
-                for c in range(n):
-                    J[r, c] = 0.0
-        t0 = _kin.now_ns(clk)
-        dq = np.linalg.lstsq(J, e, rcond)[0]  # = J^-1 e for a square non-singular J; minimum norm when redundant
-        t_ik += _kin.now_ns(clk) - t0
-        s = 1.0
-        accepted = False
-        new_err = err
-        for k in range(halvings + 1):
-            for i in range(n):
-                q_try[i] = q[i] + s * dq[i]
-            _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q_try, axes, origins, T)
-            new_err, dp_try, ang_try = _error(Tg, T, pip, pfp, qa, qb, e_try, inv_l, crit)
-            if np.isfinite(new_err) and new_err < err:
-                accepted = True
-                halved += k
-                break
-            s *= 0.5
-        if accepted:
-            for i in range(n):
-                q[i] = q_try[i]
-            err = new_err
-            dp, ang = dp_try, ang_try
-            e[:] = e_try
-        else:
-            _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
-        trace[it, 0] = err
-        trace[it, 1:7] = e
-        trace[it, TRACE_DP] = dp
-        ok = (err < eps) if norm_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq)
-        code = _kin.stop_rule(err, ok, not accepted and stall, 0, _kin.NEVER, it, max_iter)
-    times[0] = _kin.now_ns(clk) - t_start
-    times[1] = t_ik
-    return code, it, halved
+            for c in range(n):
+                J[r, c] *= inv_l
+    if crit == CRIT_POSITION:  # no orientation rows
+        for r in range(3, 6):
+            for c in range(n):
+                J[r, c] = 0.0
+    t0 = _kin.now_ns(clk)
+    dq = np.linalg.lstsq(J, e, fp[F_RCOND])[0]  # = J^-1 e for a square non-singular J; minimum norm when redundant
+    t_ik = _kin.now_ns(clk) - t0
+    s = 1.0
+    accepted = False
+    for k in range(ip[I_HALVINGS] + 1):
+        for i in range(n):
+            q_try[i] = q[i] + s * dq[i]
+        _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q_try, axes, origins, T)
+        new_err, dp_try, ang_try = _error(Tg, T, pip, pfp, qa, qb, e_try, inv_l, crit)
+        if np.isfinite(new_err) and new_err < err:
+            accepted = True
+            halved[0] += k
+            break
+        s *= 0.5
+    if accepted:
+        for i in range(n):
+            q[i] = q_try[i]
+        err = new_err
+        m[0], m[1] = new_err, dp_try
+        e[:] = e_try
+    else:
+        _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
+    return err, _met(problem, T, err), not accepted and ip[I_STALL] != 0, t_ik
+
+
+@numba.njit(cache=True)
+def _record(problem, state, trace, row):
+    """``record``: ``[|e|, e (6), |dp|]``."""
+    m = state[12]
+    error_row(trace, row, m[0], state[6], m[1])
+
+
+@numba.njit(cache=True)
+def nr_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, ip, fp, q, trace, times):
+    """Newton-Raphson with Whitney step control (:func:`pipeline.solvers.kernels.loop.iterate` with this
+    module's step); returns (stop code, iterations, step halvings used)."""
+    code, it, state = iterate(_start, _step, _record, (a, alpha, d, offs, prism, modified, base, tool, Tg, ip, fp),
+                              q0, q, trace, times, NEVER, ip[I_MAX_ITER])
+    return code, it, state[14][0]
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: NewtonRaphsonSettings, seed: int) -> Raw:

@@ -43,7 +43,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_COLS, TRACE_DP
+from pipeline.solvers.kernels.kin import ITERATION_CAP, NEVER, NON_FINITE, STALLED, SUCCESS, TRACE_COLS, TRACE_DP
+from pipeline.solvers.kernels.loop import error_row, iterate
 from pipeline.solvers.core import Prepared, Raw, Settings, SettingsError, StopReason, check_data_path, meets, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
@@ -92,98 +93,125 @@ def _merit(T, Tg):
 
 
 @numba.njit(cache=True)
+def _measure(problem, state, q):
+    """FK at ``q``, the document's error ``e`` and (‖e‖, |Δp|) into the state; returns (‖e‖, the stop test:
+    ‖e‖ < tolerance, or with ``tol_pos >= 0`` |Δp| <= tol_pos and angle <= tol_rot)."""
+    a, alpha, d, offs, prism, modified, base, tool = problem[:8]
+    Tg, tol, tol_pos, tol_rot = problem[17], problem[19], problem[25], problem[26]
+    T, Tj, axes, origins, p, e, J, dq, qc, Tc, m = state
+    _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
+    dp = doc_error(T, Tg, e)
+    en = _norm6(e)
+    m[0], m[1] = en, dp
+    return en, en < tol or (tol_pos >= 0.0 and dp <= tol_pos and _kin.rotation_angle(Tg, T) <= tol_rot)
+
+
+@numba.njit(cache=True)
+def _plan(problem, state, q):
+    """The next step ``rate · J⁺ e`` (``dq``, its scale ``f`` into ``m[2]``) at the measured ``q``; with
+    ``halvings > 0`` the backtracked joints into ``qc``. Returns False when no halving decreased the merit."""
+    a, alpha, d, offs, prism, modified, base, tool = problem[:8]
+    ja, jalpha, jd, joffs, jprism, jmodified, jbase, jtool, own_jacobian, Tg, rate = problem[8:19]
+    rcond, lam2, max_step, halvings = problem[21], problem[22], problem[23], problem[24]
+    T, Tj, axes, origins, p, e, J, dq, qc, Tc, m = state
+    n = q.shape[0]
+    if own_jacobian:
+        for r in range(3):
+            p[r] = T[r, 3]
+    else:
+        _kin.forward(ja, jalpha, jd, joffs, jprism, jmodified, jbase, jtool, q, axes, origins, Tj)
+        for r in range(3):
+            p[r] = Tj[r, 3]
+    _kin.jacobian(jprism, axes, origins, p, J)
+    u, s, vh = np.linalg.svd(J, full_matrices=False)
+    cut = rcond * s[0]
+    w = np.zeros(s.shape[0])
+    for k in range(s.shape[0]):
+        if s[k] > cut:
+            acc = 0.0
+            for r in range(6):
+                acc += u[r, k] * e[r]
+            w[k] = acc / s[k] if lam2 == 0.0 else acc * s[k] / (s[k] * s[k] + lam2)
+    big = 0.0
+    for j in range(n):
+        acc = 0.0
+        for k in range(s.shape[0]):
+            acc += vh[k, j] * w[k]
+        dq[j] = rate * acc
+        big = max(big, abs(dq[j]))
+    f = max_step / big if max_step > 0.0 and big > max_step else 1.0
+    m[2] = f
+    if halvings == 0:
+        return True
+    merit = _merit(T, Tg)  # backtracking: halve the step until |Δp|² + angle² decreases
+    for h in range(halvings + 1):
+        for j in range(n):
+            qc[j] = q[j] + f * dq[j]
+        _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, qc, Tc)
+        if _merit(Tc, Tg) < merit:
+            return True
+        f *= 0.5
+    return False
+
+
+@numba.njit(cache=True)
+def _start(problem, q):
+    """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``: FK and error at the start, and the first step
+    planned (a stall when backtracking finds none). State: ``(T, Tj, axes, origins, p, e, J, dq, qc, Tc, m)``,
+    ``m`` = (‖e‖, |Δp|, step scale)."""
+    n = q.shape[0]
+    state = (np.empty((4, 4)), np.empty((4, 4)), np.empty((n, 3)), np.empty((n, 3)), np.empty(3), np.empty(6),
+             np.empty((6, n)), np.empty(n), np.empty(n), np.empty((4, 4)), np.empty(3))
+    en, ok = _measure(problem, state, q)
+    stalled = math.isfinite(en) and not ok and 0 < problem[20] and not _plan(problem, state, q)
+    return state, en, ok, stalled
+
+
+@numba.njit(cache=True)
+def _step(problem, state, q, it):
+    """``step``: the planned step taken, FK and error, and (below the cap, unless stopping) the next step
+    planned: a stall when backtracking finds none (the step that was not taken is not counted)."""
+    dq, qc, m = state[7], state[8], state[10]
+    f = m[2]
+    for j in range(q.shape[0]):
+        if problem[24] > 0:
+            q[j] = qc[j]
+        else:
+            q[j] += f * dq[j] if f != 1.0 else dq[j]
+    en, ok = _measure(problem, state, q)
+    stalled = math.isfinite(en) and not ok and it < problem[20] and not _plan(problem, state, q)
+    return en, ok, stalled, 0
+
+
+@numba.njit(cache=True)
+def _record(problem, state, trace, row):
+    """``record``: ``[‖e‖, e (6), |Δp|]``."""
+    m = state[10]
+    error_row(trace, row, m[0], state[5], m[1])
+
+
+@numba.njit(cache=True)
 def descent(a, alpha, d, offs, prism, modified, base, tool, ja, jalpha, jd, joffs, jprism, jmodified, jbase, jtool,
-            own_jacobian, Tg, q0, rate, tol, max_iter, rcond, lam2, max_step, halvings, tol_pos, tol_rot, q, trace, clk):
-    """Jacobian-pseudoinverse descent ``θ ← θ + rate · J⁺ e`` (Apêndice E, first listing).
+            own_jacobian, Tg, q0, rate, tol, max_iter, rcond, lam2, max_step, halvings, tol_pos, tol_rot, q, trace,
+            times):
+    """Jacobian-pseudoinverse descent ``θ ← θ + rate · J⁺ e`` (Apêndice E, first listing;
+    :func:`pipeline.solvers.kernels.loop.iterate` with this module's step).
 
     The second chain (``ja ... jtool``) gives the geometric Jacobian unless ``own_jacobian``.
     ``J⁺`` by SVD with singular values below ``rcond · σ_max`` dropped (a guard the listing does
-    not have); ``lam2 > 0`` replaces 1/σ by σ / (σ² + lam2) (a damped J⁺); ``max_step > 0`` scales a step whose largest joint change exceeds it down to it
-    (0: the listing, no clamp); ``halvings > 0`` backtracks: a step that does not decrease ‖e‖ is
-    halved up to ``halvings`` times (merit |Δp|² + angle²), then the loop stops (code 2; 0: the listing, every step taken).
+    not have); ``lam2 > 0`` replaces 1/σ by σ / (σ² + lam2) (a damped J⁺); ``max_step > 0`` scales a step
+    whose largest joint change exceeds it down to it (0: the listing, no clamp); ``halvings > 0`` backtracks:
+    a step that does not decrease ‖e‖ is halved up to ``halvings`` times (merit |Δp|² + angle²), then the loop
+    stops (code 2; 0: the listing, every step taken).
     ``tol_pos >= 0`` adds the stop test |Δp| <= tol_pos and angle <= tol_rot (success).
-    ``trace`` (max_iter + 1, 8) receives [‖e‖, e (6), |Δp|] per iterate.
-    Returns (stop code, steps, solve time [ns]).
+    ``trace`` (max_iter + 1, 8) receives [‖e‖, e (6), |Δp|] per iterate; ``times`` (2,) [ns] the solve time
+    and 0. Returns (stop code, steps).
     """
-    t0 = _kin.now_ns(clk)
-    n = q0.shape[0]
-    for i in range(n):
-        q[i] = q0[i]
-    T = np.empty((4, 4))
-    Tj = np.empty((4, 4))
-    axes = np.empty((n, 3))
-    origins = np.empty((n, 3))
-    p = np.empty(3)
-    e = np.empty(6)
-    J = np.empty((6, n))
-    dq = np.empty(n)
-    qc = np.empty(n)
-    Tc = np.empty((4, 4))
-    it = 0
-    code = 0
-    while True:
-        _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
-        dp = doc_error(T, Tg, e)
-        en = _norm6(e)
-        trace[it, 0] = en
-        for k in range(6):
-            trace[it, 1 + k] = e[k]
-        trace[it, TRACE_DP] = dp
-        if not math.isfinite(en):
-            code = NON_FINITE
-            break
-        if en < tol or (tol_pos >= 0.0 and dp <= tol_pos and _kin.rotation_angle(Tg, T) <= tol_rot):
-            code = SUCCESS
-            break
-        if it >= max_iter:
-            code = ITERATION_CAP
-            break
-        if own_jacobian:
-            for r in range(3):
-                p[r] = T[r, 3]
-        else:
-            _kin.forward(ja, jalpha, jd, joffs, jprism, jmodified, jbase, jtool, q, axes, origins, Tj)
-            for r in range(3):
-                p[r] = Tj[r, 3]
-        _kin.jacobian(jprism, axes, origins, p, J)
-        u, s, vh = np.linalg.svd(J, full_matrices=False)
-        cut = rcond * s[0]
-        w = np.zeros(s.shape[0])
-        for k in range(s.shape[0]):
-            if s[k] > cut:
-                acc = 0.0
-                for r in range(6):
-                    acc += u[r, k] * e[r]
-                w[k] = acc / s[k] if lam2 == 0.0 else acc * s[k] / (s[k] * s[k] + lam2)
-        big = 0.0
-        for j in range(n):
-            acc = 0.0
-            for k in range(s.shape[0]):
-                acc += vh[k, j] * w[k]
-            dq[j] = rate * acc
-            big = max(big, abs(dq[j]))
-        f = max_step / big if max_step > 0.0 and big > max_step else 1.0
-        if halvings > 0:  # backtracking: halve the step until |Δp|² + angle² decreases
-            merit = _merit(T, Tg)
-            accepted = False
-            for h in range(halvings + 1):
-                for j in range(n):
-                    qc[j] = q[j] + f * dq[j]
-                _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, qc, Tc)
-                if _merit(Tc, Tg) < merit:
-                    accepted = True
-                    break
-                f *= 0.5
-            if not accepted:
-                code = STALLED
-                break
-            for j in range(n):
-                q[j] = qc[j]
-        else:
-            for j in range(n):
-                q[j] += f * dq[j] if f != 1.0 else dq[j]
-        it += 1
-    return code, it, _kin.now_ns(clk) - t0
+    code, it, _ = iterate(_start, _step, _record, (a, alpha, d, offs, prism, modified, base, tool, ja, jalpha, jd, joffs,
+                                                   jprism, jmodified, jbase, jtool, own_jacobian, Tg, rate, tol,
+                                                   max_iter, rcond, lam2, max_step, halvings, tol_pos, tol_rot),
+                          q0, q, trace, times, NEVER, max_iter)
+    return code, it
 
 
 @numba.njit(cache=True)
@@ -479,12 +507,12 @@ def run_descent(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Desc
     tp, tr = -1.0, -1.0
     if s.stop_at_tolerance and s.criterion in ("pos_orient", "position"):
         tp, tr = s.tol_pos, (math.inf if s.criterion == "position" else s.tol_rot)
-    q, trace, _, (code, it, ns) = run_loop(
+    q, trace, times, (code, it) = run_loop(
         descent, (*prep.args, *jargs, own, T_goal, q_start, float(s.rate), float(s.tolerance), int(s.max_iterations),
                   float(s.rcond), float(s.damping) ** 2, float(s.max_step), int(s.halvings), tp, tr),
         q_start, s.max_iterations)
     it = int(it)
-    return Raw(q=q, code=int(code), iterations=it, solve_ns=int(ns), trace=trace,
+    return Raw(q=q, code=int(code), iterations=it, solve_ns=int(times[0]), trace=trace,
                info={"nfev": it + 1, "njev": it, "doc_error": float(trace[it, 0]),
                      "message": {SUCCESS: "norm(e) < tolerance", STALLED: "no decrease after backtracking",
                                  ITERATION_CAP: "iteration cap", NON_FINITE: "non-finite"}.get(int(code), "")})

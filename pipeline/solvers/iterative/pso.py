@@ -37,7 +37,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import ITERATION_CAP, NON_FINITE, STALLED, SUCCESS, TRACE_DP
+from pipeline.solvers.kernels.kin import NEVER
+from pipeline.solvers.kernels.loop import iterate, pose_row
 from pipeline.solvers.core import POSITION_CRITERIA, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
@@ -111,37 +112,35 @@ def _fitness(a, alpha, d, offs, prism, modified, base, tool, Tg, x, pose, scale,
 
 
 @numba.njit(cache=True)
-def _best_row(a, alpha, d, offs, prism, modified, base, tool, Tg, x, pose, trace, k, fbest, T, qa, qb, rv):
-    """FK of the global best into the trace row ``k``; returns (|dp|, angle)."""
-    _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, x, T)
-    trace[k, 0] = fbest
-    trace[k, 1], trace[k, 2], trace[k, 3] = Tg[0, 3] - T[0, 3], Tg[1, 3] - T[1, 3], Tg[2, 3] - T[2, 3]
-    ang = 0.0
-    if pose:
-        ang = _kin.rotation_vector(Tg, T, qa, qb, rv)
-        trace[k, 4], trace[k, 5], trace[k, 6] = rv[0], rv[1], rv[2]
-    else:
-        trace[k, 4], trace[k, 5], trace[k, 6] = 0.0, 0.0, 0.0
-    dx, dy, dz = trace[k, 1], trace[k, 2], trace[k, 3]
+def _best(problem, state, q):
+    """The global best: its index into ``state``'s ``gb``, its joints into ``q``, its FK into ``T`` (and its
+    rotation vector into ``rv`` for pose goals); returns (fitness, success: within tol_pos (and tol_rot))."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg = problem[:9]
+    pose, tol_pos, tol_rot = problem[19], problem[21], problem[22]
+    T, qa, qb, rv, x, v, fv, bx, bf, gb = state
+    g = 0
+    for i in range(bf.shape[0]):
+        if bf[i] < bf[g]:
+            g = i
+    gb[0] = g
+    for j in range(q.shape[0]):
+        q[j] = bx[g, j]
+    _kin.forward_pose(a, alpha, d, offs, prism, modified, base, tool, q, T)
+    dx, dy, dz = Tg[0, 3] - T[0, 3], Tg[1, 3] - T[1, 3], Tg[2, 3] - T[2, 3]
     dp = np.sqrt(dx * dx + dy * dy + dz * dz)
-    trace[k, TRACE_DP] = dp
-    return dp, ang
+    ang = _kin.rotation_vector(Tg, T, qa, qb, rv) if pose else 0.0
+    return bf[g], dp <= tol_pos and (not pose or ang <= tol_rot)
 
 
 @numba.njit(cache=True)
-def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_particles, w, phip, phig, vmax, feps,
-              xeps, max_iter, stop_at_tol, pose, scale, tol_pos, tol_rot, seed, q, trace, times):
-    """The pso-cpp loop in the box [lo, hi]. Returns (code, iterations); ``times`` = (wall ns, thread CPU ns)."""
-    np.random.seed(seed)
-    clk = np.zeros(2, np.int64)
-    c0 = _kin.thread_cpu_ns(clk)
-    t0 = _kin.now_ns(clk)
+def _start(problem, q):
+    """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``: the swarm drawn in the box [lo, hi].
+
+    State: ``(T, qa, qb, rv, x, v, fv, bx, bf, gb)``: positions ``x`` (P, n), velocities ``v``, fitness
+    ``fv`` (P,), each particle's best ``bx``, ``bf``, the global best's index ``gb`` (1,)."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, P = problem[:12]
+    vmax, pose, scale, stop_at_tol = problem[15], problem[19], problem[20], problem[18]
     n = lo.shape[0]
-    P = n_particles
-    T = np.empty((4, 4))
-    qa = np.empty(4)
-    qb = np.empty(4)
-    rv = np.empty(3)
     x = np.empty((P, n))
     v = np.empty((P, n))
     for i in range(P):
@@ -152,68 +151,72 @@ def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, n_part
             diff = hi[j] - lo[j]
             vel = -diff + np.random.random() * 2.0 * diff
             v[i, j] = min(vmax[j], max(-vmax[j], vel))
+    T = np.empty((4, 4))
     fv = np.empty(P)
     for i in range(P):
         fv[i] = _fitness(a, alpha, d, offs, prism, modified, base, tool, Tg, x[i], pose, scale, T)
-    bx = x.copy()
-    bf = fv.copy()
-    gb = 0
+    state = (T, np.empty(4), np.empty(4), np.empty(3), x, v, fv, x.copy(), fv.copy(), np.zeros(1, np.int64))
+    fbest, within = _best(problem, state, q)
+    return state, fbest, stop_at_tol and within, False
+
+
+@numba.njit(cache=True)
+def _step(problem, state, q, it):
+    """``step``: every particle's velocity and position, fitness, bests; converged when the mean
+    improvement of the bests or their mean move is below feps or xeps (then a success when the global
+    best is within the tolerances, else a stall); with ``stop_at_tol``, success as soon as it is."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi, P, w, phip, phig, vmax, feps, xeps = problem[:18]
+    stop_at_tol, pose, scale = problem[18], problem[19], problem[20]
+    T, qa, qb, rv, x, v, fv, bx, bf, gb = state
+    n = lo.shape[0]
+    g = gb[0]
     for i in range(P):
-        if bf[i] < bf[gb]:
-            gb = i
-    dp, ang = _best_row(a, alpha, d, offs, prism, modified, base, tool, Tg, bx[gb], pose, trace, 0, bf[gb], T, qa, qb,
-                        rv)
-    it = 0
-    fdiff = np.inf
-    xdiff = np.inf
-    code = ITERATION_CAP
-    if stop_at_tol and dp <= tol_pos and (not pose or ang <= tol_rot):
-        code = SUCCESS
-    while code == ITERATION_CAP and fdiff > feps and xdiff > xeps and it < max_iter:
-        for i in range(P):
+        for j in range(n):
+            velp = np.random.random() * (bx[i, j] - x[i, j])
+            velg = np.random.random() * (bx[g, j] - x[i, j])
+            vel = w * v[i, j] + phip * velp + phig * velg
+            if vmax[j] > 0:
+                vel = min(vmax[j], max(-vmax[j], vel))
+            v[i, j] = vel
+    for i in range(P):
+        for j in range(n):
+            x[i, j] = min(hi[j], max(lo[j], x[i, j] + v[i, j]))
+    for i in range(P):
+        fv[i] = _fitness(a, alpha, d, offs, prism, modified, base, tool, Tg, x[i], pose, scale, T)
+    xsum = 0.0
+    fsum = 0.0
+    for i in range(P):
+        if fv[i] < bf[i]:
+            s = 0.0
             for j in range(n):
-                velp = np.random.random() * (bx[i, j] - x[i, j])
-                velg = np.random.random() * (bx[gb, j] - x[i, j])
-                vel = w * v[i, j] + phip * velp + phig * velg
-                if vmax[j] > 0:
-                    vel = min(vmax[j], max(-vmax[j], vel))
-                v[i, j] = vel
-        for i in range(P):
-            for j in range(n):
-                x[i, j] = min(hi[j], max(lo[j], x[i, j] + v[i, j]))
-        for i in range(P):
-            fv[i] = _fitness(a, alpha, d, offs, prism, modified, base, tool, Tg, x[i], pose, scale, T)
-        xsum = 0.0
-        fsum = 0.0
-        for i in range(P):
-            if fv[i] < bf[i]:
-                s = 0.0
-                for j in range(n):
-                    dd = x[i, j] - bx[i, j]
-                    s += dd * dd
-                    bx[i, j] = x[i, j]
-                xsum += np.sqrt(s)
-                fsum += bf[i] - fv[i]
-                bf[i] = fv[i]
-        gb = 0
-        for i in range(P):
-            if bf[i] < bf[gb]:
-                gb = i
-        xdiff = xsum / P
-        fdiff = fsum / P
-        it += 1
-        dp, ang = _best_row(a, alpha, d, offs, prism, modified, base, tool, Tg, bx[gb], pose, trace, it, bf[gb], T,
-                            qa, qb, rv)
-        if not np.isfinite(bf[gb]):
-            code = NON_FINITE
-        elif stop_at_tol and dp <= tol_pos and (not pose or ang <= tol_rot):
-            code = SUCCESS
-    if code == ITERATION_CAP and (fdiff <= feps or xdiff <= xeps):
-        code = SUCCESS if dp <= tol_pos and (not pose or ang <= tol_rot) else STALLED
-    for j in range(n):
-        q[j] = bx[gb, j]
-    times[0] = _kin.now_ns(clk) - t0
-    times[1] = _kin.thread_cpu_ns(clk) - c0
+                dd = x[i, j] - bx[i, j]
+                s += dd * dd
+                bx[i, j] = x[i, j]
+            xsum += np.sqrt(s)
+            fsum += bf[i] - fv[i]
+            bf[i] = fv[i]
+    fbest, within = _best(problem, state, q)
+    converged = fsum / P <= feps or xsum / P <= xeps
+    return fbest, within and (stop_at_tol or converged), converged and not within, 0
+
+
+@numba.njit(cache=True)
+def _record(problem, state, trace, row):
+    """``record``: ``[best fitness, p_goal - p (3), rotation vector (3) (0 for position goals), |dp|]``."""
+    bf, gb = state[8], state[9]
+    pose_row(trace, row, bf[gb[0]], problem[8], state[0], state[3], problem[19])
+
+
+@numba.njit(cache=True)
+def pso_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, lo, hi, n_particles, w, phip, phig, vmax, feps,
+              xeps, max_iter, stop_at_tol, pose, scale, tol_pos, tol_rot, seed, q, trace, times):
+    """The pso-cpp loop in the box [lo, hi] (:func:`pipeline.solvers.kernels.loop.iterate` with this module's
+    step; ``q0`` only fills ``q`` before the swarm's best does). Returns (code, iterations); ``times`` =
+    (wall ns, 0, thread CPU ns)."""
+    np.random.seed(seed)
+    code, it, _ = iterate(_start, _step, _record, (a, alpha, d, offs, prism, modified, base, tool, Tg, lo, hi,
+                                                   n_particles, w, phip, phig, vmax, feps, xeps, stop_at_tol, pose,
+                                                   scale, tol_pos, tol_rot), q0, q, trace, times, NEVER, max_iter)
     return code, it
 
 
@@ -256,12 +259,12 @@ def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: PSOSettings,
     lo, hi, window = search_bounds(prep, T_goal, q_start, s)
     sseed = stream_seed(s.seed, seed)
     q, trace, times, (code, it) = run_loop(
-        pso_solve, (*prep.args, T_goal, lo, hi, int(s.particles), float(s.inertia), float(s.c1), float(s.c2),
+        pso_solve, (*prep.args, T_goal, q_start, lo, hi, int(s.particles), float(s.inertia), float(s.c1), float(s.c2),
                     s.velocity_limits(lo, hi), float(s.feps), float(s.xeps), int(s.max_iterations),
                     bool(s.stop_at_tolerance), s.pose(), float(s.orientation_scale), float(s.tol_pos),
-                    float(s.tol_rot), sseed), q_start, s.max_iterations)
+                    float(s.tol_rot), sseed), q_start, s.max_iterations, clocks=3)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
-               info={"cpu_time_s": int(times[1]) * 1e-9, "stream_seed": sseed, "window": window})
+               info={"cpu_time_s": int(times[2]) * 1e-9, "stream_seed": sseed, "window": window})
 
 
 register(Solver("pso", "particle swarm optimisation over the joint box or a window around the start (pso-cpp; "

@@ -50,7 +50,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import ITERATION_CAP, NON_FINITE, SUCCESS, TRACE_DP
+from pipeline.solvers.kernels.kin import NEVER, TRACE_DP
+from pipeline.solvers.kernels.loop import iterate
 from pipeline.solvers.core import CRITERION_CODE, Prepared, Raw, Settings, SettingsError, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
@@ -231,77 +232,80 @@ def step_revolute(M, dv, u, h, c, inv_l2):
 
 
 @numba.njit(cache=True)
+def _measure(problem, q, axes, origins, T, M, dv, sc):
+    """FK at ``q``, the errors into ``sc`` = (delta_R (0 for position goals), delta_P); returns (delta, met)."""
+    a, alpha, d, offs, prism, modified, base, tool, Tg, cfix, ip, fp = problem
+    _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
+    dR, dP = _errors(Tg, T, M, dv, fp[F_INV_L2])
+    if ip[I_ORIENT] == 0:
+        dR = 0.0
+    sc[0], sc[1] = dR, dP
+    if ip[I_STOP] == 1:
+        return dR + dP, dR + dP < fp[F_EPS]
+    return dR + dP, _kin.meets(ip[I_CRIT], Tg, T, fp[F_TOL_POS], fp[F_TOL_ROT], fp[F_TOL_DQ])
+
+
+@numba.njit(cache=True)
+def _start(problem, q):
+    """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``. State: ``(axes, origins, T, M, dv, h, u, sc,
+    clk, steps)``, ``sc`` = (delta_R, delta_P), ``steps`` (1,) the joint steps taken."""
+    n = q.shape[0]
+    state = (np.empty((n, 3)), np.empty((n, 3)), np.empty((4, 4)), np.empty((3, 3)), np.empty(3), np.empty(3),
+             np.empty(3), np.empty(2), np.zeros(2, np.int64), np.zeros(1, np.int64))
+    axes, origins, T, M, dv, h, u, sc, clk, steps = state
+    delta, met = _measure(problem, q, axes, origins, T, M, dv, sc)
+    return state, delta, met, False
+
+
+@numba.njit(cache=True)
+def _step(problem, state, q, it):
+    """``step``: one sweep over the joints (Etapas 5-10), each joint moved to its exact minimiser; the sweep
+    stops at the first joint step after which the error is non-finite or the stop test is met."""
+    prism, cfix, fp = problem[4], problem[9], problem[11]
+    axes, origins, T, M, dv, h, u, sc, clk, steps = state
+    t_ik = 0
+    delta = sc[0] + sc[1]
+    met = False
+    for i in range(q.shape[0]):
+        t0 = _kin.now_ns(clk)
+        for r in range(3):
+            u[r] = axes[i, r]
+        if prism[i]:
+            dq = dv[0] * u[0] + dv[1] * u[1] + dv[2] * u[2]  # A4.29
+        else:
+            c = cfix[i]
+            if np.isnan(c):
+                tot = sc[0] + sc[1]
+                c = sc[1] / tot if tot > 0 else 1.0  # A4.30
+            for r in range(3):
+                h[r] = T[r, 3] - origins[i, r]  # A4.19
+            dq = step_revolute(M, dv, u, h, c, fp[F_INV_L2])
+        q[i] += dq
+        t_ik += _kin.now_ns(clk) - t0
+        steps[0] += 1
+        delta, met = _measure(problem, q, axes, origins, T, M, dv, sc)
+        if not np.isfinite(delta) or met:
+            break
+    return delta, met, False, t_ik
+
+
+@numba.njit(cache=True)
+def _record(problem, state, trace, row):
+    sc = state[7]
+    _trace_row(trace, row, sc[0], sc[1], state[3], state[4])
+
+
+@numba.njit(cache=True)
 def zp_kernel(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, cfix, ip, fp, q, trace, times):
-    """Zero-Position IK (Appendix 4, ``cin_inv_pz()`` Etapas 5-10); returns (stop code, sweeps, joint steps).
+    """Zero-Position IK (Appendix 4, ``cin_inv_pz()`` Etapas 5-10; :func:`pipeline.solvers.kernels.loop.iterate`
+    with this module's sweep as its step); returns (stop code, sweeps, joint steps).
 
     ``cfix[i]`` is the weight c of joint i or NaN for A4.30 evaluated before the step. ``times``
     receives (solve ns, IK-block ns): the IK block is the joint steps' own arithmetic.
     """
-    clk = np.zeros(2, np.int64)
-    t_start = _kin.now_ns(clk)
-    max_iter = ip[I_MAX_ITER]
-    delta_stop = ip[I_STOP] == 1
-    crit = ip[I_CRIT]
-    use_orient = ip[I_ORIENT] != 0
-    eps, tol_pos, tol_rot, tol_dq, inv_l2 = fp[F_EPS], fp[F_TOL_POS], fp[F_TOL_ROT], fp[F_TOL_DQ], fp[F_INV_L2]
-    n = q0.shape[0]
-    for i in range(n):
-        q[i] = q0[i]
-    axes = np.empty((n, 3))
-    origins = np.empty((n, 3))
-    T = np.empty((4, 4))
-    M = np.empty((3, 3))
-    dv = np.empty(3)
-    h = np.empty(3)
-    u = np.empty(3)
-    _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
-    dR, dP = _errors(Tg, T, M, dv, inv_l2)
-    if not use_orient:
-        dR = 0.0
-    _trace_row(trace, 0, dR, dP, M, dv)
-    t_ik = 0
-    code = 0
-    it = 0
-    steps = 0
-    if not np.isfinite(dR + dP):
-        code = NON_FINITE
-    elif (dR + dP < eps) if delta_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-        code = SUCCESS
-    while code == 0:
-        it += 1
-        for i in range(n):
-            t0 = _kin.now_ns(clk)
-            for r in range(3):
-                u[r] = axes[i, r]
-            if prism[i]:
-                dq = dv[0] * u[0] + dv[1] * u[1] + dv[2] * u[2]  # A4.29
-            else:
-                c = cfix[i]
-                if np.isnan(c):
-                    tot = dR + dP
-                    c = dP / tot if tot > 0 else 1.0  # A4.30
-                for r in range(3):
-                    h[r] = T[r, 3] - origins[i, r]  # A4.19
-                dq = step_revolute(M, dv, u, h, c, inv_l2)
-            q[i] += dq
-            t_ik += _kin.now_ns(clk) - t0
-            steps += 1
-            _kin.forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
-            dR, dP = _errors(Tg, T, M, dv, inv_l2)
-            if not use_orient:
-                dR = 0.0
-            if not np.isfinite(dR + dP):
-                code = NON_FINITE
-                break
-            if (dR + dP < eps) if delta_stop else _kin.meets(crit, Tg, T, tol_pos, tol_rot, tol_dq):
-                code = SUCCESS
-                break
-        _trace_row(trace, it, dR, dP, M, dv)
-        if code == 0 and it >= max_iter:
-            code = ITERATION_CAP
-    times[0] = _kin.now_ns(clk) - t_start
-    times[1] = t_ik
-    return code, it, steps
+    problem = (a, alpha, d, offs, prism, modified, base, tool, Tg, cfix, ip, fp)
+    code, it, state = iterate(_start, _step, _record, problem, q0, q, trace, times, NEVER, ip[I_MAX_ITER])
+    return code, it, state[9][0]
 
 
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: ZeroPositionSettings, seed: int) -> Raw:
