@@ -6,7 +6,8 @@
 Layout (bottom to top; ``tests/test_layers.py`` checks the order and that no method folder imports another)
 ------
 ``kernels/``      compiled building blocks: FK and Jacobian, the integer codes every kernel takes
-                  (``kin``), pose errors (``pose``), per-family kernel copies (``specialise``)
+                  (``kin``), pose errors (``pose``), the one iteration loop every iterative method
+                  supplies a step to (``loop.iterate``), per-family kernel copies (``specialise``)
 ``core/``         settings, the prepared robot, the result types, the one result rule (``finish``), the
                   driver (``Bound``: one problem or N, restarts, result, timing), the registry
                   (``solve``, ``solve_batch``, ``bind``, ``prepare``), the one timing definition, and the

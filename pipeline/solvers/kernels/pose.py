@@ -14,7 +14,6 @@ import numpy as np
 
 from pipeline.solvers.kernels.kin import quat_from_rot, quat_relative, relative_translation_norm, small_svd, vec_norm
 from pipeline.solvers.kernels.kin import CRIT_DQ_BODY, CRIT_DQ_NORM  # success tests (CRITERION_CODE)
-from pipeline.solvers.kernels.kin import stop_rule
 
 # integer parameter slots -------------------------------------------------------------------
 I_METHOD, I_MAX_ITER, I_CRITERION, I_ORIENT, I_GROW_LIMIT, I_SDLS_NORM, I_SDLS_BLOCKS, I_NO_STALL, I_NO_GROW = range(9)
@@ -130,14 +129,6 @@ def step(method, J, e, ip, fp):
     if m > gmax:
         out = out * (gmax / m)
     return out
-
-
-@numba.njit(cache=True)
-def stop_code(err, ok, stalled, grew, it, ip):
-    """The Jacobian loop's stop rule after iteration ``it``: :func:`pipeline.solvers.kernels.kin.stop_rule`
-    with the settings' switches (``disable_stall``, ``disable_grow``) applied."""
-    return stop_rule(err, ok, stalled and ip[I_NO_STALL] == 0, grew if ip[I_NO_GROW] == 0 else 0,
-                     ip[I_GROW_LIMIT], it, ip[I_MAX_ITER])
 
 
 @numba.njit(cache=True, inline="always")
