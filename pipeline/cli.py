@@ -466,8 +466,8 @@ def _add_force_flags(sub) -> None:
 def _study_cli_modules() -> list:
     """``pipeline/studies/<id>/cli.py`` modules, loaded without importing ``pipeline.studies`` (pandas).
 
-    Like :func:`pipeline.studies.study_cli_modules`, but found on disk, so that ``--help`` and parsing
-    stay fast; each module keeps its heavy imports inside its command functions.
+    Found on disk, not imported through :mod:`pipeline.studies` (which never imports them), so that
+    ``--help`` and parsing stay fast; each module keeps its heavy imports inside its command functions.
     """
     import importlib.util
 

@@ -24,7 +24,6 @@ hashes under two OpenBLAS core types.
 
 from __future__ import annotations
 
-import importlib
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -304,21 +303,14 @@ def check_generator(ref) -> str:
     return ref
 
 
-def load_generator(ref: str) -> Generator:
-    """The registered generator ``"pipeline.studies.<id>.<module>:<function>"`` (see :data:`GENERATORS`)."""
-    mod, _, fn = check_generator(ref).partition(":")
-    try:
-        f = getattr(importlib.import_module(mod), fn)
-    except (ImportError, AttributeError) as exc:
-        raise ProblemSpecError(f"field 'generator': cannot load {ref!r} ({exc})") from None
-    return f
-
-
 def make_problem_set(spec: dict, model: RobotModel, count: int, rng: np.random.Generator,
-                     data_dir: Path = Path("data"), scale: str = "full") -> ProblemSet:
+                     data_dir: Path = Path("data"), scale: str = "full",
+                     load: Callable[[str], Generator] | None = None) -> ProblemSet:
     """Draw one problem set of a study's ``problem_sets`` entry for one robot.
 
-    A generator receives the set's ``params`` plus ``scale`` ("full" or "quick").
+    A generator receives the set's ``params`` plus ``scale`` ("full" or "quick"). It is study code,
+    a layer above this module, so the caller passes ``load`` (``pipeline.studies.generators.load_generator``)
+    to turn a registered name into the function; this module only holds the names (:data:`GENERATORS`).
     """
     kind = spec["kind"]
     params = dict(spec.get("params") or {})
@@ -330,7 +322,10 @@ def make_problem_set(spec: dict, model: RobotModel, count: int, rng: np.random.G
     if kind == "within_limits":
         return within_limits(model, count, rng, params.get("low", -np.pi), params.get("high", np.pi))
     if kind == "generator":
-        ps = load_generator(spec["generator"])(model, count, rng, {"scale": scale, **params}, Path(data_dir))
+        if load is None:
+            raise ProblemSpecError(f"field 'generator': {spec['generator']!r} needs a generator loader "
+                                   "(make_problem_set(..., load=pipeline.studies.generators.load_generator))")
+        ps = load(check_generator(spec["generator"]))(model, count, rng, {"scale": scale, **params}, Path(data_dir))
         if not isinstance(ps, ProblemSet):
             raise ProblemSpecError(f"field 'generator': {spec['generator']} returned {type(ps).__name__}, not a ProblemSet")
         return ps

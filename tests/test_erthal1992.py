@@ -20,6 +20,7 @@ from pipeline.solvers import solve
 from pipeline.solvers.iterative.zero_position import step_revolute, strategy_weights
 from pipeline.studies.erthal1992 import model as M
 from pipeline.problems import ProblemSpecError, make_problem_set
+from pipeline.studies.generators import load_generator
 from pipeline.runner import solve_set
 from pipeline.studies.erthal1992.problems import placement
 from pipeline.studies.erthal1992.runs import q_from_settings
@@ -45,7 +46,8 @@ def robot(name):
 def problems(pset, robot_name=None):
     """A problem set of the study YAML, drawn by its generator (as `make_problems` does)."""
     model = robot(robot_name or STUDY.set_robots(pset)[0])
-    return model, make_problem_set(SETS[pset], model, STUDY.count(pset, "quick"), np.random.default_rng(0), DATA)
+    return model, make_problem_set(SETS[pset], model, STUDY.count(pset, "quick"), np.random.default_rng(0), DATA,
+                                   load=load_generator)
 
 
 def solve_label(pset, label, robot_name=None):
@@ -246,7 +248,7 @@ def test_robot_base_places_puma_below_shoulder():
 
 def test_generator_count_must_match_the_documents_points():
     with pytest.raises(ProblemSpecError, match="field 'count'") as exc:
-        make_problem_set(SETS["test1"], robot("elbow"), 7, np.random.default_rng(0), DATA)
+        make_problem_set(SETS["test1"], robot("elbow"), 7, np.random.default_rng(0), DATA, load=load_generator)
     assert "\n" not in str(exc.value)
 
 

@@ -7,6 +7,7 @@ dependency). Layers, bottom to top (see pipeline/jobs/__init__.py):
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 PKG = Path(__file__).resolve().parent.parent / "pipeline"
@@ -59,7 +60,9 @@ def import_graph() -> dict[str, set[str]]:
     graph: dict[str, set[str]] = {m: set() for m in mods}
     for m, f in mods.items():
         pkg = m if f.name == "__init__.py" else m.rpartition(".")[0]
-        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+        tree = ast.parse(f.read_text(), str(f))
+        graph[m] |= {d for d in dynamic_imports(m, tree, mods) if d != m}
+        for node in ast.walk(tree):
             names = []
             if isinstance(node, ast.Import):
                 names = [a.name for a in node.names]
@@ -76,6 +79,61 @@ def import_graph() -> dict[str, set[str]]:
                     if r and r != m:
                         graph[m].add(r)
     return graph
+
+
+# calls that import a module named by a string
+DYNAMIC = {"import_module", "find_spec", "spec_from_file_location", "__import__"}
+MODULE_STRING = re.compile(r"^(pipeline(?:\.\w+)+)(?::\w+)?$")
+
+
+def dynamic_imports(module: str, tree: ast.AST, mods) -> set[str]:
+    """The modules ``module`` imports by a string (``importlib.import_module``, ``find_spec``,
+    ``spec_from_file_location``, ``__import__``).
+
+    A literal names its module; an f-string names every module matching its literal parts
+    (``{__name__}`` is the module's own name); any other argument (a variable) counts as every module
+    named by a string constant anywhere in the module (a registry of import strings, say), so no
+    import hides behind a name."""
+    calls = [n for n in ast.walk(tree) if isinstance(n, ast.Call) and n.args
+             and (getattr(n.func, "attr", None) or getattr(n.func, "id", None)) in DYNAMIC]
+    out: set[str] = set()
+    for call in calls:
+        arg = call.args[0]
+        strings = [arg] if isinstance(arg, (ast.Constant, ast.JoinedStr)) else \
+            [n for n in ast.walk(tree) if isinstance(n, ast.JoinedStr)
+             or isinstance(n, ast.Constant) and isinstance(n.value, str)]
+        for node in strings:
+            out |= _named_modules(module, node, mods)
+    return out
+
+
+def _named_modules(module: str, node: ast.AST, mods) -> set[str]:
+    """The package modules a string constant or an f-string names."""
+    if isinstance(node, ast.Constant):
+        hit = MODULE_STRING.match(node.value) if isinstance(node.value, str) else None
+        return {hit.group(1)} & set(mods) if hit else set()
+    parts = [re.escape(v.value) if isinstance(v, ast.Constant)
+             else re.escape(module) if getattr(v.value, "id", None) == "__name__" else r"\w+"
+             for v in node.values]
+    if not "".join(parts).startswith("pipeline"):
+        return set()
+    pattern = re.compile("^" + "".join(parts) + "(?::\\w+)?$")
+    return {m for m in mods if pattern.match(m)}
+
+
+def test_the_walk_follows_import_strings():
+    """A module that imports by a string is held to the layers like any other: a planted
+    ``importlib.import_module("pipeline.cli")`` in the kinematics is an edge the layer test sees, and
+    so are an f-string's modules and a registry of import strings."""
+    mods = modules()
+    planted = ast.parse('import importlib\nimportlib.import_module("pipeline.cli")\n')
+    assert dynamic_imports("pipeline.kinematics.planted", planted, mods) == {"pipeline.cli"}
+    fstring = ast.parse('import importlib\nimportlib.import_module(f"pipeline.studies.{x}.cli")\n')
+    assert "pipeline.studies.erthal1992.cli" in dynamic_imports("m", fstring, mods)
+    registry = ast.parse('import importlib\nREG = ("pipeline.jobs.solve:run",)\n'
+                         'def load(ref):\n    return importlib.import_module(ref.partition(":")[0])\n')
+    assert dynamic_imports("pipeline.problems", registry, mods) == {"pipeline.jobs.solve"}
+    assert layer_of("pipeline.jobs.solve") > layer_of("pipeline.problems")  # so the layer test would fail
 
 
 def test_no_module_imports_a_layer_above_its_own():

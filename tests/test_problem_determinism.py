@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 from pipeline.io.problems import write_problems
 from pipeline.problems import make_problem_set
+from pipeline.studies.generators import load_generator
 from pipeline.robots import load_robot
 from pipeline.settings import load_study
 
@@ -45,7 +46,8 @@ with tempfile.TemporaryDirectory() as tmp:
             for robot in st.set_robots(pset):
                 model = load_robot(f"data/robots/{robot}.yaml")
                 rng = np.random.default_rng([spec["seed"], sum(model.name.encode())])  # as make_problems
-                ps = make_problem_set(spec, model, st.count(pset, "quick"), rng, Path("data"), "quick")
+                ps = make_problem_set(spec, model, st.count(pset, "quick"), rng, Path("data"), "quick",
+                                      load=load_generator)
                 p = Path(tmp) / "p.csv"
                 write_problems(p, ps, {"study": st.id, "problem_set": pset})
                 out[f"{st.id}/{pset}/{robot}"] = (spec["kind"], hashlib.sha256(p.read_bytes()).hexdigest())

@@ -36,6 +36,7 @@ def make_problems(study_path, problem_set: str, robot_path, scale: str, data_dir
     """Write a study's seeded problem set for one robot; returns the line to print."""
     from pipeline.io.problems import write_problems
     from pipeline.problems import ProblemSpecError, make_problem_set
+    from pipeline.studies.generators import load_generator
     from pipeline.provenance import file_sha256
     from pipeline.robots import load_robot
     from pipeline.settings import ConfigError, load_study
@@ -50,7 +51,7 @@ def make_problems(study_path, problem_set: str, robot_path, scale: str, data_dir
     # one independent stream per robot, derived from the set's seed
     rng = np.random.default_rng([spec["seed"], sum(model.name.encode())])
     try:
-        ps = make_problem_set(spec, model, count, rng, Path(data_dir), scale)
+        ps = make_problem_set(spec, model, count, rng, Path(data_dir), scale, load=load_generator)
     except ProblemSpecError as exc:
         raise ConfigError(f"{study_path}: problem_sets/{problem_set}: {exc}") from None
     if ps.robot != model.name or ps.q_start.shape[1:] != (model.n,):

@@ -7,7 +7,8 @@ module and gets the generic tables and figures of :mod:`pipeline.studies.generic
     build_figures(study, archives, out_dir) -> list[FigureSpec]
 
 A study package may also hold ``cli.py`` with ``register_cli(subparsers)`` adding its own verbs to
-``python -m pipeline`` (keep its imports light: heavy ones go inside the command functions).
+``python -m pipeline`` (keep its imports light: heavy ones go inside the command functions); the
+command line finds them on disk (:mod:`pipeline.cli`), this package never imports them.
 
 Tables and figures are computed from archives only (the archive is the source of truth) plus the
 published values under ``data/published/<id>/``. Figure modules import matplotlib through
@@ -25,19 +26,6 @@ from pathlib import Path
 
 
 from pipeline.studies.specs import FigureSpec, TableSpec  # noqa: E402,F401  (re-exported)
-
-
-def study_cli_modules() -> list:
-    """Study modules that define ``register_cli(subparsers)`` (for study-specific verbs)."""
-    import pkgutil
-
-    mods = []
-    for info in pkgutil.iter_modules(__path__):
-        if info.ispkg and importlib.util.find_spec(f"{__name__}.{info.name}.cli") is not None:
-            mod = importlib.import_module(f"{__name__}.{info.name}.cli")
-            if hasattr(mod, "register_cli"):
-                mods.append(mod)
-    return mods
 
 
 def get_study_module(study_id: str, tables_from: str | None = None):

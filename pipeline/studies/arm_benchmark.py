@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pipeline.studies import FigureSpec, TableSpec
+from pipeline.studies.specs import FigureSpec, TableSpec
 from pipeline.studies.generic import joint_distance, runs_frame
 
 MIN_SHARE = 0.1  # labels run on at least this share of a set's goals compete for the answer

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pipeline.studies import FigureSpec, TableSpec
+from pipeline.studies.specs import FigureSpec, TableSpec
 from pipeline.studies.common import cpu_time, describe, published, solves_frame
 
 STUDY = "cerbaro2019"

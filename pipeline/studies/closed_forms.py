@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pipeline.studies import FigureSpec, TableSpec
+from pipeline.studies.specs import FigureSpec, TableSpec
 from pipeline.studies.arm_benchmark import _p, _refusals
 from pipeline.studies.generic import runs_frame
 

@@ -16,7 +16,7 @@ import pandas as pd
 from pipeline.io.archive import Archive
 from pipeline.robots import LENGTH_UNITS
 from pipeline.solvers import STOP_REASONS
-from pipeline.studies import FigureSpec, TableSpec
+from pipeline.studies.specs import FigureSpec, TableSpec
 from pipeline.studies.common import solves_frame
 
 

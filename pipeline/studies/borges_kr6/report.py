@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.robots import LENGTH_UNITS
-from pipeline.studies import FigureSpec, TableSpec
+from pipeline.studies.specs import FigureSpec, TableSpec
 from pipeline.studies.common import describe, published
 
 STUDY = "borges_kr6"

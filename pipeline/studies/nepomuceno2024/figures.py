@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.studies import FigureSpec
+from pipeline.studies.specs import FigureSpec
 from pipeline.studies.nepomuceno2024.tables import MOTION_LABEL, _label, is_analytic, joint_jumps, load_runs
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pipeline.studies import TableSpec
+from pipeline.studies.specs import TableSpec
 from pipeline.studies.common import cpu_time, published
 
 STUDY = "nepomuceno2024"
