@@ -33,6 +33,7 @@ import zstandard
 
 from pipeline.cli import main
 from pipeline.io import archive as A
+from pipeline.io import archive_bounds
 from pipeline.io import problems as P
 from pipeline.io.archive import ArchiveError, read_archive
 from pipeline.io.problems import ProblemFileError, read_problems
@@ -552,7 +553,7 @@ def test_an_archive_past_its_size_cap_is_not_read(tmp_path):
 def test_chunks_past_the_uncompressed_total_are_not_read(base, parts, monkeypatch):
     """The total over an archive's chunks (cap lowered here to 1 MiB; 1 GiB in use) is checked before the
     chunk that passes it is decompressed."""
-    monkeypatch.setattr(A, "MAX_UNCOMPRESSED_BYTES", 1 << 20)
+    monkeypatch.setattr(archive_bounds, "MAX_UNCOMPRESSED_BYTES", 1 << 20)
     pad = b"\xff" + struct.pack("<Q", (600 << 10) - 9) + bytes((600 << 10) - 9)  # an unknown record, skipped
     p = _put(base, "total.mcap", _mcap(parts.copy(), [{"records": _records(parts) + pad}, {"records": pad}]))
     _refused(read_archive, p, "chunks declare more than 1 MiB uncompressed, past the archive cap")
