@@ -126,16 +126,10 @@ def _table5_2(study, g_pts: pd.DataFrame, methods: list[str], pub2) -> pd.DataFr
     return pd.DataFrame(rows)
 
 
-def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+def _table5_1(study, pts: pd.DataFrame, reps: pd.DataFrame, methods: list, motions: list,
+              pub1) -> tuple[TableSpec, dict]:
+    """Tabela 5.1: IK time of each whole motion per method; also the mean times ``(method, motion) -> s``."""
     st = study.settings
-    pts, reps = load_runs(study, archives)
-    methods = [m for m in st["table_methods"] if m in set(pts["method"])]
-    motions = motions_of(study, pts)
-    pub1 = published(published_dir, STUDY, "table5_1")
-    pub2 = published(published_dir, STUDY, "table5_2")
-    out = []
-
-    # Tabela 5.1 -----------------------------------------------------------------------------
     rows = []
     mean_t = {}
     for m in methods:
@@ -161,7 +155,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             pa = _pub(pub1, st["methods"]["analytic"].get("published_as", ""), col)
             t51[f"{MOTION_LABEL.get(mo, mo)}: × analytic (published)"] = [
                 _pub(pub1, st["methods"][m].get("published_as", ""), col) / pa for m in methods]
-    out.append(TableSpec(
+    table = (TableSpec(
         "table5_1_motion_time", "Tabela 5.1 — IK time of each whole motion per method", t51,
         "Ours: sum of the per-point thread CPU times of the whole motion (each solve() call, IK only; machine "
         "load does not move them), mean over the repetitions as the document averaged 5 runs; "
@@ -173,8 +167,14 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         "columns (one repetition: SciPy's nfev, the descent's FK calls, the closed form's 8 checks) compare "
         "the methods without the platform. "
         "Our trajectories are designed (the document gives none), so point counts differ too."))
+    return table, mean_t
 
-    # Tabela 5.2 -----------------------------------------------------------------------------
+
+def _table5_2_tables(study, pts: pd.DataFrame, methods: list, motions: list,
+                     pub2) -> tuple[list[TableSpec], pd.DataFrame]:
+    """Tabela 5.2 on its one motion (and, beside it, both motions pooled); also the points it is computed on."""
+    st = study.settings
+    out = []
     # "Média de erro e iteração ao longo de um movimento": one motion (table5_2_motion, default home,
     # the motion of Figura 5.2); both motions pooled run beside it as the earlier reading
     one = st.get("table5_2_motion", "home")
@@ -200,8 +200,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             "The reading before the document's 'um movimento' was followed: every point of both motions "
             "(repetition 0). The pick-and-place points where BFGS stalls on pure translations raise its "
             "mean error here. " + common))
+    return out, pts52
 
-    # Continuity -----------------------------------------------------------------------------
+
+def _continuity(study, pts: pd.DataFrame, methods: list, motions: list) -> TableSpec:
+    """The largest joint jump between consecutive points, per method and motion (not in the document)."""
+    st = study.settings
     rows = []
     for m in methods:
         for mo in motions:
@@ -216,13 +220,17 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                          "median per-point jump [rad] (ours)": float(np.median(per_point)),
                          "points with a jump > 0.5 rad (ours)": int((per_point > 0.5).sum()),
                          "failed points (ours)": int((~g["success"].astype(bool)).sum())})
-    out.append(TableSpec(
-        "continuity", "Continuity — largest joint jump between consecutive points", pd.DataFrame(rows),
-        "Jump = max over joints of |q_k − q_(k−1)| (the first point against the motion's start joints). "
-        "A branch flip mid-trajectory shows as a jump of the order of 1 rad or more; consecutive "
-        "points are at most a few millimetres apart at full scale. Not reported by the document."))
+    return TableSpec(
+    "continuity", "Continuity — largest joint jump between consecutive points", pd.DataFrame(rows),
+    "Jump = max over joints of |q_k − q_(k−1)| (the first point against the motion's start joints). "
+    "A branch flip mid-trajectory shows as a jump of the order of 1 rad or more; consecutive "
+    "points are at most a few millimetres apart at full scale. Not reported by the document.")
 
-    # Extra runs: Jacobian model and squared cost ---------------------------------------------
+
+def _extra_runs(study, pts: pd.DataFrame, reps: pd.DataFrame, motions: list) -> list[TableSpec]:
+    """The effect of the document's Jacobian model and of its non-squared cost ([] without those runs)."""
+    st = study.settings
+    out = []
     extra = [m for m in study.solvers if m not in st["table_methods"] and m in set(pts["method"])]
     if extra:
         rows = []
@@ -260,10 +268,21 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             "squared form of the theory chapter: with the listing's cost BFGS stalls (0 iterations, "
             "'precision loss') on pure-translation segments, where the warm start already has the exact "
             "orientation and the forward-difference gradient of ‖ΔR‖_F at its kink points uphill."))
-
-    # Published orderings ----------------------------------------------------------------------
-    out.append(_orderings(study, pts52, mean_t, methods, motions))
     return out
+
+
+def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+    """Tabelas 5.1 and 5.2 beside ours, continuity, the extra runs and the published orderings, in that order."""
+    st = study.settings
+    pts, reps = load_runs(study, archives)
+    methods = [m for m in st["table_methods"] if m in set(pts["method"])]
+    motions = motions_of(study, pts)
+    pub1 = published(published_dir, STUDY, "table5_1")
+    pub2 = published(published_dir, STUDY, "table5_2")
+    t51, mean_t = _table5_1(study, pts, reps, methods, motions, pub1)
+    t52, pts52 = _table5_2_tables(study, pts, methods, motions, pub2)
+    return ([t51, *t52, _continuity(study, pts, methods, motions), *_extra_runs(study, pts, reps, motions),
+             _orderings(study, pts52, mean_t, methods, motions)])
 
 
 def _orderings(study, pts, mean_t, methods, motions) -> TableSpec:
