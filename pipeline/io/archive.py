@@ -114,8 +114,9 @@ def goal_from_record(goal: dict) -> tuple[np.ndarray, np.ndarray]:
 
     Returns
     -------
-    position : (3,) float array, the archive's length unit
-    quat : (4,) float array
+    position : ndarray, shape (3,) [length]
+        The goal position, in the archive's length unit.
+    quat : ndarray, shape (4,) [1]
         The orientation as a unit quaternion, w-first.
     """
     p, o = goal["position"], goal["orientation"]
@@ -266,7 +267,7 @@ class Archive:
 
         Parameters
         ----------
-        problem_ids : int or (k,) int array_like, optional
+        problem_ids : int or array_like of int, shape (k,), optional
             Without them: every stored trace. With them: the traces of those problems, and a
             :class:`TraceNotStored` error for one whose trace the archive does not hold (never a re-run).
 

@@ -220,9 +220,10 @@ def digest(a) -> int:
 
     Parameters
     ----------
-    a : array_like, any shape
-        The values (a trace: (rows, 8) float, the columns of :data:`pipeline.io.layout.TRACE_COLUMNS`);
-        converted to C-ordered float64 when they are not already.
+    a : array_like, shape (...) [1]
+        The values, any shape (a trace: (rows, 8), the columns of
+        :data:`pipeline.io.layout.TRACE_COLUMNS`, each in its own unit); converted to C-ordered float64
+        when they are not already.
 
     Returns
     -------
@@ -331,7 +332,7 @@ class TracePolicy:
 
         Parameters
         ----------
-        problem_ids : (n,) int array_like
+        problem_ids : array_like of int, shape (n,)
             Every problem id of the job (repeats allowed).
 
         Returns

@@ -112,7 +112,7 @@ class ArchiveWriter(AtomicMcap):
         The ``run`` record (must hold :data:`REQUIRED_META`; :func:`run_metadata` builds it).
     policy : TracePolicy, optional
         Which traces to store in full (default: all).
-    problem_ids : array of int, optional
+    problem_ids : array_like of int, shape (m,), optional
         Every problem id the job solves: the population :meth:`TracePolicy.sample_ids` samples
         (default: the ids written, which the writer sees only batch by batch, so give it).
     """
@@ -362,21 +362,21 @@ def batch_columns(problem_id, repetition, chain, robot: str, solver: str, length
 
     Parameters
     ----------
-    problem_id, repetition, chain : (N,) int array_like
+    problem_id, repetition, chain : array_like of int, shape (N,)
         Per solve: its problem id, repetition and chain number.
     robot, solver, length_unit : str
         The metadata's (stored per solve only where they differ from it).
-    q_start : (N, n) float array, rad or length unit per joint
+    q_start : ndarray, shape (N, n) [rad | length]
         The starts.
-    goal_position : (N, 3) float array, ``length_unit``
-        Goal positions.
-    goal_quat_wxyz : (N, 4) float array
+    goal_position : ndarray, shape (N, 3) [length]
+        Goal positions, in ``length_unit``.
+    goal_quat_wxyz : ndarray, shape (N, 4) [1]
         Goal orientations, unit quaternions w-first (stored x, y, z, w).
     res : pipeline.solvers.BatchResult
         The batch result (read by its fields only: this module does not import the solvers).
     method : str, optional
         The method name, as the metadata's.
-    start_from_file : (N,) bool array_like, optional
+    start_from_file : array_like of bool, shape (N,), optional
         The start is the problem file's (not stored when the archive names its problem file).
 
     Returns
