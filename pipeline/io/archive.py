@@ -300,8 +300,8 @@ class Archive:
 
         Parameters
         ----------
-        problem_id : int
-        repetition : int, optional
+        problem_id, repetition : int
+            The solve whose trace was asked for.
 
         Returns
         -------
@@ -319,7 +319,9 @@ class Archive:
         Parameters
         ----------
         problem_id : int
+            The solve's problem.
         repetition : int, optional
+            Its repetition (default 0).
 
         Returns
         -------

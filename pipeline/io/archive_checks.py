@@ -67,9 +67,9 @@ def problem_set_of(path: Path, meta: dict, given: str | Path | None = None):
     Parameters
     ----------
     path : Path
-        The archive.
+        The archive, named in errors; ``problem_path`` is relative to its folder.
     meta : dict
-        Its ``run`` record.
+        The archive's ``run`` record.
     given : str or Path, optional
         The problem file when it is not where ``problem_path`` says.
 

@@ -82,7 +82,7 @@ def check_manifest(results: Path) -> list[str]:
     Parameters
     ----------
     results : Path
-        The results tree.
+        The results tree holding ``MANIFEST.sha256``.
 
     Returns
     -------
