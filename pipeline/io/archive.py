@@ -99,7 +99,6 @@ from pipeline.io.archive_format import (ABSENT_FLAGS, BATCH, F_CLAIMED, F_NO_GOA
                                         SOLVE_TOPIC, TRACE_FIELDS, TRACE_TOPIC, ArchiveError, TraceNotStored,
                                         TracePolicy, decode_fields, descriptor, digest, encode_fields)
 from pipeline.io.archive_format import F_NO_FINAL, F_NO_INITIAL, F_NO_ORIENTATION, F_NO_POSITION  # noqa: F401
-from pipeline.io.archive_format import decode_fields as _decode, encode_fields as _encode  # noqa: F401
 from pipeline.io.archive_writer import AtomicMcap, ArchiveWriter, batch_columns, run_metadata  # noqa: F401
 from pipeline.io.layout import TRACE_COLS
 
