@@ -248,14 +248,8 @@ class _VerbHelp(argparse.HelpFormatter):
         return super()._format_action(action)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    # the verbs are listed once, by the subparsers (one line each); the description is the first line
-    ap = _Parser(
-        prog="python -m pipeline", description=__doc__.splitlines()[0].replace("``", "")
-        + " Each verb is also a Snakemake rule of the same name; `python -m pipeline VERB --help` for its options.",
-        formatter_class=lambda prog: _VerbHelp(prog, max_help_position=34, width=140))
-    sub = ap.add_subparsers(dest="verb", required=True, metavar="VERB", title="verbs")
-
+def _build_verbs(sub) -> None:
+    """The verbs of a build: check the inputs, make problem sets, solve them, rerun failures."""
     p = sub.add_parser("check_inputs", help="validate config, study settings and robot files")
     p.add_argument("--config", default="workflow/config/config.yaml")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config key (like --config)")
@@ -297,6 +291,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.set_defaults(func=cmd_rerun_failures)
 
+
+def _study_verbs(sub) -> None:
+    """The verbs that write a study, list the solvers and race an arm's finalists."""
     p = sub.add_parser("new_study", help="write a study YAML running registered solvers on your robots")
     p.add_argument("id", help="study id (file data/studies/<id>.yaml)")
     p.add_argument("--robots", nargs="+", required=True, help="robot ids (data/robots/<id>.yaml)")
@@ -330,6 +327,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "has taken this long [s] (default 60)")
     p.set_defaults(func=cmd_race)
 
+
+def _report_verbs(sub) -> None:
+    """The verbs of the report: tables, figures, the HTML report, verify and manifest."""
     for verb, fn, what in (("aggregate_tables", cmd_aggregate_tables, "tables (CSV)"),
                            ("plot_figures", cmd_plot_figures, "figures (PNG/SVG)")):
         p = sub.add_parser(verb, help=f"a study's {what} from its archives")
@@ -356,6 +356,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="manifest file (default <results>/MANIFEST.sha256)")
     p.set_defaults(func=cmd_manifest)
 
+
+def _archive_verbs(sub) -> None:
+    """The verbs that read one archive: inspect, reproduce, replay."""
     p = sub.add_parser("inspect", help="summarise an archive")
     p.add_argument("archive")
     p.add_argument("--failed", action="store_true", help="list the failed solves")
@@ -394,6 +397,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dt", type=float, default=0.05, help="seconds between frames (log times; 1e-6 to 3600)")
     p.set_defaults(func=cmd_replay)
 
+
+def _robot_verbs(sub) -> None:
+    """The verbs about one robot: import a URDF, answer for an arm, compile kernels, export a URDF."""
     p = sub.add_parser("import_urdf", aliases=["import-urdf"],
                        help="write a robot file (general joint form) from a URDF chain")
     p.add_argument("urdf", help="the URDF file, or a xacro file (*.xacro or xmlns:xacro: expanded with the xacro "
@@ -439,6 +445,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--name", help="robot name in the URDF (default: the robot's)")
     p.set_defaults(func=cmd_export_urdf)
 
+
+def build_parser() -> argparse.ArgumentParser:
+    # the verbs are listed once, by the subparsers (one line each); the description is the first line
+    ap = _Parser(
+        prog="python -m pipeline", description=__doc__.splitlines()[0].replace("``", "")
+        + " Each verb is also a Snakemake rule of the same name; `python -m pipeline VERB --help` for its options.",
+        formatter_class=lambda prog: _VerbHelp(prog, max_help_position=34, width=140))
+    sub = ap.add_subparsers(dest="verb", required=True, metavar="VERB", title="verbs")
+
+    for verbs in (_build_verbs, _study_verbs, _report_verbs, _archive_verbs, _robot_verbs):
+        verbs(sub)
     # study packages may add their own verbs (a module-level ``register_cli(subparsers)``)
     for mod in _study_cli_modules():
         mod.register_cli(sub)

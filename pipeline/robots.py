@@ -128,7 +128,7 @@ def _short(value) -> str:
     return r if len(r) <= 60 else r[:57] + "..."
 
 
-def _number(value, path: str, where: str, angle: bool = False, bound: float | None = None) -> float:
+def robot_number(value, path: str, where: str, angle: bool = False, bound: float | None = None) -> float:
     """A finite number (or, with ``angle``, a ``pi`` expression) with ``|x| <= bound``; else one line."""
     if isinstance(value, bool):
         raise _fail(path, where, f"expected a number, got {value!r}")
@@ -153,11 +153,11 @@ def _number(value, path: str, where: str, angle: bool = False, bound: float | No
 
 
 def _length(value, path: str, where: str, unit: str) -> float:
-    return _number(value, path, where, bound=MAX_LENGTH_M / LENGTH_UNITS[unit])
+    return robot_number(value, path, where, bound=MAX_LENGTH_M / LENGTH_UNITS[unit])
 
 
 def _angle(value, path: str, where: str) -> float:
-    return _number(value, path, where, angle=True, bound=MAX_ANGLE)
+    return robot_number(value, path, where, angle=True, bound=MAX_ANGLE)
 
 
 def _check_keys(d: dict, required, optional, path: str, where: str) -> None:
@@ -225,7 +225,7 @@ def _transform(value, path: str, field: str, unit: str, repairs: list) -> np.nda
     where = f"field '{field}'"
     if not (isinstance(value, list) and len(value) == 4 and all(isinstance(r, list) and len(r) == 4 for r in value)):
         raise _fail(path, where, "expected a 4x4 list of numbers")
-    T = np.array([[_number(x, path, where) for x in row] for row in value])
+    T = np.array([[robot_number(x, path, where) for x in row] for row in value])
     if T[3].tolist() != [0.0, 0.0, 0.0, 1.0]:
         raise _fail(path, where, f"not a rigid transform: the last row must be 0 0 0 1, got {T[3].tolist()}")
     for x in T[:3, 3]:
@@ -299,7 +299,7 @@ def origin_matrix(xyz, rpy) -> np.ndarray:
 def _vector3(value, path: str, where: str, angle: bool = False, bound: float | None = None) -> list[float]:
     if not (isinstance(value, list) and len(value) == 3):
         raise _fail(path, where, f"expected a list of 3 numbers, got {_short(value)}")
-    return [_number(x, path, where, angle=angle, bound=bound) for x in value]
+    return [robot_number(x, path, where, angle=angle, bound=bound) for x in value]
 
 
 def _check_joint_keys(j, convention: str, path: str, where: str) -> None:
@@ -382,8 +382,8 @@ def parse_robot(doc, path: str = "<robot>") -> RobotModel:
             if not isinstance(lim, list) or len(lim) != 2:
                 raise _fail(path, w, f"expected [lower, upper], got {_short(lim)}")
             bound = MAX_LENGTH_M / LENGTH_UNITS[unit] if j["type"] == "prismatic" else MAX_ANGLE
-            lo = _number(lim[0], path, w, angle=True, bound=bound)
-            hi = _number(lim[1], path, w, angle=True, bound=bound)
+            lo = robot_number(lim[0], path, w, angle=True, bound=bound)
+            hi = robot_number(lim[1], path, w, angle=True, bound=bound)
             if lo > hi:
                 raise _fail(path, w, f"lower limit {lo:g} is above upper limit {hi:g}")
             limits.append((lo, hi))

@@ -66,7 +66,7 @@ def _fmt_angle(x: float) -> str:
             if math.gcd(mul, div) != 1:
                 continue
             for sign in (1.0, -1.0):
-                if sign * float(mul) * math.pi / float(div) == x:  # same arithmetic as robots._number
+                if sign * float(mul) * math.pi / float(div) == x:  # same arithmetic as robots.robot_number
                     s = "-" if sign < 0 else ""
                     m = "" if mul == 1 else f"{mul}*"
                     d = "" if div == 1 else f"/{div}"
@@ -318,6 +318,37 @@ def _chain_joints(robot, path: Path, base_link: str, tip_link: str) -> list:
     return chain[::-1]
 
 
+def _joint_entry(j, pending: np.ndarray, origin: np.ndarray, raw: dict, path: Path, f: float) -> dict:
+    """The robot-file entry of one moving URDF joint ``j`` whose origin (4, 4) follows the fixed joints folded
+    into ``pending`` (4, 4); ``f`` converts metres to the document's unit. Refuses joints a robot file cannot hold."""
+    if j.type in ("floating", "planar"):
+        raise _fail(path, f"{j.type} joint in the chain (only revolute, continuous, prismatic and fixed "
+                    "joints can be imported)", joint=j.name)
+    if j.type not in MOVING:
+        raise _fail(path, f"unknown joint type {j.type!r} (allowed: revolute, continuous, prismatic, fixed)",
+                    joint=j.name)
+    if j.mimic is not None:
+        raise _fail(path, f"mimic joint in the chain (it follows joint {j.mimic.joint!r}; robot files have "
+                    "one independent variable per joint)", joint=j.name)
+    axis = np.asarray(j.axis if j.axis is not None else [1.0, 0.0, 0.0], dtype=float)
+    if axis.shape != (3,) or not np.all(np.isfinite(axis)) or not np.linalg.norm(axis) > 1e-12:
+        raise _fail(path, f"joint axis must be a finite non-zero 3-vector, got {axis.tolist()}", joint=j.name)
+    T = pending @ origin
+    if raw.get(j.name) and not np.any(pending != _EYE):  # the file's own numbers where nothing was folded in
+        xyz, rpy = raw[j.name]
+    else:
+        xyz, rpy = _clean(T[:3, 3]), _clean(rpy_from_matrix(T))
+    if not np.allclose(origin_matrix(xyz, rpy), T, rtol=0, atol=1e-12):
+        xyz, rpy = _clean(T[:3, 3]), _clean(rpy_from_matrix(T))
+    entry = {"name": j.name, "type": "prismatic" if j.type == "prismatic" else "revolute",
+             "xyz": [_scale(v, f) for v in xyz], "rpy": [float(v) + 0.0 for v in rpy],
+             "axis": [float(v) + 0.0 for v in axis]}
+    lim = _limits(j, path)
+    if lim is not None:
+        entry["limits"] = [_scale(v, f) for v in lim] if j.type == "prismatic" else lim
+    return entry
+
+
 def import_urdf(path, base_link: str, tip_link: str, name: str | None = None, length_unit: str = "m",
                 xacro_args: dict | None = None, xacro_paths=()) -> dict:
     """A robot-file document (general form) for the URDF chain from ``base_link`` to ``tip_link``.
@@ -357,34 +388,10 @@ def import_urdf(path, base_link: str, tip_link: str, name: str | None = None, le
             pending = pending @ origin
             folded_names.append(j.name)
             continue
-        if j.type in ("floating", "planar"):
-            raise _fail(path, f"{j.type} joint in the chain (only revolute, continuous, prismatic and fixed "
-                        "joints can be imported)", joint=j.name)
-        if j.type not in MOVING:
-            raise _fail(path, f"unknown joint type {j.type!r} (allowed: revolute, continuous, prismatic, fixed)",
-                        joint=j.name)
-        if j.mimic is not None:
-            raise _fail(path, f"mimic joint in the chain (it follows joint {j.mimic.joint!r}; robot files have "
-                        "one independent variable per joint)", joint=j.name)
-        axis = np.asarray(j.axis if j.axis is not None else [1.0, 0.0, 0.0], dtype=float)
-        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or not np.linalg.norm(axis) > 1e-12:
-            raise _fail(path, f"joint axis must be a finite non-zero 3-vector, got {axis.tolist()}", joint=j.name)
-        T = pending @ origin
-        if raw.get(j.name) and not np.any(pending != _EYE):  # the file's own numbers where nothing was folded in
-            xyz, rpy = raw[j.name]
-        else:
-            xyz, rpy = _clean(T[:3, 3]), _clean(rpy_from_matrix(T))
-        if not np.allclose(origin_matrix(xyz, rpy), T, rtol=0, atol=1e-12):
-            xyz, rpy = _clean(T[:3, 3]), _clean(rpy_from_matrix(T))
+        entry = _joint_entry(j, pending, origin, raw, path, f)
         if folded_names:
             folds.append(f"{', '.join(repr(n) for n in folded_names)} into {j.name!r}")
         pending, folded_names = _EYE, []
-        entry = {"name": j.name, "type": "prismatic" if j.type == "prismatic" else "revolute",
-                 "xyz": [_scale(v, f) for v in xyz], "rpy": [float(v) + 0.0 for v in rpy],
-                 "axis": [float(v) + 0.0 for v in axis]}
-        lim = _limits(j, path)
-        if lim is not None:
-            entry["limits"] = [_scale(v, f) for v in lim] if j.type == "prismatic" else lim
         joints.append(entry)
     if not joints:
         raise _fail(path, f"no revolute, continuous or prismatic joint between links {base_link!r} and "

@@ -142,101 +142,119 @@ def _key_of(event) -> object:
     return event.value
 
 
-def check_events(text: str, source: str) -> None:
-    """Walk the YAML event stream of ``text`` and refuse (one line) anything :func:`parse_yaml` refuses.
+class _EventWalk:
+    """The state of :func:`check_events`: one frame per open collection, the anchors' expanded sizes and
+    the counts of nodes and documents; :meth:`take` checks one event."""
 
-    Linear in the size of the text; nothing is constructed and no alias is expanded.
-    """
-    # one frame per open collection: [kind, path, expanded size, anchor, keys seen, expecting key, key]
-    stack: list[list] = []
-    sizes: dict[str, int] = {}  # anchor -> expanded size of its node
-    nodes = 0
-    docs = 0
+    def __init__(self, source: str):
+        self.source = source
+        # one frame per open collection: [kind, path, expanded size, anchor, keys seen, expecting key, key]
+        self.stack: list[list] = []
+        self.sizes: dict[str, int] = {}  # anchor -> expanded size of its node
+        self.nodes = 0
+        self.docs = 0
 
-    def path_of() -> list:
+    def path_of(self) -> list:
         out = []
-        for fr in stack:
+        for fr in self.stack:
             if fr[0] == "map" and fr[6] is not None:
                 out.append(fr[6])
             elif fr[0] == "seq":
                 out.append(fr[4])
         return out
 
-    def add(size: int, mark) -> None:
+    def fail(self, mark, text: str, path: list | None = None):
+        raise YAMLInputError(f"{_where(self.source, self.path_of() if path is None else path, mark)}: {text}")
+
+    def add(self, size: int, mark) -> None:
         """A child node of ``size`` expanded nodes completed in the innermost collection."""
-        if not stack:
+        if not self.stack:
             return
-        fr = stack[-1]
+        fr = self.stack[-1]
         fr[2] += size
         if fr[2] > MAX_EXPANDED:
-            raise YAMLInputError(f"{_where(source, path_of(), mark)}: aliases expand to more than {MAX_EXPANDED} "
-                                 f"nodes (an alias bomb?)")
+            self.fail(mark, f"aliases expand to more than {MAX_EXPANDED} nodes (an alias bomb?)")
         if fr[0] == "seq":
             fr[4] += 1
         else:  # a mapping's value (keys are scalars, counted where they are read)
             fr[5], fr[6] = True, None
 
+    def take(self, ev) -> None:
+        """Check one event; refuse (one line) anything :func:`parse_yaml` refuses."""
+        if isinstance(ev, (yaml.StreamStartEvent, yaml.StreamEndEvent, yaml.DocumentEndEvent)):
+            return
+        if isinstance(ev, yaml.DocumentStartEvent):
+            self.docs += 1
+            if self.docs > 1:
+                raise YAMLInputError(f"{self.source}: line {ev.start_mark.line + 1}: more than one YAML document "
+                                     f"in the file")
+            return
+        self.nodes += not isinstance(ev, (yaml.SequenceEndEvent, yaml.MappingEndEvent))
+        if self.nodes > MAX_NODES:
+            self.fail(ev.start_mark, f"more than {MAX_NODES} YAML nodes (no input of this project comes near; a "
+                                     f"generated or hostile file?)")
+        in_key = bool(self.stack) and self.stack[-1][0] == "map" and self.stack[-1][5]
+        tag = getattr(ev, "tag", None)
+        if tag is not None:  # written in the file: '!!python/object', '!!str', '!foo', '!'
+            self.fail(ev.start_mark, f"YAML tag {tag!r} not allowed (inputs are plain data: numbers, strings, "
+                                     f"lists, mappings)")
+        if isinstance(ev, yaml.AliasEvent):
+            if in_key:
+                self.fail(ev.start_mark, "an alias as a mapping key is not allowed")
+            if ev.anchor not in self.sizes:
+                self.fail(ev.start_mark, f"alias *{ev.anchor} names no anchor defined before it")
+            self.add(self.sizes[ev.anchor], ev.start_mark)
+        elif isinstance(ev, yaml.ScalarEvent):
+            self._scalar(ev, in_key)
+        elif isinstance(ev, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+            if in_key:
+                self.fail(ev.start_mark, "a list or mapping as a mapping key is not allowed")
+            if len(self.stack) >= MAX_DEPTH:
+                self.fail(ev.start_mark, f"nested deeper than {MAX_DEPTH} levels (no input of this project comes "
+                                         f"near)", path=[])
+            if isinstance(ev, yaml.SequenceStartEvent):
+                self.stack.append(["seq", None, 1, ev.anchor, 0, False, None])
+            else:
+                self.stack.append(["map", None, 1, ev.anchor, set(), True, None])
+        elif isinstance(ev, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
+            fr = self.stack.pop()
+            if fr[3]:
+                self.sizes[fr[3]] = fr[2]
+            self.add(fr[2], ev.start_mark)
+
+    def _scalar(self, ev, in_key: bool) -> None:
+        why = _surprise(ev.value) if ev.implicit[0] and not ev.style else None
+        if why:
+            self.fail(ev.start_mark, why)
+        if in_key:
+            fr = self.stack[-1]
+            key = _key_of(ev)
+            if key in fr[4]:
+                self.fail(ev.start_mark, f"duplicate key {ev.value!r} in one mapping (YAML would keep only the last)")
+            fr[4].add(key)
+            fr[6] = ev.value
+            fr[5] = False  # the value comes next
+            fr[2] += 1
+            return
+        if ev.anchor:
+            self.sizes[ev.anchor] = 1
+        self.add(1, ev.start_mark)
+
+
+def check_events(text: str, source: str) -> None:
+    """Walk the YAML event stream of ``text`` and refuse (one line) anything :func:`parse_yaml` refuses.
+
+    Linear in the size of the text; nothing is constructed and no alias is expanded.
+
+    Raises
+    ------
+    YAMLInputError
+        One line naming ``source``, the line and the field.
+    """
+    walk = _EventWalk(source)
     try:
         for ev in yaml.parse(text, Loader=_Loader):
-            if isinstance(ev, (yaml.StreamStartEvent, yaml.StreamEndEvent, yaml.DocumentEndEvent)):
-                continue
-            if isinstance(ev, yaml.DocumentStartEvent):
-                docs += 1
-                if docs > 1:
-                    raise YAMLInputError(f"{source}: line {ev.start_mark.line + 1}: more than one YAML document "
-                                         f"in the file")
-                continue
-            nodes += not isinstance(ev, (yaml.SequenceEndEvent, yaml.MappingEndEvent))
-            if nodes > MAX_NODES:
-                raise YAMLInputError(f"{_where(source, path_of(), ev.start_mark)}: more than {MAX_NODES} YAML nodes "
-                                     f"(no input of this project comes near; a generated or hostile file?)")
-            in_key = bool(stack) and stack[-1][0] == "map" and stack[-1][5]
-            tag = getattr(ev, "tag", None)
-            if tag is not None:  # written in the file: '!!python/object', '!!str', '!foo', '!'
-                raise YAMLInputError(f"{_where(source, path_of(), ev.start_mark)}: YAML tag {tag!r} not allowed "
-                                     f"(inputs are plain data: numbers, strings, lists, mappings)")
-            if isinstance(ev, yaml.AliasEvent):
-                if in_key:
-                    raise YAMLInputError(f"{_where(source, path_of(), ev.start_mark)}: an alias as a mapping key "
-                                         f"is not allowed")
-                if ev.anchor not in sizes:
-                    raise YAMLInputError(f"{_where(source, path_of(), ev.start_mark)}: alias *{ev.anchor} names no "
-                                         f"anchor defined before it")
-                add(sizes[ev.anchor], ev.start_mark)
-            elif isinstance(ev, yaml.ScalarEvent):
-                why = _surprise(ev.value) if ev.implicit[0] and not ev.style else None
-                if why:
-                    raise YAMLInputError(f"{_where(source, path_of(), ev.start_mark)}: {why}")
-                if in_key:
-                    fr = stack[-1]
-                    key = _key_of(ev)
-                    if key in fr[4]:
-                        raise YAMLInputError(f"{_where(source, path_of(), ev.start_mark)}: duplicate key "
-                                             f"{ev.value!r} in one mapping (YAML would keep only the last)")
-                    fr[4].add(key)
-                    fr[6] = ev.value
-                    fr[5] = False  # the value comes next
-                    fr[2] += 1
-                    continue
-                if ev.anchor:
-                    sizes[ev.anchor] = 1
-                add(1, ev.start_mark)
-            elif isinstance(ev, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
-                if in_key:
-                    raise YAMLInputError(f"{_where(source, path_of(), ev.start_mark)}: a list or mapping as a "
-                                         f"mapping key is not allowed")
-                if len(stack) >= MAX_DEPTH:
-                    raise YAMLInputError(f"{_where(source, [], ev.start_mark)}: nested deeper than {MAX_DEPTH} "
-                                         f"levels (no input of this project comes near)")
-                if isinstance(ev, yaml.SequenceStartEvent):
-                    stack.append(["seq", None, 1, ev.anchor, 0, False, None])
-                else:
-                    stack.append(["map", None, 1, ev.anchor, set(), True, None])
-            elif isinstance(ev, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
-                fr = stack.pop()
-                if fr[3]:
-                    sizes[fr[3]] = fr[2]
-                add(fr[2], ev.start_mark)
+            walk.take(ev)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"{source}: line {mark.line + 1}" if mark is not None else source

@@ -33,6 +33,7 @@ import zstandard
 
 from pipeline.cli import main
 from pipeline.io import archive as A
+from pipeline.io import archive_bounds
 from pipeline.io import problems as P
 from pipeline.io.archive import ArchiveError, read_archive
 from pipeline.io.problems import ProblemFileError, read_problems
@@ -81,7 +82,7 @@ class Parts:
         return i, {name: (v if isinstance(v, bytes) else np.array(v)) for name, v in f.items()}
 
     def put(self, i: int, topic: str, f: dict) -> None:
-        self.msgs[i][3] = A._encode(A.MESSAGES[topic][1], f)
+        self.msgs[i][3] = A.encode_fields(A.MESSAGES[topic][1], f)
 
     def edit(self, topic: str, fn, k: int = 0) -> "Parts":
         i, f = self.fields(topic, k)
@@ -363,8 +364,8 @@ def _dup_across_messages(p):
         halves.append(g)
     halves[1]["problem_id"] = halves[1]["problem_id"].copy()
     halves[1]["problem_id"][0] = halves[0]["problem_id"][0]
-    p.msgs = [[A.SOLVE_TOPIC, 0, 0, A._encode(A.SOLVE_FIELDS, halves[0])],  # traces left out
-              [A.SOLVE_TOPIC, 1, 0, A._encode(A.SOLVE_FIELDS, halves[1])]]
+    p.msgs = [[A.SOLVE_TOPIC, 0, 0, A.encode_fields(A.SOLVE_FIELDS, halves[0])],  # traces left out
+              [A.SOLVE_TOPIC, 1, 0, A.encode_fields(A.SOLVE_FIELDS, halves[1])]]
     return _mcap(p)
 
 
@@ -394,7 +395,7 @@ def _with_solutions(p, count_edit=None, drop=False, no_n=False, pid_edit=None):
             sol[k] = sol[k][:-1]
         sol["solutions"] = sol["solutions"][:-j]
     if not drop:
-        p.msgs.insert(i + 1, [A.SOLUTIONS_TOPIC, 99, 0, A._encode(A.SOLUTION_FIELDS, sol)])
+        p.msgs.insert(i + 1, [A.SOLUTIONS_TOPIC, 99, 0, A.encode_fields(A.SOLUTION_FIELDS, sol)])
     if A.SOLUTIONS_TOPIC not in {c.topic for c in p.channels.values()}:
         raise AssertionError("the base archive registers every channel")
     return _mcap(p)
@@ -552,7 +553,7 @@ def test_an_archive_past_its_size_cap_is_not_read(tmp_path):
 def test_chunks_past_the_uncompressed_total_are_not_read(base, parts, monkeypatch):
     """The total over an archive's chunks (cap lowered here to 1 MiB; 1 GiB in use) is checked before the
     chunk that passes it is decompressed."""
-    monkeypatch.setattr(A, "MAX_UNCOMPRESSED_BYTES", 1 << 20)
+    monkeypatch.setattr(archive_bounds, "MAX_UNCOMPRESSED_BYTES", 1 << 20)
     pad = b"\xff" + struct.pack("<Q", (600 << 10) - 9) + bytes((600 << 10) - 9)  # an unknown record, skipped
     p = _put(base, "total.mcap", _mcap(parts.copy(), [{"records": _records(parts) + pad}, {"records": pad}]))
     _refused(read_archive, p, "chunks declare more than 1 MiB uncompressed, past the archive cap")

@@ -24,6 +24,17 @@ class OversizeFileError(DamagedFileError):
 def read_csv(path: str | Path, **kwargs):
     """``pandas.read_csv(path, **kwargs)`` after checking the file is at most :data:`MAX_CSV_BYTES`.
 
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file (plain or compressed, as pandas reads it).
+    **kwargs
+        Passed to :func:`pandas.read_csv`.
+
+    Returns
+    -------
+    pandas.DataFrame
+
     Raises
     ------
     OversizeFileError

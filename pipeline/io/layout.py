@@ -28,6 +28,7 @@ class StopReason(IntEnum):
 
     @property
     def text(self) -> str:
+        """The code's one-line text (:data:`STOP_REASONS`)."""
         return _STOP_TEXT[self]
 
 

@@ -27,7 +27,18 @@ SKIPPED_DIRS = ("logs", "benchmarks")  # per-run records, not results
 
 
 def produced_files(results: Path) -> list[str]:
-    """Paths (relative to ``results``, POSIX) of every file the manifest covers, sorted."""
+    """Every file the manifest covers (not logs, benchmarks, hidden or ``.partial`` files, nor the manifest).
+
+    Parameters
+    ----------
+    results : Path
+        The results tree.
+
+    Returns
+    -------
+    list of str
+        Paths relative to ``results``, POSIX, sorted.
+    """
     results = Path(results)
     out = []
     for f in results.rglob("*"):
@@ -40,7 +51,22 @@ def produced_files(results: Path) -> list[str]:
 
 
 def write_manifest(results: Path, out: Path | None = None) -> tuple[Path, int]:
-    """Write the manifest of ``results`` (default ``results/MANIFEST.sha256``); returns (path, file count)."""
+    """Write the manifest of ``results``: one ``<sha256>  <path>`` line per produced file, atomically.
+
+    Parameters
+    ----------
+    results : Path
+        The results tree.
+    out : Path, optional
+        Where to write it (default ``results/MANIFEST.sha256``).
+
+    Returns
+    -------
+    path : Path
+        The manifest written.
+    count : int
+        The number of files it lists.
+    """
     results = Path(results)
     out = Path(out) if out else results / MANIFEST
     lines = [f"{bytes_sha256(results / rel)}  {rel}\n" for rel in produced_files(results)]
@@ -51,8 +77,19 @@ def write_manifest(results: Path, out: Path | None = None) -> tuple[Path, int]:
 
 
 def check_manifest(results: Path) -> list[str]:
-    """One line per file that differs from the manifest (changed, missing, or not listed); empty when the
-    tree matches. A tree without a manifest is one line saying so."""
+    """Compare a results tree with its manifest.
+
+    Parameters
+    ----------
+    results : Path
+        The results tree holding ``MANIFEST.sha256``.
+
+    Returns
+    -------
+    list of str
+        One line per file that differs from the manifest (changed, missing, or not listed); empty when
+        the tree matches. A tree without a manifest (or with a malformed one) is one line saying so.
+    """
     results = Path(results)
     path = results / MANIFEST
     if not path.is_file():

@@ -53,13 +53,26 @@ def _is_build_input(path: Path) -> str | None:
 
 
 def check_outputs(args: dict, force: bool = False) -> None:
-    """Refuse, in one :class:`UsageError` line, an output argument of ``args`` (a verb's parsed
-    arguments as a dict) that names
+    """Refuse an output argument a verb must not write.
+
+    An output argument is refused when it names
 
     - a folder (for a file output) or an existing file (for a folder output);
     - a file one of the other arguments names (the same inode: links and symbolic links count);
     - an existing archive or problem set of a results tree (even with ``force``);
     - any other existing file, unless ``force``.
+
+    Parameters
+    ----------
+    args : dict
+        A verb's parsed arguments (``vars(namespace)``).
+    force : bool, optional
+        The verb's ``--force``: overwrite an existing file that is none of the above.
+
+    Raises
+    ------
+    UsageError
+        One line naming the flag and the path.
     """
     inputs: list[tuple[str, os.stat_result]] = []
     for key, value in args.items():

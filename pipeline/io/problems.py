@@ -46,7 +46,18 @@ def _columns(n: int) -> list[str]:
 
 
 def write_problems(path: str | Path, ps: ProblemSet, meta: dict[str, str]) -> None:
-    """Write atomically (temporary file, then rename)."""
+    """Write a problem set atomically (temporary file, then rename).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (``.csv``; its folder is created).
+    ps : ProblemSet
+        m problems of n joints: ``q_start``, ``q_goal`` (m, n) [rad or length unit], ``goal_position``
+        (m, 3) [``ps.length_unit``], ``goal_quat`` (m, 4) w-first; values written with 17 significant digits.
+    meta : dict[str, str]
+        Header fields written after ``robot`` and ``length_unit`` (seed, count, ...).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     n = ps.q_start.shape[1]
@@ -133,6 +144,14 @@ def problem_file_text(path: str | Path) -> bytes:
     :data:`MAX_PROBLEM_TEXT_BYTES`; a gzip stream is decompressed with a bounded output and refused
     one byte past the cap (a few kB that inflate to gigabytes never reach memory).
 
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    bytes
+
     Raises
     ------
     ProblemFileError
@@ -161,46 +180,44 @@ def problem_file_text(path: str | Path) -> bytes:
 
 
 def problem_file_sha256(path: str | Path) -> str:
-    """SHA-256 of a problem set's text (decompressed for ``.gz``), read within the caps: the hash
-    :func:`pipeline.provenance.file_sha256` gives a problem file, without its unbounded gzip read."""
+    """SHA-256 of a problem set's text (decompressed for ``.gz``), read within the caps.
+
+    The hash :func:`pipeline.provenance.file_sha256` gives a problem file, without its unbounded gzip read.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    str
+        Hexadecimal digest.
+    """
     import hashlib
 
     return hashlib.sha256(problem_file_text(path)).hexdigest()
 
 
 def read_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str]]:
-    """Read a problem-set file; returns the set and its header fields (:func:`load_problems` without the hash)."""
+    """Read a problem-set file (:func:`load_problems` without the hash).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    ps : ProblemSet
+    meta : dict[str, str]
+        The header fields.
+    """
     ps, meta, _ = load_problems(path)
     return ps, meta
 
 
-def load_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str], str]:
-    """Read and check a problem-set file: (the set, its header fields, the SHA-256 of its text).
-
-    Bounded (:func:`problem_file_text` and the caps of this module) and checked line by line: the
-    header, a declared ``count`` (an integer within :data:`MAX_PROBLEMS`, equal to the rows), the
-    column names, the number of fields on every row, integral problem ids and chains (int32, the
-    archives' type), unique problem ids, finite values (goal angles may be NaN: Cartesian path points).
-
-    Raises
-    ------
-    ProblemFileError
-        One line naming the file and the line or field.
-    """
-    import hashlib
-
-    path = Path(path)
-    data = problem_file_text(path)
-    sha = hashlib.sha256(data).hexdigest()
-    rows = data.rstrip(b"\r\n").count(b"\n") - 1  # data rows (lines end in \n), counted before any is split
-    if rows > MAX_PROBLEMS:
-        raise ProblemFileError(f"{path}: {rows} rows, past the {MAX_PROBLEMS} problems a set may hold "
-                               f"(MAX_PROBLEMS); not read")
-    try:
-        lines = [ln[:-1] if ln.endswith("\r") else ln for ln in data.decode().split("\n")]
-    except (UnicodeDecodeError, ValueError) as exc:
-        raise ProblemFileError(f"{path}: not a readable problem set ({type(exc).__name__}: {exc})") from None
-    del data
+def _header(path: Path, lines: list[str]) -> dict[str, str]:
+    """The header fields of line 1, checked (a declared ``count`` against the rows); trailing blank lines
+    are dropped from ``lines``."""
     if not lines or not lines[0].startswith(MAGIC):
         raise ProblemFileError(f"{path}: line 1: not an ik-pipeline problem set (missing '{MAGIC}')")
     if len(lines[0]) > MAX_LINE_CHARS:
@@ -219,6 +236,11 @@ def load_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str], str]:
         if int(c) != len(lines) - 2:
             raise ProblemFileError(f"{path}: line 1: header field 'count' is {c}, the file holds "
                                    f"{max(0, len(lines) - 2)} rows")
+    return meta
+
+
+def _table(path: Path, lines: list[str]) -> tuple[np.ndarray, list[str], int]:
+    """The data rows as a (m, 2n + 9) float array, with the column names and the joint count n."""
     if len(lines) > 1 and len(lines[1]) > MAX_LINE_CHARS:
         raise ProblemFileError(f"{path}: line 2: longer than {MAX_LINE_CHARS} characters (MAX_LINE_CHARS)")
     cols = lines[1].split(",") if len(lines) > 1 else []
@@ -240,7 +262,12 @@ def load_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str], str]:
             table[i] = [float(x) for x in fields]
         except ValueError as exc:
             raise ProblemFileError(f"{path}: malformed row ({exc}; line {i + 3})") from None
-    lines = None
+    return table, cols, n
+
+
+def _check_table(path: Path, table: np.ndarray, cols: list[str], n: int) -> np.ndarray:
+    """Finite values (goal angles may be NaN), int32 problem ids and chains, unique problem ids; returns
+    the ids, (m,) int64."""
     qgoal = slice(2 + n, 2 + 2 * n)
     finite = np.isfinite(table)
     finite[:, qgoal] = True  # goal angles may be unknown (NaN): Cartesian path points
@@ -262,6 +289,55 @@ def load_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str], str]:
         lines_of = (np.flatnonzero(ids == dup)[:2] + 3).tolist()
         raise ProblemFileError(f"{path}: column 'problem_id': problem {dup} appears more than once "
                                f"(lines {lines_of[0]} and {lines_of[1]})")
-    ps = ProblemSet(ids.astype(int), table[:, 2:2 + n], table[:, qgoal], table[:, 2 + 2 * n:5 + 2 * n],
+    return ids
+
+
+def load_problems(path: str | Path) -> tuple[ProblemSet, dict[str, str], str]:
+    """Read and check a problem-set file.
+
+    Bounded (:func:`problem_file_text` and the caps of this module) and checked line by line: the
+    header, a declared ``count`` (an integer within :data:`MAX_PROBLEMS`, equal to the rows), the
+    column names, the number of fields on every row, integral problem ids and chains (int32, the
+    archives' type), unique problem ids, finite values (goal angles may be NaN: Cartesian path points).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.csv`` or ``.csv.gz`` problem set (:func:`write_problems`).
+
+    Returns
+    -------
+    ps : ProblemSet
+        m problems of n joints: ``q_start``, ``q_goal`` (m, n) [rad or length unit], ``goal_position``
+        (m, 3) [``length_unit``], ``goal_quat`` (m, 4) w-first.
+    meta : dict[str, str]
+        The header fields (``robot``, ``length_unit``, and what the writer added).
+    sha256 : str
+        The SHA-256 of the file's text (decompressed for ``.gz``), hexadecimal.
+
+    Raises
+    ------
+    ProblemFileError
+        One line naming the file and the line or field.
+    """
+    import hashlib
+
+    path = Path(path)
+    data = problem_file_text(path)
+    sha = hashlib.sha256(data).hexdigest()
+    rows = data.rstrip(b"\r\n").count(b"\n") - 1  # data rows (lines end in \n), counted before any is split
+    if rows > MAX_PROBLEMS:
+        raise ProblemFileError(f"{path}: {rows} rows, past the {MAX_PROBLEMS} problems a set may hold "
+                               f"(MAX_PROBLEMS); not read")
+    try:
+        lines = [ln[:-1] if ln.endswith("\r") else ln for ln in data.decode().split("\n")]
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise ProblemFileError(f"{path}: not a readable problem set ({type(exc).__name__}: {exc})") from None
+    del data
+    meta = _header(path, lines)
+    table, cols, n = _table(path, lines)
+    lines = None
+    ids = _check_table(path, table, cols, n)
+    ps = ProblemSet(ids.astype(int), table[:, 2:2 + n], table[:, 2 + n:2 + 2 * n], table[:, 2 + 2 * n:5 + 2 * n],
                     table[:, 5 + 2 * n:], meta["robot"], meta["length_unit"], table[:, 1].astype(int))
     return ps, meta, sha

@@ -41,13 +41,65 @@ def _schema(title: str, desc: str) -> dict:
     return {"title": f"ik_pipeline.{title}", "type": "object", "description": desc}
 
 
+def _race_goals(study, model, df, arch, pset: str, fin: list, goals: int) -> tuple:
+    """The goals of a race: the first ``goals`` problem ids every finalist ran, their goal poses
+    ``T`` (k, 4, 4), starts ``Q0`` (k, n) [rad or length unit] and per-problem seeds."""
+    from pipeline.io.archive import problems_of
+    from pipeline.runner import model_goals, problem_seed
+
+    ids = None
+    for lab in fin:
+        have = set(df.loc[(df["problem_set"] == pset) & (df["solver"] == lab), "problem_id"].astype(int))
+        ids = have if ids is None else ids & have
+    found = problems_of(arch)
+    if found is None:
+        raise UsageError(f"{arch.path}: its problem file is not beside it (run the solve jobs first)")
+    row_of, ps, _ = found
+    ids = sorted(ids)[:goals]
+    rows = np.array([row_of[i] for i in ids], dtype=np.int64)
+    T = model_goals(ps, model)[rows]
+    Q0 = ps.q_start[rows]
+    set_seed = int(study.problem_sets[pset]["seed"])
+    seeds = [problem_seed(set_seed, i, 0) for i in ids]
+    return ids, T, Q0, seeds
+
+
+def _timed_passes(w, pset: str, fin: list, bound: dict, clocks: dict, ids: list, T, Q0, seeds: list, rng,
+                  passes: tuple, budget_s: float, w0: int) -> int:
+    """Call every finalist on every goal, in a fresh random order each pass, one JSON record per call on
+    :data:`~pipeline.studies.arm_benchmark.RACE_TOPIC`; at least ``passes[0]`` passes, at most
+    ``passes[1]``, no new pass after ``budget_s`` [s] from ``w0`` [ns]. Returns the passes done."""
+    from pipeline.studies import arm_benchmark as ab
+
+    done = 0
+    for p in range(passes[1]):
+        if p >= passes[0] and (time.perf_counter_ns() - w0) * 1e-9 > budget_s:
+            break
+        for k in rng.permutation(len(ids)):
+            for j in rng.permutation(len(fin)):
+                lab = fin[j]
+                clock = clocks[lab]
+                b = bound[lab]
+                tc = clock()
+                tw = time.perf_counter_ns()
+                res = b.solve(T[k], Q0[k], seeds[k])
+                tw = time.perf_counter_ns() - tw
+                tc = clock() - tc
+                w.write_message(ab.RACE_TOPIC, {"problem_set": pset, "solver": lab, "problem_id": int(ids[k]),
+                                                "pass": p, "wall_ns": int(tw), "cpu_ns": int(tc),
+                                                "success": bool(res.success)})
+        done = p + 1
+        print(f"{pset}: pass {done}: {len(ids)} goals x {len(fin)} finalists "
+              f"({(time.perf_counter_ns() - w0) * 1e-9:.1f} s)", file=sys.stderr, flush=True)
+    return done
+
+
 def race_arm(study_path, robot_path, archive_paths: list, out, *, goals: int = GOALS, passes: tuple = PASSES,
              budget_s: float = BUDGET_S, seed: int = 0) -> str:
     """Race the finalists of every problem set of one arm (see the module docstring); returns the summary line."""
-    from pipeline.io.archive import ArchiveError, ArchiveWriter, problems_of, read_archive, run_metadata
+    from pipeline.io.archive import ArchiveError, ArchiveWriter, read_archive, run_metadata
     from pipeline.provenance import file_sha256
     from pipeline.robots import load_robot
-    from pipeline.runner import model_goals, problem_seed
     from pipeline.settings import load_study
     from pipeline.solvers import bind, get
     from pipeline.studies import arm_benchmark as ab
@@ -65,7 +117,7 @@ def race_arm(study_path, robot_path, archive_paths: list, out, *, goals: int = G
     df = ab.answer_frame(runs_frame(archives), archives, study)  # the tables' own frame: the same finalists
     meta = ab.label_settings(archives)
     mt = ab.method_table(df, meta, ab.job_timing(archives))
-    succ = ab._ids(df)
+    succ = ab.success_by_problem(df)
     warm = ab.warm_sets(study)
     by_set = {a.metadata["problem_set"]: a for a in archives}
     rng = np.random.default_rng([seed, zlib.crc32(model.name.encode())])
@@ -88,20 +140,7 @@ def race_arm(study_path, robot_path, archive_paths: list, out, *, goals: int = G
                 w.write_message(ab.RACE_SET_TOPIC, record)
                 lines.append(f"{pset}: {fin[0] if fin else 'nothing'} alone, not raced")
                 continue
-            ids = None
-            for lab in fin:
-                have = set(df.loc[(df["problem_set"] == pset) & (df["solver"] == lab), "problem_id"].astype(int))
-                ids = have if ids is None else ids & have
-            found = problems_of(by_set[pset])
-            if found is None:
-                raise UsageError(f"{by_set[pset].path}: its problem file is not beside it (run the solve jobs first)")
-            row_of, ps, _ = found
-            ids = sorted(ids)[:goals]
-            rows = np.array([row_of[i] for i in ids], dtype=np.int64)
-            T = model_goals(ps, model)[rows]
-            Q0 = ps.q_start[rows]
-            set_seed = int(study.problem_sets[pset]["seed"])
-            seeds = [problem_seed(set_seed, i, 0) for i in ids]
+            ids, T, Q0, seeds = _race_goals(study, model, df, by_set[pset], pset, fin, goals)
             bound = {}
             for lab in fin:
                 entry = study.solvers[lab]
@@ -111,26 +150,7 @@ def race_arm(study_path, robot_path, archive_paths: list, out, *, goals: int = G
                       for lab in fin}
             load0 = os.getloadavg()[0]
             c0, w0 = time.process_time_ns(), time.perf_counter_ns()
-            done = 0
-            for p in range(passes[1]):
-                if p >= passes[0] and (time.perf_counter_ns() - w0) * 1e-9 > budget_s:
-                    break
-                for k in rng.permutation(len(ids)):
-                    for j in rng.permutation(len(fin)):
-                        lab = fin[j]
-                        clock = clocks[lab]
-                        b = bound[lab]
-                        tc = clock()
-                        tw = time.perf_counter_ns()
-                        res = b.solve(T[k], Q0[k], seeds[k])
-                        tw = time.perf_counter_ns() - tw
-                        tc = clock() - tc
-                        w.write_message(ab.RACE_TOPIC, {"problem_set": pset, "solver": lab, "problem_id": int(ids[k]),
-                                                        "pass": p, "wall_ns": int(tw), "cpu_ns": int(tc),
-                                                        "success": bool(res.success)})
-                done = p + 1
-                print(f"{pset}: pass {done}: {len(ids)} goals x {len(fin)} finalists "
-                      f"({(time.perf_counter_ns() - w0) * 1e-9:.1f} s)", file=sys.stderr, flush=True)
+            done = _timed_passes(w, pset, fin, bound, clocks, ids, T, Q0, seeds, rng, passes, budget_s, w0)
             wall = time.perf_counter_ns() - w0
             record.update({"goals": len(ids), "passes": done, "load_start": f"{load0:.2f}",
                            "load_end": f"{os.getloadavg()[0]:.2f}",

@@ -213,6 +213,160 @@ def _write_frame(w: _Writer, t_ns: int, model_m, q_m: np.ndarray, goal_m: np.nda
     return info["position_error_m"], info["orientation_error_rad"]
 
 
+def _check_frame_args(frames: str, max_frames: int, dt: float) -> None:
+    """The frame options of :func:`replay` within their ranges, else a one-line :class:`ReplayError`."""
+    if frames not in ("auto", "iterations", "solutions"):
+        raise ReplayError(f"frames: {frames!r} is not one of auto, iterations, solutions")
+    if not 2 <= max_frames <= MAX_FRAMES:
+        raise ReplayError(f"max_frames: must lie in [2, {MAX_FRAMES}], got {max_frames}")
+    if not (DT_RANGE[0] <= dt <= DT_RANGE[1]):  # log times are whole nanoseconds in an unsigned 64-bit field
+        raise ReplayError(f"dt: must lie in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s (frame log times are nanoseconds), "
+                          f"got {dt}")
+
+
+def _replay_robot(arch, robot: str | Path | None, data: str | Path):
+    """The archive's robot, from ``robot`` or ``<data>/robots/<name>.yaml``: ``(model, robot file)``."""
+    from pipeline.robots import load_robot
+
+    meta = arch.metadata
+    if not robot and not is_name(meta.get("robot")):  # a name, not a path: the robot file is read from --data
+        raise ReplayError(f"{arch.path}: metadata field 'robot': {str(meta.get('robot'))[:80]!r} is not a robot name "
+                          "(give the robot file with --robot)")
+    robot_path = Path(robot) if robot else Path(data) / "robots" / f"{meta['robot']}.yaml"
+    if not robot_path.is_file():
+        raise ReplayError(f"{arch.path}: robot {meta['robot']!r}: no robot file {robot_path} (use --data or --robot)")
+    model = load_robot(robot_path)
+    if model.name != meta["robot"]:
+        raise ReplayError(f"{robot_path}: robot {model.name!r}, the archive's is {meta['robot']!r}")
+    return model, robot_path
+
+
+def _replay_metadata(arch, model, robot_path: Path, method: str, mode: str, max_frames: int, dt: float) -> dict:
+    """The replay file's metadata record: its source archive, robot, solver and frame settings."""
+    import pipeline
+
+    meta = arch.metadata
+    return {"source_archive": str(arch.path), "study": meta.get("study", ""), "robot": model.name,
+             "robot_file": str(robot_path), "solver": meta.get("solver", ""), "method": method,
+             "settings": meta["settings"], "seed": str(meta.get("seed", "")), "frames": mode,
+             "max_frames": str(max_frames), "dt_s": repr(dt), "length_unit": "m",
+             "package_version": pipeline.__version__,
+             "source_format_version": meta.get("format_version", ""),
+             "note": "frame k of a problem = the joint values the method returns with max_iterations = k "
+                     "(iterations mode); the last frame of a problem = the archived q_solution"}
+
+
+def _frame_points(mode: str, iterate: bool, its: int, q0: np.ndarray, q_arch: np.ndarray, last_q, max_frames: int,
+                  capped_iterate) -> list[tuple[int, np.ndarray]]:
+    """The ``(iteration, q)`` frames of one problem (q: (n,) float array, rad or length unit): start and
+    archived solution (``solutions`` mode: the start only where the chain does not continue from
+    ``last_q``), or up to ``max_frames`` iterates evenly spaced, iterate k re-run with ``capped_iterate(k)``
+    (None where the cap is below the method's minimum)."""
+    if mode == "solutions":
+        qs = ([] if last_q is not None and np.array_equal(last_q, q0) else [(0, q0)]) + [(its, q_arch)]
+    elif iterate and its > 0:
+        ks = np.unique(np.round(np.linspace(0, its, min(its + 1, max_frames))).astype(int))
+        qs = []
+        for k in ks.tolist():
+            if k == 0:
+                qs.append((0, q0))
+            elif k == its:
+                qs.append((its, q_arch))
+            else:
+                qk = capped_iterate(k)
+                if qk is not None:
+                    qs.append((k, qk))
+    else:
+        qs = [(0, q0), (its, q_arch)]
+    return qs
+
+
+def _mismatch(pid: int, q_rerun: np.ndarray, q_arch: np.ndarray) -> str | None:
+    """The summary line for a re-run solution (n,) that differs from the archived one (n,) by more than
+    :data:`TOL` or in which values are NaN; None when they agree."""
+    diff = np.abs(q_rerun - q_arch)
+    same_nan = np.isnan(q_rerun) == np.isnan(q_arch)
+    if not same_nan.all() or np.nanmax(np.where(same_nan, diff, np.inf), initial=0.0) > TOL:
+        d = float(np.nanmax(diff)) if np.isfinite(diff).any() else float("nan")
+        return (f"problem {pid}: the re-run's q_solution differs from the archived one by {d:.3g} (more than "
+                f"{TOL:g}); frames are the re-run's, the last one the archive's")
+    return None
+
+
+def _goal_poses(rec: dict, to_model: float, to_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """A record's goal as (4, 4) poses: in the model's length unit (``to_model``: archive unit -> model
+    unit) and in metres (``to_m``: archive unit -> m)."""
+    from pipeline.io.archive import goal_from_record
+    from pipeline.kinematics import matrix_from_quat
+
+    p, quat = goal_from_record(rec["goal"])
+    T_goal = np.eye(4)
+    T_goal[:3, :3] = matrix_from_quat(quat)
+    T_goal[:3, 3] = p * to_model
+    goal_m = T_goal.copy()
+    goal_m[:3, 3] = p * to_m
+    return T_goal, goal_m
+
+
+def _write_problem_frames(w, qs: list, qs_m: list, model_m, goal_m: np.ndarray, names: list, rec: dict, meta: dict,
+                          method: str, f: int, dt: float, summary) -> int:
+    """Write the frames of one problem (``qs``: (iteration, q); ``qs_m``: each q in metres, (n,) float) from
+    frame number ``f``; a non-finite iterate is skipped. Returns the next frame number."""
+    from pipeline.kinematics import fk_htm
+
+    pid, its = int(rec["problem_id"]), int(rec["iterations"])
+    for (k, _), q_m in zip(qs, qs_m):
+        T = fk_htm(model_m.chain, q_m) if np.all(np.isfinite(q_m)) else None
+        dp = float(np.linalg.norm(T[:3, 3] - goal_m[:3, 3])) if T is not None else float("nan")
+        ang = _rot_angle(T[:3, :3], goal_m[:3, :3]) if T is not None else float("nan")
+        info = {"problem_id": pid, "solver": meta.get("solver", ""), "method": method, "iteration": int(k),
+                "iterations": its, "frame": f, "position_error_m": dp, "orientation_error_rad": ang,
+                "success": bool(rec["success"]), "stop_reason": int(rec["stop_reason"])}
+        if T is None:
+            continue  # a non-finite iterate has no pose to show
+        _write_frame(w, int(round(f * dt * 1e9)), model_m, q_m, goal_m, info, names)
+        f += 1
+        summary.frames_per_problem[pid] = summary.frames_per_problem.get(pid, 0) + 1
+    return f
+
+
+def _capper(method: str, mapping: dict):
+    """``k -> `` the settings ``mapping`` of ``method`` with ``max_iterations = k`` (None below the method's
+    minimum cap), each built once."""
+    from pipeline.solvers import SettingsError, make_settings
+
+    capped: dict[int, object] = {}
+
+    def capped_settings(k: int):
+        if k not in capped:
+            try:
+                capped[k] = make_settings(method, {**mapping, "max_iterations": k})
+            except SettingsError:
+                capped[k] = None  # below the method's minimum cap
+        return capped[k]
+
+    return capped_settings
+
+
+def _finish(w, summary, problems: int, frames: int) -> None:
+    """Close the replay file with its ``replay_check`` record; the summary gets the frame count and topics."""
+    summary.frames = frames
+    summary.topics = dict(w.topics)
+    w._w.add_metadata("replay_check", {
+        "problems": str(problems), "frames": str(frames), "tolerance": repr(TOL),
+        "mismatches": "; ".join(summary.mismatches) or "none: every re-run matches the archived q_solution"})
+    w.close()
+
+
+def _in_metres(q, model) -> np.ndarray:
+    """Joint values (n,) of ``model`` (revolute rad, prismatic in its length unit) with the prismatic ones in m."""
+    from pipeline.robots import LENGTH_UNITS
+
+    q = np.array(q, dtype=float)
+    q[np.asarray(model.chain.prismatic, dtype=bool)] *= LENGTH_UNITS[model.length_unit]
+    return q
+
+
 def replay(archive: str | Path, out: str | Path, *, problem: int | None = None, failed: bool = False,
            data: str | Path = "data", robot: str | Path | None = None, frames: str = "auto",
            max_frames: int = 200, dt: float = 0.05, problems: str | Path | None = None) -> ReplaySummary:
@@ -233,70 +387,32 @@ def replay(archive: str | Path, out: str | Path, *, problem: int | None = None, 
     ------
     ReplayError, ArchiveError, RobotFileError
     """
-    import pipeline
-    from pipeline.io.archive import goal_from_record, read_archive
-    from pipeline.kinematics import fk_htm, matrix_from_quat
-    from pipeline.robots import LENGTH_UNITS, load_robot
+    from pipeline.io.archive import read_archive
+    from pipeline.robots import LENGTH_UNITS
     from pipeline.runner import problem_seed
-    from pipeline.solvers import SettingsError, get, make_settings, prepare, solve
+    from pipeline.solvers import get, prepare, solve
 
-    if frames not in ("auto", "iterations", "solutions"):
-        raise ReplayError(f"frames: {frames!r} is not one of auto, iterations, solutions")
-    if not 2 <= max_frames <= MAX_FRAMES:
-        raise ReplayError(f"max_frames: must lie in [2, {MAX_FRAMES}], got {max_frames}")
-    if not (DT_RANGE[0] <= dt <= DT_RANGE[1]):  # log times are whole nanoseconds in an unsigned 64-bit field
-        raise ReplayError(f"dt: must lie in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s (frame log times are nanoseconds), "
-                          f"got {dt}")
+    _check_frame_args(frames, max_frames, dt)
     arch = read_archive(archive, problems=problems)
     meta = arch.metadata
     method, settings = settings_from_archive(meta, str(arch.path))
-    if not robot and not is_name(meta.get("robot")):  # a name, not a path: the robot file is read from --data
-        raise ReplayError(f"{arch.path}: metadata field 'robot': {str(meta.get('robot'))[:80]!r} is not a robot name "
-                          "(give the robot file with --robot)")
-    robot_path = Path(robot) if robot else Path(data) / "robots" / f"{meta['robot']}.yaml"
-    if not robot_path.is_file():
-        raise ReplayError(f"{arch.path}: robot {meta['robot']!r}: no robot file {robot_path} (use --data or --robot)")
-    model = load_robot(robot_path)
-    if model.name != meta["robot"]:
-        raise ReplayError(f"{robot_path}: robot {model.name!r}, the archive's is {meta['robot']!r}")
+    model, robot_path = _replay_robot(arch, robot, data)
     recs = _select(arch, problem, failed)
     chained = len(recs) > 1 and all(int(r.get("chain", -1)) >= 0 for r in recs)
     mode = frames if frames != "auto" else ("solutions" if chained else "iterations")
-    spec = get(method)
     mapping = {k: v for k, v in json.loads(meta["settings"]).items() if k != "method"}
-    iterate = (mode == "iterations" and "max_iterations" in settings.as_dict() and spec.kind != "global"
+    # frames of the iterates: a method with an iteration cap, one start (no restarts), not a global search
+    iterate = (mode == "iterations" and "max_iterations" in settings.as_dict() and get(method).kind != "global"
                and not settings.restarts)
     prep = prepare(method, model, settings)
     seed0 = int(meta["seed"]) if str(meta.get("seed", "")).lstrip("-").isdigit() else 0
     f_model = LENGTH_UNITS[model.length_unit]
     model_m = model.in_unit("m")
-    prism = np.asarray(model.chain.prismatic, dtype=bool)
     names = [nm or f"joint_{i + 1}" for i, nm in enumerate(model.joint_names or [""] * model.n)]
     unit = meta.get("length_unit") or settings.length_unit
     to_model = LENGTH_UNITS[unit] / f_model
-    capped: dict[int, object] = {}
-
-    def capped_settings(k: int):
-        if k not in capped:
-            try:
-                capped[k] = make_settings(method, {**mapping, "max_iterations": k})
-            except SettingsError:
-                capped[k] = None  # below the method's minimum cap
-        return capped[k]
-
-    def to_m(q):
-        q = np.array(q, dtype=float)
-        q[prism] *= f_model
-        return q
-
-    rmeta = {"source_archive": str(arch.path), "study": meta.get("study", ""), "robot": model.name,
-             "robot_file": str(robot_path), "solver": meta.get("solver", ""), "method": method,
-             "settings": meta["settings"], "seed": str(meta.get("seed", "")), "frames": mode,
-             "max_frames": str(max_frames), "dt_s": repr(dt), "length_unit": "m",
-             "package_version": pipeline.__version__,
-             "source_format_version": meta.get("format_version", ""),
-             "note": "frame k of a problem = the joint values the method returns with max_iterations = k "
-                     "(iterations mode); the last frame of a problem = the archived q_solution"}
+    capped_settings = _capper(method, mapping)
+    rmeta = _replay_metadata(arch, model, robot_path, method, mode, max_frames, dt)
     w = None
     summary = ReplaySummary(Path(out), [int(r["problem_id"]) for r in recs], 0, {}, mode)
     try:
@@ -305,60 +421,25 @@ def replay(archive: str | Path, out: str | Path, *, problem: int | None = None, 
         last_q = None
         for rec in recs:
             pid = int(rec["problem_id"])
-            p, quat = goal_from_record(rec["goal"])
-            T_goal = np.eye(4)
-            T_goal[:3, :3] = matrix_from_quat(quat)
-            T_goal[:3, 3] = p * to_model
-            goal_m = T_goal.copy()
-            goal_m[:3, 3] = p * LENGTH_UNITS[unit]
+            T_goal, goal_m = _goal_poses(rec, to_model, LENGTH_UNITS[unit])
             q0 = np.asarray(rec["q_start"], dtype=float)
             q_arch = np.asarray(rec["q_solution"], dtype=float)
             seed = problem_seed(seed0, pid, 0)
             res = solve(method, prep, T_goal, q0, settings, seed=seed)
-            diff = np.abs(res.q - q_arch)
-            same_nan = np.isnan(res.q) == np.isnan(q_arch)
-            if not same_nan.all() or np.nanmax(np.where(same_nan, diff, np.inf), initial=0.0) > TOL:
-                d = float(np.nanmax(diff)) if np.isfinite(diff).any() else float("nan")
-                summary.mismatches.append(f"problem {pid}: the re-run's q_solution differs from the archived one "
-                                          f"by {d:.3g} (more than {TOL:g}); frames are the re-run's, the last one "
-                                          f"the archive's")
+            mismatch = _mismatch(pid, res.q, q_arch)
+            if mismatch:
+                summary.mismatches.append(mismatch)
             its = int(rec["iterations"])
-            if mode == "solutions":
-                qs = ([] if last_q is not None and np.array_equal(last_q, q0) else [(0, q0)]) + [(its, q_arch)]
-            elif iterate and its > 0:
-                ks = np.unique(np.round(np.linspace(0, its, min(its + 1, max_frames))).astype(int))
-                qs = []
-                for k in ks.tolist():
-                    if k == 0:
-                        qs.append((0, q0))
-                    elif k == its:
-                        qs.append((its, q_arch))
-                    else:
-                        sk = capped_settings(k)
-                        if sk is not None:
-                            qs.append((k, solve(method, prep, T_goal, q0, sk, seed=seed).q))
-            else:
-                qs = [(0, q0), (its, q_arch)]
-            for k, q in qs:
-                q_m = to_m(q)
-                T = fk_htm(model_m.chain, q_m) if np.all(np.isfinite(q_m)) else None
-                dp = float(np.linalg.norm(T[:3, 3] - goal_m[:3, 3])) if T is not None else float("nan")
-                ang = _rot_angle(T[:3, :3], goal_m[:3, :3]) if T is not None else float("nan")
-                info = {"problem_id": pid, "solver": meta.get("solver", ""), "method": method, "iteration": int(k),
-                        "iterations": its, "frame": f, "position_error_m": dp, "orientation_error_rad": ang,
-                        "success": bool(rec["success"]), "stop_reason": int(rec["stop_reason"])}
-                if T is None:
-                    continue  # a non-finite iterate has no pose to show
-                _write_frame(w, int(round(f * dt * 1e9)), model_m, q_m, goal_m, info, names)
-                f += 1
-                summary.frames_per_problem[pid] = summary.frames_per_problem.get(pid, 0) + 1
+
+            def capped_iterate(k: int):
+                sk = capped_settings(k)
+                return None if sk is None else solve(method, prep, T_goal, q0, sk, seed=seed).q
+
+            qs = _frame_points(mode, iterate, its, q0, q_arch, last_q, max_frames, capped_iterate)
+            qs_m = [_in_metres(q, model) for _, q in qs]
+            f = _write_problem_frames(w, qs, qs_m, model_m, goal_m, names, rec, meta, method, f, dt, summary)
             last_q = q_arch
-        summary.frames = f
-        summary.topics = dict(w.topics)
-        w._w.add_metadata("replay_check", {
-            "problems": str(len(recs)), "frames": str(f), "tolerance": repr(TOL),
-            "mismatches": "; ".join(summary.mismatches) or "none: every re-run matches the archived q_solution"})
-        w.close()
+        _finish(w, summary, len(recs), f)
     except BaseException:
         if w is not None:
             w.abort()

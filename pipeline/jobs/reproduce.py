@@ -106,10 +106,66 @@ def _env_line(env: dict) -> str:
             + f"; numpy {libs.get('numpy', '?')}, numba {libs.get('numba', '?')}, scipy {libs.get('scipy', '?')}")
 
 
+def _compare_solve(f: Finding, arch, key: tuple, rec: dict, res, k: int, idx: dict) -> None:
+    """Compare solve ``k`` of the re-run batch ``res`` with its archived record ``rec`` (``key`` = problem id,
+    repetition; ``idx`` the archive's trace index) and count what differs in ``f``."""
+    from pipeline.io.archive import digest
+
+    before = dict(f.fields_differ)
+    qa, qb = np.asarray(rec["q_solution"], dtype=float), np.asarray(res.q[k], dtype=float)
+    if not np.array_equal(qa, np.where(np.isfinite(qb).all(), qb, np.nan), equal_nan=True):
+        f.differs("q_solution")
+        f.q_differ += 1
+        d = np.abs(qa - qb)
+        f.max_dq = max(f.max_dq, float(np.nanmax(d)) if np.isfinite(d).any() else float("inf"))
+    dit = abs(int(rec["iterations"]) - int(res.iterations[k]))
+    if dit:
+        f.differs("iterations")
+    if int(rec["stop_reason"]) != int(res.stop_reason[k]):
+        f.differs("stop_reason")
+    if dit or int(rec["stop_reason"]) != int(res.stop_reason[k]):
+        f.iterations_differ += 1
+        f.max_diterations = max(f.max_diterations, dit)
+    for name, got in (("success", res.success), ("claimed_success", res.claimed_success),
+                      ("within_limits", res.within_limits)):
+        if bool(rec[name]) != bool(got[k]):
+            f.differs(name)
+    for name, got in (("position_error", res.position_error[k]),
+                      ("orientation_error", res.orientation_error[k])):
+        if not _same_float(rec[name], got):
+            f.differs(name)
+    if res.trace_rows is not None:  # the archive's initial and final errors are its trace's first and last
+        tr = res.trace(k)
+        for name, got in (("initial_error", tr[0, 0]), ("final_error", tr[-1, 0])):
+            if not _same_float(rec[name], got):
+                f.differs(name)
+    if res.info is not None and _info(rec.get("info") or {}) != _info(res.info[k]):
+        f.differs("info")
+    if key in idx and res.trace_rows is not None:
+        tr = res.trace(k)[:, :8]
+        if len(tr) != idx[key][0] or digest(tr) != idx[key][1]:
+            f.differs("trace")
+            f.traces_differ += 1
+    stored_n = rec.get("_n_solutions")
+    if (stored_n is None) != (res.solutions is None) or (
+            stored_n is not None and int(stored_n) != int(res.n_solutions[k])):
+        f.differs("n_solutions")
+    if stored_n is not None and res.solutions is not None:
+        want = arch.solutions(*key)
+        got = res.solutions[k, : int(res.n_solutions[k])]
+        got = np.where(np.isfinite(got), got, np.nan)
+        if want is None or np.asarray(want, dtype=float).size != got.size or not np.array_equal(
+                np.asarray(want, dtype=float).reshape(got.shape), got, equal_nan=True):
+            f.differs("solutions")
+            f.solutions_differ += 1
+    f.rerun += 1
+    f.identical += f.fields_differ == before
+
+
 def reproduce_archive(path, *, sample: int | None = None, problem: int | None = None, problems=None,
                       robot: str | None = None, data="data") -> Finding:
     """Re-run (a sample of) one archive's solves and compare them with the archive."""
-    from pipeline.io.archive import TracePolicy, digest, problems_of, read_archive
+    from pipeline.io.archive import TracePolicy, problems_of, read_archive
     from pipeline.jobs.replay import ReplayError, settings_from_archive
     from pipeline.jobs.solve import deterministic
     from pipeline.robots import load_robot
@@ -154,55 +210,7 @@ def reproduce_archive(path, *, sample: int | None = None, problem: int | None = 
         for k in range(len(res)):
             key, rec = keys[i], recs[keys[i]]
             i += 1
-            before = dict(f.fields_differ)
-            qa, qb = np.asarray(rec["q_solution"], dtype=float), np.asarray(res.q[k], dtype=float)
-            if not np.array_equal(qa, np.where(np.isfinite(qb).all(), qb, np.nan), equal_nan=True):
-                f.differs("q_solution")
-                f.q_differ += 1
-                d = np.abs(qa - qb)
-                f.max_dq = max(f.max_dq, float(np.nanmax(d)) if np.isfinite(d).any() else float("inf"))
-            dit = abs(int(rec["iterations"]) - int(res.iterations[k]))
-            if dit:
-                f.differs("iterations")
-            if int(rec["stop_reason"]) != int(res.stop_reason[k]):
-                f.differs("stop_reason")
-            if dit or int(rec["stop_reason"]) != int(res.stop_reason[k]):
-                f.iterations_differ += 1
-                f.max_diterations = max(f.max_diterations, dit)
-            for name, got in (("success", res.success), ("claimed_success", res.claimed_success),
-                              ("within_limits", res.within_limits)):
-                if bool(rec[name]) != bool(got[k]):
-                    f.differs(name)
-            for name, got in (("position_error", res.position_error[k]),
-                              ("orientation_error", res.orientation_error[k])):
-                if not _same_float(rec[name], got):
-                    f.differs(name)
-            if res.trace_rows is not None:  # the archive's initial and final errors are its trace's first and last
-                tr = res.trace(k)
-                for name, got in (("initial_error", tr[0, 0]), ("final_error", tr[-1, 0])):
-                    if not _same_float(rec[name], got):
-                        f.differs(name)
-            if res.info is not None and _info(rec.get("info") or {}) != _info(res.info[k]):
-                f.differs("info")
-            if key in idx and res.trace_rows is not None:
-                tr = res.trace(k)[:, :8]
-                if len(tr) != idx[key][0] or digest(tr) != idx[key][1]:
-                    f.differs("trace")
-                    f.traces_differ += 1
-            stored_n = rec.get("_n_solutions")
-            if (stored_n is None) != (res.solutions is None) or (
-                    stored_n is not None and int(stored_n) != int(res.n_solutions[k])):
-                f.differs("n_solutions")
-            if stored_n is not None and res.solutions is not None:
-                want = arch.solutions(*key)
-                got = res.solutions[k, : int(res.n_solutions[k])]
-                got = np.where(np.isfinite(got), got, np.nan)
-                if want is None or np.asarray(want, dtype=float).size != got.size or not np.array_equal(
-                        np.asarray(want, dtype=float).reshape(got.shape), got, equal_nan=True):
-                    f.differs("solutions")
-                    f.solutions_differ += 1
-            f.rerun += 1
-            f.identical += f.fields_differ == before
+            _compare_solve(f, arch, key, rec, res, k, idx)
     return f
 
 

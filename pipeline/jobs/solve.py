@@ -71,7 +71,7 @@ def deterministic(method: str, settings) -> bool:
 
     if float(getattr(settings, "time_budget", 0.0) or 0.0) > 0.0:
         return False
-    return not get(method).run.__module__.startswith("pipeline.solvers.peers.libraries") or method == "ur_analytic_ik"
+    return not get(method).run.__module__.startswith("pipeline.solvers.peers.") or method == "ur_analytic_ik"
 
 
 def trace_policy(study):
@@ -85,16 +85,50 @@ def trace_policy(study):
         raise ConfigError(str(exc)) from None
 
 
+def _run_record(study, problem_set: str, entry, model, robot_path, problems_path, scale: str, out, spec: dict, *,
+                n_problems: int, reps: int, runs: int, policy, extra_meta: dict | None) -> dict[str, str]:
+    """The ``run`` metadata of a solve job's archive: settings, problem and robot files (relative to the
+    archive), timing protocol and trace policy."""
+    from pipeline.io.archive import run_metadata
+    from pipeline.provenance import file_sha256
+    from pipeline.solvers import get
+
+    settings = entry.settings
+    unit = settings.length_unit
+    here = Path(out).resolve().parent
+    return run_metadata(
+        study=study.id, robot=model.name, solver=entry.label, settings=entry.as_dict(), seed=spec["seed"],
+        settings_hash=study.solver_hash(problem_set, entry.label, scale), problem_set=problem_set,
+        method=entry.method, library=get(entry.method).library, reading=entry.reading, scale=scale, problems=n_problems,
+        repetitions=reps,
+        problem_file=Path(problems_path).name, problem_sha256=file_sha256(problems_path)[:16],
+        problem_path=os.path.relpath(Path(problems_path).resolve(), here),
+        robot_file=str(robot_path), robot_sha256=file_sha256(robot_path)[:16],
+        robot_path=os.path.relpath(Path(robot_path).resolve(), here),
+        robot_repairs="; ".join(model.repairs) if model.repairs else None, length_unit=unit,
+        deterministic=str(deterministic(entry.method, settings)).lower(),
+        timing="solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "
+               "solve() call (pipeline/solvers/core/timing.py); cpu_time_s = the CPU time of the call "
+               "(pipeline/runner.py)" + (f"; each the fastest of {runs} runs of the solve by CPU time, the "
+                                         "result of the first (timing_runs)" if runs > 1 else ""),
+        traces=policy.describe(), **(extra_meta or {}))
+
+
+def _first_repetition(traces: dict) -> dict:
+    """The traces of repetition 0 only (``problem_id``, ``repetition``, ``rows`` (T,), ``full`` (sum of rows, 8))."""
+    keep = traces["repetition"] == 0
+    return {"problem_id": traces["problem_id"][keep], "repetition": traces["repetition"][keep],
+            "rows": traces["rows"][keep], "full": traces["full"][np.repeat(keep, traces["rows"])]}
+
+
 def solve_to_archive(study, problem_set: str, entry, robot_path, problems_path, scale: str, out, *, limit: int = 0,
                      select=None, threads: int = 1, extra_meta: dict | None = None) -> str:
     """Solve the problems of ``problems_path`` (the first ``limit`` or all, or the ids in ``select``)
     with the study's solver ``entry`` into the archive ``out``; returns the summary line."""
-    from pipeline.io.archive import ArchiveWriter, batch_columns, run_metadata
+    from pipeline.io.archive import ArchiveWriter, batch_columns
     from pipeline.io.problems import read_problems
-    from pipeline.provenance import file_sha256
     from pipeline.robots import LENGTH_UNITS, load_robot
     from pipeline.runner import solve_set_batches
-    from pipeline.solvers import get
 
     spec = problem_set_spec(study, problem_set)
     model = load_robot(robot_path)
@@ -110,22 +144,8 @@ def solve_to_archive(study, problem_set: str, entry, robot_path, problems_path, 
     to_unit = LENGTH_UNITS[ps.length_unit] / LENGTH_UNITS[unit]
     ids = ps.problem_id if select is None else ps.problem_id[np.isin(ps.problem_id, list(select))]
     policy = trace_policy(study)
-    here = Path(out).resolve().parent
-    meta = run_metadata(
-        study=study.id, robot=model.name, solver=entry.label, settings=entry.as_dict(), seed=spec["seed"],
-        settings_hash=study.solver_hash(problem_set, entry.label, scale), problem_set=problem_set,
-        method=entry.method, library=get(entry.method).library, reading=entry.reading, scale=scale, problems=len(ids), repetitions=reps,
-        problem_file=Path(problems_path).name, problem_sha256=file_sha256(problems_path)[:16],
-        problem_path=os.path.relpath(Path(problems_path).resolve(), here),
-        robot_file=str(robot_path), robot_sha256=file_sha256(robot_path)[:16],
-        robot_path=os.path.relpath(Path(robot_path).resolve(), here),
-        robot_repairs="; ".join(model.repairs) if model.repairs else None, length_unit=unit,
-        deterministic=str(deterministic(entry.method, settings)).lower(),
-        timing="solve_time_s = the method's own computation on the monotonic clock; call_time_s = the whole "
-               "solve() call (pipeline/solvers/core/timing.py); cpu_time_s = the CPU time of the call "
-               "(pipeline/runner.py)" + (f"; each the fastest of {runs} runs of the solve by CPU time, the "
-                                         "result of the first (timing_runs)" if runs > 1 else ""),
-        traces=policy.describe(), **(extra_meta or {}))
+    meta = _run_record(study, problem_set, entry, model, robot_path, problems_path, scale, out, spec,
+                       n_problems=len(ids), reps=reps, runs=runs, policy=policy, extra_meta=extra_meta)
     t0 = time.monotonic()
     n_ok = done = 0
     total = len(ids) * reps
@@ -150,9 +170,7 @@ def solve_to_archive(study, problem_set: str, entry, robot_path, problems_path, 
                                          ps.goal_position[rows] * to_unit, ps.goal_quat[rows], res, method=entry.method,
                                          start_from_file=np.all(q0 == ps.q_start[rows], axis=1))
             if traces is not None and reps > 1:  # repetitions repeat the same iterates: one trace per problem
-                keep = traces["repetition"] == 0
-                traces = {"problem_id": traces["problem_id"][keep], "repetition": traces["repetition"][keep],
-                          "rows": traces["rows"][keep], "full": traces["full"][np.repeat(keep, traces["rows"])]}
+                traces = _first_repetition(traces)
             w.write_columns(cols, traces)
             t_write += time.perf_counter() - tw
             n_ok += int(res.success.sum())

@@ -64,7 +64,7 @@ import tempfile
 from pathlib import Path
 
 from pipeline.io.manifest import check_manifest, produced_files
-from pipeline.report.seal import _META, INPUTS_DIGEST, REPORT_DIGEST, inputs_digest, report_digest
+from pipeline.report.seal import META_TAG, INPUTS_DIGEST, REPORT_DIGEST, inputs_digest, report_digest
 
 _CHECKED = ("study", "solver", "settings_hash", "problem_sha256", "problems", "problem_set", "robot")
 
@@ -309,7 +309,7 @@ def verify_report(results: Path, study_ids) -> list[str]:
     if not report.is_file():
         return [f"{report}: missing"]
     html = report.read_text()
-    meta = dict(_META.findall(html))
+    meta = dict(META_TAG.findall(html))
     problems = []
     if meta.get(REPORT_DIGEST) != report_digest(html):
         problems.append(f"{report}: its text differs from what was rendered (edited after the build?)")

@@ -9,7 +9,7 @@ from pathlib import Path
 REPORT_DIGEST = "ik-pipeline-report-sha256"
 INPUTS_DIGEST = "ik-pipeline-inputs-sha256"
 BUILD_MARK = "data-build-time"
-_META = re.compile(r'<meta name="(ik-pipeline-[a-z0-9-]+)" content="([0-9a-f]*)">')
+META_TAG = re.compile(r'<meta name="(ik-pipeline-[a-z0-9-]+)" content="([0-9a-f]*)">')
 
 
 def _sha(path: Path) -> str:

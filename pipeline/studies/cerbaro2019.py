@@ -60,13 +60,8 @@ def _by_method(df):
             yield m, g
 
 
-def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
-    main, allf, rer = _split(study, archives)
-    P = {n: published(published_dir, STUDY, n) for n in
-         ("table07", "table08_11", "table12", "table13", "table14", "table15", "table16")}
-    reading = study.readings[study.default_solvers()[0]]
-    out = []
-
+def _table07(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
+    """Table 7: success rate per method, ours and published."""
     rows = []
     for m, g in _by_method(main):
         rows.append({"method": LABEL[m], "problems": len(g), "successes (ours)": int(g["success"].sum()),
@@ -74,10 +69,13 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                      "successes (published)": _pub(P["table07"], m, "successes"),
                      "success % (published)": _pub(P["table07"], m, "success_pct"),
                      "difference [percentage points]": 100 * g["success"].mean() - _pub(P["table07"], m, "success_pct")})
-    out.append(TableSpec("table07_success", f"Table 7 — success rate (reading {reading})", pd.DataFrame(rows),
-                         "Success = the method's stop test passed and an independent FK of the returned angles "
-                         "confirmed it (stop code 6 would mark a contradiction; none is expected)."))
+    return TableSpec("table07_success", f"Table 7 — success rate (reading {reading})", pd.DataFrame(rows),
+                     "Success = the method's stop test passed and an independent FK of the returned angles "
+                     "confirmed it (stop code 6 would mark a contradiction; none is expected).")
 
+
+def _table08_11(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
+    """Tables 8-11: iteration and time statistics over the successful problems."""
     rows = []
     for m, g in _by_method(main):
         ok = g[g["success"]]
@@ -96,9 +94,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             row["iteration time, printed 'μs' (published)"] = np.nan if pr is None else pr["iteration_time_us_as_printed"]
             row["problem time [ms] (published)"] = np.nan if pr is None else pr["problem_time_ms"]
             rows.append(row)
-    out.append(TableSpec("table08_11_performance", "Tables 8–11 — performance over successful problems",
-                         pd.DataFrame(rows), UNIT_NOTE))
+    return TableSpec("table08_11_performance", "Tables 8–11 — performance over successful problems",
+                     pd.DataFrame(rows), UNIT_NOTE)
 
+
+def _table12(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
+    """Table 12: coefficient of variation of the problem time."""
     rows = []
     for m, g in _by_method(main):
         d = describe(cpu_time(g[g["success"]]))
@@ -108,11 +109,14 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                      "CV [%] (published)": _pub(P["table12"], m, "cv_pct"),
                      "problem-time std / mean of Tables 8–11 [%] (published)":
                          100 * ps["std"] / ps["mean"] if "std" in ps and "mean" in ps else np.nan})
-    out.append(TableSpec("table12_cv", "Table 12 — coefficient of variation of problem time", pd.DataFrame(rows),
-                         "CV = sample std / mean of the problem time over successful problems: the document's "
-                         "measure, since its published CVs equal the problem-time std / mean of its Tables 8–11 "
-                         "(last column). Ours on thread CPU time."))
+    return TableSpec("table12_cv", "Table 12 — coefficient of variation of problem time", pd.DataFrame(rows),
+                     "CV = sample std / mean of the problem time over successful problems: the document's "
+                     "measure, since its published CVs equal the problem-time std / mean of its Tables 8–11 "
+                     "(last column). Ours on thread CPU time.")
 
+
+def _table13(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
+    """Table 13: fastest method per problem (and fewest iterations, platform-free)."""
     main["problem_cpu_s"] = cpu_time(main)
     wide = main.pivot_table(index="problem_id", columns="method", values="problem_cpu_s")
     okw = main.pivot_table(index="problem_id", columns="method", values="success", aggfunc="max")
@@ -132,25 +136,31 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                      "fastest [%] (published)": _pub(P["table13"], m, "fastest_pct"),
                      "fewest iterations, ties to each [%] (ours, platform-free)": 100 * float(fewest[m].mean())
                      if n_all else np.nan})
-    out.append(TableSpec("table13_fastest", "Table 13 — fastest method per problem", pd.DataFrame(rows),
-                         f"Among the {n_all} problems all four methods solved (published: 7 322), fastest by thread CPU "
-                         "time. Per-solve times are single measurements, so near-ties between J† and DLS are decided "
-                         "by timer noise, as they were in the document. SDLS is rarely fastest here: its IK block (an SVD) costs several times "
-                         "the 6 × 6 solve of J† and DLS (Tables 8–11), and in compiled code little else happens per "
-                         "iteration, whereas the document's MATLAB iterations cost ~4 units each whatever the block "
-                         "(its IK blocks differ by 0.5 units), so there SDLS's fewer iterations won a third of the problems. "
-                         "The last column is platform-free: the share of those problems on which the method needed "
-                         "the fewest iterations (one FK and one Jacobian each; ties count for every tied method)."))
+    return TableSpec("table13_fastest", "Table 13 — fastest method per problem", pd.DataFrame(rows),
+                     f"Among the {n_all} problems all four methods solved (published: 7 322), fastest by thread CPU "
+                     "time. Per-solve times are single measurements, so near-ties between J† and DLS are decided "
+                     "by timer noise, as they were in the document. SDLS is rarely fastest here: its IK block (an SVD) costs several times "
+                     "the 6 × 6 solve of J† and DLS (Tables 8–11), and in compiled code little else happens per "
+                     "iteration, whereas the document's MATLAB iterations cost ~4 units each whatever the block "
+                     "(its IK blocks differ by 0.5 units), so there SDLS's fewer iterations won a third of the problems. "
+                     "The last column is platform-free: the share of those problems on which the method needed "
+                     "the fewest iterations (one FK and one Jacobian each; ties count for every tied method).")
 
+
+def _table14(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
+    """Table 14: correlation of the problem time with the initial error norm."""
     rows = []
     for m, g in _by_method(main):
         ok = g[g["success"]]
         r = float(np.corrcoef(cpu_time(ok), ok["initial_error"])[0, 1]) if len(ok) > 2 else np.nan
         rows.append({"method": LABEL[m], "Pearson r (ours)": r, "r (published)": _pub(P["table14"], m, "correlation")})
-    out.append(TableSpec("table14_correlation", "Table 14 — correlation of problem time with the initial error norm",
-                         pd.DataFrame(rows), "Pearson correlation over successful problems of the problem CPU time and the "
-                         "initial ‖erro‖ (the document used SPSS; type not stated)."))
+    return TableSpec("table14_correlation", "Table 14 — correlation of problem time with the initial error norm",
+                     pd.DataFrame(rows), "Pearson correlation over successful problems of the problem CPU time and the "
+                     "initial ‖erro‖ (the document used SPSS; type not stated).")
 
+
+def _table15(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
+    """Table 15: failure causes."""
     rows = []
     for m, g in _by_method(main):
         codes = g["stop_reason"].value_counts()
@@ -160,10 +170,13 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             row[f"cause {c} (published)"] = _pub(P["table15"], m, f"cause_{c}")
         row["non-finite or FK contradicts (ours)"] = int(codes.get(5, 0) + codes.get(6, 0))
         rows.append(row)
-    out.append(TableSpec("table15_failures", "Table 15 — failure causes", pd.DataFrame(rows),
-                         "2 = pose change below the stall threshold; 3 = error grew 5 iterations in a row; "
-                         "4 = iteration cap (500)."))
+    return TableSpec("table15_failures", "Table 15 — failure causes", pd.DataFrame(rows),
+                     "2 = pose change below the stall threshold; 3 = error grew 5 iterations in a row; "
+                     "4 = iteration cap (500).")
 
+
+def _table16(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
+    """Table 16: failed problems rerun with stop codes 2 and 3 off."""
     rows = []
     for m, g in _by_method(main):
         failed = g[~g["success"]].set_index("problem_id")
@@ -178,12 +191,15 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                      "mean additional iterations (ours)": float(extra[solved].mean()) if solved.any() else np.nan,
                      "median additional iterations (ours)": float(extra[solved].median()) if solved.any() else np.nan,
                      "mean additional iterations (published)": _pub(P["table16"], m, "additional_iterations")})
-    out.append(TableSpec("table16_rerun", "Table 16 — failed problems rerun with codes 2 and 3 off (cap 4 000)",
-                         pd.DataFrame(rows),
-                         "Additional iterations = rerun iterations − iteration at which the original run stopped, "
-                         "over the rerun problems that succeeded. The document reports that every failure was solved "
-                         "(its unsolved count is 0)."))
+    return TableSpec("table16_rerun", "Table 16 — failed problems rerun with codes 2 and 3 off (cap 4 000)",
+                     pd.DataFrame(rows),
+                     "Additional iterations = rerun iterations − iteration at which the original run stopped, "
+                     "over the rerun problems that succeeded. The document reports that every failure was solved "
+                     "(its unsolved count is 0).")
 
+
+def _sensitivity(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
+    """Success per method under each reading of the document's open questions."""
     rows = []
     pub7 = P["table07"]
     for (rd, m), g in allf.groupby(["reading", "method"], sort=False):
@@ -202,27 +218,32 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         sens["|Δ mean iterations| [%] (held out)"] = (100 * (sens["mean iterations (ours)"]
                                                       - sens["mean iterations (published)"]).abs()
                                                       / sens["mean iterations (published)"])
-    out.append(TableSpec("sensitivity_readings", "Sensitivity — success per method under each reading of the open questions",
-                         sens, "Readings: length unit in code (m or cm) × success test (8-coefficient DQ norm ≤ 1 + 1e-6, "
-                         "or |Δp| ≤ 1 mm and angle ≤ 1e-3 rad) × orientation half of the 6-vector "
-                         "(quaternion vector part, or rotation vector); for SDLS also the clamp norm (the 1-norm §3 "
-                         "states, default; or the max-abs norm of Buss's reference code: reading maxabs). The "
-                         "default follows the document where it is explicit (SDLS 1-norm) and otherwise is the "
-                         "reading whose success rates and failure causes come closest to Tables 7 and 15 (a choice "
-                         "made because it agrees with published numbers); the mean iterations of Tables 8–11 were "
-                         "not used to choose, and the last column shows how each reading agrees with them."))
-    return out
+    return TableSpec("sensitivity_readings", "Sensitivity — success per method under each reading of the open questions",
+                     sens, "Readings: length unit in code (m or cm) × success test (8-coefficient DQ norm ≤ 1 + 1e-6, "
+                     "or |Δp| ≤ 1 mm and angle ≤ 1e-3 rad) × orientation half of the 6-vector "
+                     "(quaternion vector part, or rotation vector); for SDLS also the clamp norm (the 1-norm §3 "
+                     "states, default; or the max-abs norm of Buss's reference code: reading maxabs). The "
+                     "default follows the document where it is explicit (SDLS 1-norm) and otherwise is the "
+                     "reading whose success rates and failure causes come closest to Tables 7 and 15 (a choice "
+                     "made because it agrees with published numbers); the mean iterations of Tables 8–11 were "
+                     "not used to choose, and the last column shows how each reading agrees with them.")
 
 
-def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+    """The document's Tables 7-16 beside ours, and the sensitivity to its open questions, in that order."""
+    main, allf, rer = _split(study, archives)
+    P = {n: published(published_dir, STUDY, n) for n in
+         ("table07", "table08_11", "table12", "table13", "table14", "table15", "table16")}
+    reading = study.readings[study.default_solvers()[0]]
+    return [table(main, allf, rer, P, reading) for table in (_table07, _table08_11, _table12, _table13, _table14,
+                                                            _table15, _table16, _sensitivity)]
+
+
+def _fig19(study, archives, ok: pd.DataFrame, out_dir: Path) -> list[FigureSpec]:
+    """Figure 19: the error components of one stored trace near the method's median iteration count."""
     from pipeline.report.plotting import plt, save
 
-    main, allf, _ = _split(study, archives)
     figs = []
-    methods = [m for m in METHODS if m in set(main["method"])]
-    labels = [LABEL[m] for m in methods]
-    ok = main[main["success"]]
-
     want = study.settings.get("fig19_solver", "sdls")
     g = ok[ok["solver"] == want]
     med = g["iterations"].median()
@@ -246,7 +267,14 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
                                "The six components of the error vector for the successful problem whose iteration "
                                "count is closest to the method's median, among the problems whose traces the archive "
                                "stores (an evenly spaced sample of the set; trace_policy)."))
+    return figs
 
+
+def _bar_figures(study, ok: pd.DataFrame, methods: list, labels: list, out_dir: Path) -> list[FigureSpec]:
+    """Figures 20-22: mean iterations, IK-block time per iteration and problem time per method."""
+    from pipeline.report.plotting import plt, save
+
+    figs = []
     bars = [("fig20_mean_iterations", "Figure 20 — mean iterations per method", ok.groupby("method")["iterations"].mean(), "iterations", 1.0),
             ("fig21_mean_ik_time", "Figure 21 — mean IK-block time per iteration", (ik_block_time(ok) / ok["iterations"].clip(lower=1)).groupby(ok["method"]).mean(), "IK-block CPU time [µs]", 1e6),
             ("fig22_mean_problem_time", "Figure 22 — mean problem time", cpu_time(ok).groupby(ok["method"]).mean(), "problem CPU time [ms]", 1e3)]
@@ -265,6 +293,21 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
             ax.legend(fontsize=8)
             cap += " Black bars: the document's means."
         figs.append(FigureSpec(save(fig, out_dir, stem), title, cap))
+    return figs
+
+
+def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+    """The document's Figures 19-25 from our runs, and the success-vs-iterations curve."""
+    from pipeline.report.plotting import plt, save
+
+    main, allf, _ = _split(study, archives)
+    figs = []
+    methods = [m for m in METHODS if m in set(main["method"])]
+    labels = [LABEL[m] for m in methods]
+    ok = main[main["success"]]
+
+    figs += _fig19(study, archives, ok, out_dir)
+    figs += _bar_figures(study, ok, methods, labels, out_dir)
 
     data = [1e3 * cpu_time(ok[ok["method"] == m]).to_numpy() for m in methods]
     for stem, title, zoom in (("fig23_problem_time_box", "Figure 23 — distribution of problem time", None),

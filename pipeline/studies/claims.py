@@ -103,100 +103,160 @@ def _name(k) -> str:
     return str(int(k)) if isinstance(k, float) and k.is_integer() else str(k)
 
 
+def _check_max_min(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                   on_published: bool) -> tuple[str, str]:
+    """Check ``max`` / ``min``."""
+    vals = _all_rows(frame, key, col)
+    if vals is None or str(arg) not in vals:
+        return MISSING, ""
+    pick = (max if kind == "max" else min)(vals, key=vals.get)
+    order = sorted(vals, key=vals.get, reverse=kind == "max")
+    return (HOLDS if pick == str(arg) else DIFFERS), ", ".join(f"{r} {vals[r]:.4g}" for r in order)
+
+
+def _check_order(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                 on_published: bool) -> tuple[str, str]:
+    """Check ``order``."""
+    vals = _values(frame, key, col, [str(a) for a in arg])
+    if vals is None:
+        return MISSING, ""
+    v = [vals[str(a)] for a in arg]
+    return (HOLDS if all(x < y for x, y in zip(v, v[1:])) else DIFFERS), " < ".join(f"{a} {vals[str(a)]:.4g}" for a in arg)
+
+
+def _check_less(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                on_published: bool) -> tuple[str, str]:
+    """Check ``less``."""
+    a, b = (str(x) for x in arg)
+    vals = _values(frame, key, col, [a, b])
+    if vals is None:
+        return MISSING, ""
+    return (HOLDS if vals[a] < vals[b] else DIFFERS), f"{a} {vals[a]:.4g}, {b} {vals[b]:.4g}"
+
+
+def _check_ratio_at_least(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                          on_published: bool) -> tuple[str, str]:
+    """Check ``ratio_at_least``."""
+    a, b, x = str(arg[0]), str(arg[1]), float(arg[2])
+    vals = _values(frame, key, col, [a, b])
+    if vals is None or vals[b] == 0:
+        return MISSING, ""
+    r = vals[a] / vals[b]
+    return (HOLDS if r >= x else DIFFERS), f"{a} / {b} = {r:.4g} (claim: ≥ {x:g})"
+
+
+def _check_within(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                  on_published: bool) -> tuple[str, str]:
+    """Check ``within``."""
+    row, rel = str(arg["row"]), float(arg["rel"])
+    ours = _values(frame, key, col, [row])
+    pub = _values(frame, key, published_col, [row]) if published_col else None
+    if ours is None or pub is None:
+        return MISSING, ""
+    o, p = ours[row], pub[row]
+    dev = abs(o - p) / abs(p) if p else math.inf
+    return (HOLDS if dev <= rel else DIFFERS), f"{row}: {o:.4g} against {p:.4g} ({100 * dev:.3g} % off; claim: ≤ {100 * rel:g} %)"
+
+
+def _check_abs_at_most(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                       on_published: bool) -> tuple[str, str]:
+    """Check ``abs_at_most``."""
+    vals = _all_rows(frame, key, col)
+    if vals is None:
+        return MISSING, ""
+    worst = max(vals, key=lambda r: abs(vals[r]))
+    return ((HOLDS if abs(vals[worst]) <= float(arg) else DIFFERS),
+            f"largest |value|: {worst} {vals[worst]:.4g} (claim: ≤ {float(arg):g})")
+
+
+def _check_column_less(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                       on_published: bool) -> tuple[str, str]:
+    """Check ``column_less``."""
+    row = str(arg["row"])
+    other = arg["than_published"] if on_published else arg["than"]
+    a = _values(frame, key, col, [row])
+    b = _values(frame, key, other, [row])
+    if a is None or b is None:
+        return MISSING, ""
+    return (HOLDS if a[row] < b[row] else DIFFERS), f"{row}: {a[row]:.4g} against {b[row]:.4g} ({other})"
+
+
+def _check_at_most_at_least(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                            on_published: bool) -> tuple[str, str]:
+    """Check ``at_most`` / ``at_least``."""
+    row, x = str(arg["row"]), float(arg["value"])
+    vals = _values(frame, key, col, [row])
+    if vals is None:
+        return MISSING, ""
+    ok = vals[row] <= x if kind == "at_most" else vals[row] >= x
+    return (HOLDS if ok else DIFFERS), f"{row} {vals[row]:.4g} (claim: {'≤' if kind == 'at_most' else '≥'} {x:g})"
+
+
+def _check_all_at_least(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                        on_published: bool) -> tuple[str, str]:
+    """Check ``all_at_least``."""
+    vals = _all_rows(frame, key, col)
+    if vals is None:
+        return MISSING, ""
+    worst = min(vals, key=vals.get)
+    return (HOLDS if vals[worst] >= float(arg) else DIFFERS), f"smallest: {worst} {vals[worst]:.4g} (claim: ≥ {float(arg):g})"
+
+
+def _check_same_as(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                   on_published: bool) -> tuple[str, str]:
+    """Check ``same_as``."""
+    rows = [str(r) for r in arg["rows"]]
+    other = arg["than_published"] if on_published else arg["than"]
+    a, b = _values(frame, key, col, rows), _values(frame, key, other, rows)
+    if a is None or b is None:
+        return MISSING, ""
+    tol = float(arg.get("tol", 0.0))
+    same = all(abs(a[r] - b[r]) <= tol + 1e-9 * max(abs(a[r]), abs(b[r])) for r in rows)
+    return (HOLDS if same else DIFFERS), ", ".join(f"{r}: {a[r]:.4g} and {b[r]:.4g}" for r in rows)
+
+
+def _check_column_largest(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                          on_published: bool) -> tuple[str, str]:
+    """Check ``column_largest``."""
+    others = arg["of_published"] if on_published else arg["of"]
+    mine, theirs = _all_rows(frame, key, col), [_all_rows(frame, key, o) for o in others]
+    if mine is None or any(t is None for t in theirs):
+        return MISSING, ""
+    bad = [r for r in mine if any(r not in t or not mine[r] > t[r] for t in theirs)]
+    return ((HOLDS if not bad else DIFFERS),
+            "; ".join(f"{r}: {mine[r]:.4g} against " + ", ".join(f"{t.get(r, math.nan):.4g}" for t in theirs)
+                      for r in mine))
+
+
+def _check_nonzero_exactly(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                           on_published: bool) -> tuple[str, str]:
+    """Check ``nonzero_exactly``."""
+    vals = _all_rows(frame, key, col)
+    if vals is None:
+        return MISSING, ""
+    got = [r for r in vals if vals[r] != 0]
+    return ((HOLDS if sorted(got) == sorted(str(a) for a in arg) else DIFFERS),
+            f"not zero at: {', '.join(got) or 'none'} (claim: {', '.join(str(a) for a in arg)})")
+
+
+_CHECKERS = {
+    "max": _check_max_min, "min": _check_max_min, "order": _check_order, "less": _check_less,
+    "ratio_at_least": _check_ratio_at_least, "within": _check_within, "abs_at_most": _check_abs_at_most,
+    "column_less": _check_column_less, "at_most": _check_at_most_at_least, "at_least": _check_at_most_at_least,
+    "all_at_least": _check_all_at_least, "same_as": _check_same_as, "column_largest": _check_column_largest,
+    "nonzero_exactly": _check_nonzero_exactly
+}  # check kind -> its function (CHECKS lists the kinds)
+
+
 def evaluate(check: dict, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None = None,
              *, on_published: bool = False) -> tuple[str, str]:
     """(verdict, the values the verdict rests on) of one check on column ``col`` of ``frame``
     (``on_published``: ``col`` is the published column, so ``column_less`` compares with ``than_published``)."""
     (kind, arg), = check.items()
-    if kind in ("max", "min"):
-        vals = _all_rows(frame, key, col)
-        if vals is None or str(arg) not in vals:
-            return MISSING, ""
-        pick = (max if kind == "max" else min)(vals, key=vals.get)
-        order = sorted(vals, key=vals.get, reverse=kind == "max")
-        return (HOLDS if pick == str(arg) else DIFFERS), ", ".join(f"{r} {vals[r]:.4g}" for r in order)
-    if kind == "order":
-        vals = _values(frame, key, col, [str(a) for a in arg])
-        if vals is None:
-            return MISSING, ""
-        v = [vals[str(a)] for a in arg]
-        return (HOLDS if all(x < y for x, y in zip(v, v[1:])) else DIFFERS), " < ".join(f"{a} {vals[str(a)]:.4g}" for a in arg)
-    if kind == "less":
-        a, b = (str(x) for x in arg)
-        vals = _values(frame, key, col, [a, b])
-        if vals is None:
-            return MISSING, ""
-        return (HOLDS if vals[a] < vals[b] else DIFFERS), f"{a} {vals[a]:.4g}, {b} {vals[b]:.4g}"
-    if kind == "ratio_at_least":
-        a, b, x = str(arg[0]), str(arg[1]), float(arg[2])
-        vals = _values(frame, key, col, [a, b])
-        if vals is None or vals[b] == 0:
-            return MISSING, ""
-        r = vals[a] / vals[b]
-        return (HOLDS if r >= x else DIFFERS), f"{a} / {b} = {r:.4g} (claim: ≥ {x:g})"
-    if kind == "within":
-        row, rel = str(arg["row"]), float(arg["rel"])
-        ours = _values(frame, key, col, [row])
-        pub = _values(frame, key, published_col, [row]) if published_col else None
-        if ours is None or pub is None:
-            return MISSING, ""
-        o, p = ours[row], pub[row]
-        dev = abs(o - p) / abs(p) if p else math.inf
-        return (HOLDS if dev <= rel else DIFFERS), f"{row}: {o:.4g} against {p:.4g} ({100 * dev:.3g} % off; claim: ≤ {100 * rel:g} %)"
-    if kind == "abs_at_most":
-        vals = _all_rows(frame, key, col)
-        if vals is None:
-            return MISSING, ""
-        worst = max(vals, key=lambda r: abs(vals[r]))
-        return ((HOLDS if abs(vals[worst]) <= float(arg) else DIFFERS),
-                f"largest |value|: {worst} {vals[worst]:.4g} (claim: ≤ {float(arg):g})")
-    if kind == "column_less":
-        row = str(arg["row"])
-        other = arg["than_published"] if on_published else arg["than"]
-        a = _values(frame, key, col, [row])
-        b = _values(frame, key, other, [row])
-        if a is None or b is None:
-            return MISSING, ""
-        return (HOLDS if a[row] < b[row] else DIFFERS), f"{row}: {a[row]:.4g} against {b[row]:.4g} ({other})"
-    if kind in ("at_most", "at_least"):
-        row, x = str(arg["row"]), float(arg["value"])
-        vals = _values(frame, key, col, [row])
-        if vals is None:
-            return MISSING, ""
-        ok = vals[row] <= x if kind == "at_most" else vals[row] >= x
-        return (HOLDS if ok else DIFFERS), f"{row} {vals[row]:.4g} (claim: {'≤' if kind == 'at_most' else '≥'} {x:g})"
-    if kind == "all_at_least":
-        vals = _all_rows(frame, key, col)
-        if vals is None:
-            return MISSING, ""
-        worst = min(vals, key=vals.get)
-        return (HOLDS if vals[worst] >= float(arg) else DIFFERS), f"smallest: {worst} {vals[worst]:.4g} (claim: ≥ {float(arg):g})"
-    if kind == "same_as":
-        rows = [str(r) for r in arg["rows"]]
-        other = arg["than_published"] if on_published else arg["than"]
-        a, b = _values(frame, key, col, rows), _values(frame, key, other, rows)
-        if a is None or b is None:
-            return MISSING, ""
-        tol = float(arg.get("tol", 0.0))
-        same = all(abs(a[r] - b[r]) <= tol + 1e-9 * max(abs(a[r]), abs(b[r])) for r in rows)
-        return (HOLDS if same else DIFFERS), ", ".join(f"{r}: {a[r]:.4g} and {b[r]:.4g}" for r in rows)
-    if kind == "column_largest":
-        others = arg["of_published"] if on_published else arg["of"]
-        mine, theirs = _all_rows(frame, key, col), [_all_rows(frame, key, o) for o in others]
-        if mine is None or any(t is None for t in theirs):
-            return MISSING, ""
-        bad = [r for r in mine if any(r not in t or not mine[r] > t[r] for t in theirs)]
-        return ((HOLDS if not bad else DIFFERS),
-                "; ".join(f"{r}: {mine[r]:.4g} against " + ", ".join(f"{t.get(r, math.nan):.4g}" for t in theirs)
-                          for r in mine))
-    if kind == "nonzero_exactly":
-        vals = _all_rows(frame, key, col)
-        if vals is None:
-            return MISSING, ""
-        got = [r for r in vals if vals[r] != 0]
-        return ((HOLDS if sorted(got) == sorted(str(a) for a in arg) else DIFFERS),
-                f"not zero at: {', '.join(got) or 'none'} (claim: {', '.join(str(a) for a in arg)})")
-    raise ClaimError(f"unknown claim check {kind!r} (known: {', '.join(CHECKS)})")
+    check_kind = _CHECKERS.get(kind)
+    if check_kind is None:
+        raise ClaimError(f"unknown claim check {kind!r} (known: {', '.join(CHECKS)})")
+    return check_kind(kind, arg, frame, key, col, published_col, on_published)
 
 
 def select(frame: pd.DataFrame | None, rows: dict | None) -> pd.DataFrame | None:

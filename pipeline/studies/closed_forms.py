@@ -21,7 +21,8 @@ import numpy as np
 import pandas as pd
 
 from pipeline.studies.specs import FigureSpec, TableSpec
-from pipeline.studies.arm_benchmark import _p, _refusals
+from pipeline.studies.arm_answer import percentile
+from pipeline.studies.arm_benchmark import refusal_table
 from pipeline.studies.generic import runs_frame
 
 OURS = "analytic"
@@ -57,11 +58,11 @@ def method_table(df: pd.DataFrame) -> pd.DataFrame:
             "robot": robot, "solver": label, "library": g["library"].iloc[0],
             "goals": len(g), "success [%]": 100 * g["success"].astype(bool).mean(),
             "solutions per goal": _mean_nsol(g["info"]),
-            "solve time p50 [µs]": 1e6 * _p(g["solve_time_s"], 50),
-            "solve time p95 [µs]": 1e6 * _p(g["solve_time_s"], 95),
-            "call time p50 [µs]": 1e6 * _p(g["call_time_s"], 50),
-            "position error p99, successes [mm]": _p(ok["position_error_mm"], 99),
-            "orientation error p99, successes [rad]": _p(ok["orientation_error"], 99),
+            "solve time p50 [µs]": 1e6 * percentile(g["solve_time_s"], 50),
+            "solve time p95 [µs]": 1e6 * percentile(g["solve_time_s"], 95),
+            "call time p50 [µs]": 1e6 * percentile(g["call_time_s"], 50),
+            "position error p99, successes [mm]": percentile(ok["position_error_mm"], 99),
+            "orientation error p99, successes [rad]": percentile(ok["orientation_error"], 99),
         })
     return pd.DataFrame(rows)
 
@@ -74,7 +75,7 @@ def coverage(df: pd.DataFrame) -> pd.DataFrame:
         row = {"robot": robot, "family (ours)": _family(ours), "goals": len(ours),
                "ours success [%]": 100 * ours["success"].astype(bool).mean() if len(ours) else float("nan"),
                "ours solutions per goal": _mean_nsol(ours["info"]),
-               "ours call time p50 [µs]": 1e6 * _p(ours["call_time_s"], 50)}
+               "ours call time p50 [µs]": 1e6 * percentile(ours["call_time_s"], 50)}
         for peer in ("eaik", "ik_geo", "trac_ik"):
             pg = g[g["solver"] == peer]
             common = set(pg["problem_id"]) & set(ours["problem_id"])
@@ -85,7 +86,7 @@ def coverage(df: pd.DataFrame) -> pd.DataFrame:
             p = pg[pg["problem_id"].isin(common)]
             row[f"{peer} success [%]"] = 100 * p["success"].astype(bool).mean()
             row[f"{peer} solutions per goal"] = _mean_nsol(p["info"]) if peer != "trac_ik" else float("nan")
-            row[f"{peer} call time p50 [µs]"] = 1e6 * _p(p["call_time_s"], 50)
+            row[f"{peer} call time p50 [µs]"] = 1e6 * percentile(p["call_time_s"], 50)
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -98,7 +99,7 @@ def seven_dof(df: pd.DataFrame) -> pd.DataFrame:
             continue
         common = set(ours["problem_id"]) & set(tr["problem_id"])
         o, t = ours[ours["problem_id"].isin(common)], tr[tr["problem_id"].isin(common)]
-        co, ct = 1e6 * _p(o["call_time_s"], 50), 1e6 * _p(t["call_time_s"], 50)
+        co, ct = 1e6 * percentile(o["call_time_s"], 50), 1e6 * percentile(t["call_time_s"], 50)
         rows.append({"robot": robot, "family (ours)": _family(o), "goals": len(common),
                      "ours success [%]": 100 * o["success"].astype(bool).mean(),
                      "trac_ik success [%]": 100 * t["success"].astype(bool).mean(),
@@ -109,7 +110,7 @@ def seven_dof(df: pd.DataFrame) -> pd.DataFrame:
 
 def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     df = runs_frame(archives)
-    refused = _refusals(study)
+    refused = refusal_table(study)
     if df.empty:
         return [TableSpec("coverage", "Coverage", pd.DataFrame(), "No solve records in the archives.")]
     return [

@@ -447,14 +447,16 @@ def _reference(study, curve: str) -> np.ndarray:
     return curve_points(curve, t, bool(s["circle_swap_yz"]))
 
 
-def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+MARKERS = {"ji": "o", "lm": "x", "pso": "^"}  # the document's three methods in the path figures
+
+
+def _path_figures(study, pa: pd.DataFrame, out_dir: Path) -> list[FigureSpec]:
+    """Figures 5-7: per curve, the reference and the points each of the document's methods reached."""
     from pipeline.report.plotting import plt, save
 
-    df = frame(study, archives)
-    pa = df[df["problem_set"] == "paths"].copy()
     figs = []
     fig_no = {"lemniscate": 5, "rhodonea": 6, "circle": 7}
-    markers = {"ji": "o", "lm": "x", "pso": "^"}
+    markers = MARKERS
     for curve in pa["label"].drop_duplicates():
         g = pa[pa["label"] == curve]
         fig = plt.figure(figsize=(6.4, 5.2))
@@ -480,6 +482,14 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
                                "Black: the curve (eqs. 12-14, circle with y/z swapped). Markers: FK of each method's "
                                "solution at every path point. ε and σ: mean and standard deviation of the position error "
                                "over the points (ours, kinematic)."))
+    return figs
+
+
+def _joint_figures(pa: pd.DataFrame, out_dir: Path) -> list[FigureSpec]:
+    """Figures 8-: per method, the joint angles along the rhodonea."""
+    from pipeline.report.plotting import plt, save
+
+    figs = []
     rh = pa[pa["label"] == "rhodonea"]
     for k, m in enumerate(METHOD_ORDER):
         gm = rh[rh["method"] == m].sort_values("index")
@@ -500,6 +510,15 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
                                "Solution angles (DH convention) at each of the path points. The document plots the "
                                "simulated robot's joints against the commanded ones; ours has no dynamics, so the "
                                "solver output is the joint trajectory."))
+    return figs
+
+
+def _path_error_figure(study, pa: pd.DataFrame, out_dir: Path) -> list[FigureSpec]:
+    """The position error along each path per method (not in the document); [] without paths."""
+    from pipeline.report.plotting import plt, save
+
+    figs = []
+    markers = MARKERS
     curves = list(pa["label"].drop_duplicates())
     if curves:
         fig, axes = plt.subplots(len(curves), 1, figsize=(6.4, 2.4 * len(curves)), sharex=True, squeeze=False)
@@ -516,6 +535,14 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
         axes[-1, 0].set_xlabel("curve parameter t [rad]")
         figs.append(FigureSpec(save(fig, out_dir, "path_error"), "Position error along each path per method (not in the document)",
                                "Error |p_goal − FK(q)| at every path point, log scale (floored at 1e-12 mm)."))
+    return figs
+
+
+def _alpha_sweep_figure(study, df: pd.DataFrame, out_dir: Path) -> list[FigureSpec]:
+    """Table 2 as a distribution of JI iterations (not in the document); [] without the sweep."""
+    from pipeline.report.plotting import plt, save
+
+    figs = []
     sw = df[df["problem_set"] == "alpha_sweep"]
     if len(sw) and "ji" in study.solvers:  # the printed δ only (the δ = 0.005 reading is in Table 2)
         sw = sw[np.isclose(sw["delta"], float(study.solvers["ji"].settings.delta))]
@@ -538,3 +565,11 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
                                "JI iterations over the seeded start/goal pairs per distance class; within each class the "
                                "boxes are α = 0.004, 0.005, 0.006 from left to right."))
     return figs
+
+
+def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+    """The document's path and joint figures (5-8+) and two figures of ours (path error, α sweep)."""
+    df = frame(study, archives)
+    pa = df[df["problem_set"] == "paths"].copy()
+    return (_path_figures(study, pa, out_dir) + _joint_figures(pa, out_dir) + _path_error_figure(study, pa, out_dir)
+            + _alpha_sweep_figure(study, df, out_dir))

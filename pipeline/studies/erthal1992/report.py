@@ -128,11 +128,9 @@ def _published_res(published_dir) -> pd.DataFrame | None:
     return pd.DataFrame(rows, columns=["row", "segment", "index", "q1", "q2", "q3", "q4"])
 
 
-def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
-    A = _views(study, archives)
+def _catalogue_tables(A: dict, published_dir: Path) -> list[TableSpec]:
+    """The catalogue: Stanford frames from joint points, DH/PZ round trips, the artropoidal jog, workspaces."""
     out: list[TableSpec] = []
-
-    # --- catalogue: Stanford conversion, round trips, artropoidal jog ------------------------
     if "catalogue" in A:
         recs = list(A["catalogue"].messages(CATALOGUE_TOPIC))
         pub = published(published_dir, STUDY, "fig06_06_07_stanford")
@@ -203,8 +201,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                                  "Joint values uniform within the robot file's limits ([−180°, 180°] where none; Stanford slide "
                                  "[0, 800] mm, assumed). Hull by trimesh (3-D) or scipy (planar area). Planar 3R: primary = "
                                  "reachable with every orientation, secondary = with some (polar grid). The document gives no numbers."))
+    return out
 
-    # --- SCARA path -----------------------------------------------------------------------
+
+def _scara_tables(A: dict, published_dir: Path) -> list[TableSpec]:
+    """The SCARA paths: SCARA1.RES (joint interpolation) and the Cartesian reading."""
+    out: list[TableSpec] = []
     pres = _published_res(published_dir)
     if "path_scara1" in A:
         ours = _res_rows(A["path_scara1"])
@@ -231,8 +233,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         out.append(TableSpec("scara_cartesian_res", "SCARA path with Cartesian interpolation (as the text describes SCARA.AMB)",
                              df, f"{int(arch['success'].sum())}/{len(arch)} IK solves FK-verified. Published values only for "
                                  "segment endpoints (the published RES is joint-interpolated)."))
+    return out
 
-    # --- Test 1 ---------------------------------------------------------------------------
+
+def _test1_tables(A: dict, published_dir: Path) -> list[TableSpec]:
+    """Table 6.6: Test 1 (ELBOW), iterations to convergence."""
+    out: list[TableSpec] = []
     if "test1" in A:
         df = _test_frame(A["test1"])
         pub = published(published_dir, STUDY, "table06_06")
@@ -259,8 +265,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                              "only. Point 6 is 180 mm beyond reach: ZP settles with |dp| = 180; NR stops (no step lowers "
                              "the error) or hits its cap. Caps: ZP 100 sweeps, NR 60. ZP precision δR+δP < 1e-3, NR |e| < 1e-3. "
                              "Converged: 1 = the method's stop test passed and the FK check confirmed it, 0 = N.C."))
+    return out
 
-    # --- Test 2 ---------------------------------------------------------------------------
+
+def _test2_tables(A: dict, published_dir: Path) -> list[TableSpec]:
+    """Table 6.9: Test 2 (PUMA), iterations against the required precision."""
+    out: list[TableSpec] = []
     if "test2" in A:
         df = _test_frame(A["test2"])
         pub = published(published_dir, STUDY, "table06_09")
@@ -286,8 +296,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                              "base frame at the mounting surface 672 mm below the shoulder (A4.2; data/erthal1992/robot_bases.yaml). "
                              "With the base at the shoulder the solution sits at θ5 = −3.6° (wrist singularity) and ZP needs "
                              "hundreds of sweeps at 1e-6 and 1e-7; our per-decade slope (≈ 4 sweeps) is below the document's (≈ 6)."))
+    return out
 
-    # --- Test 3 ---------------------------------------------------------------------------
+
+def _test3_tables(A: dict, published_dir: Path) -> list[TableSpec]:
+    """Test 3 (PUMA): the 10 weight strategies."""
+    out: list[TableSpec] = []
     if "test3" in A:
         df = _test_frame(A["test3"])
         pub = published(published_dir, STUDY, "test3_strategies")
@@ -306,8 +320,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                              pd.DataFrame(rows), "ε = 0.1 (not stated for Test 3), cap 100 sweeps, PUMA base 672 mm below the "
                                                  "shoulder (as Table 6.9). The document gives no table, only the text of §6.3c "
                                                  "(Figs 6.22–6.23 are missing)."))
+    return out
 
-    # --- Test 6 ---------------------------------------------------------------------------
+
+def _test6_tables(A: dict, published_dir: Path) -> list[TableSpec]:
+    """Tables 6.16 and 6.17: Test 6, planar 2- and 3-DOF, geometric against ZP."""
+    out: list[TableSpec] = []
     for key, tab, n in (("test6_2dof", "table06_16", 2), ("test6_3dof", "table06_17", 3)):
         if key not in A:
             continue
@@ -340,8 +358,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             note += "Points 1, 4, 5 are beyond the 600 mm reach of the (300, 200, 100) arm: the error is |p| − 600."
         out.append(TableSpec(f"{tab}_{key}", f"Table {tab[5:7]}.{tab[8:].lstrip('0')} — Test 6, planar {n}-DOF: geometric vs ZP",
                              pd.DataFrame(rows), note))
+    return out
 
-    # --- analytic PUMA --------------------------------------------------------------------
+
+def _puma_analytic_tables(A: dict, published_dir: Path) -> list[TableSpec]:
+    """The analytic PUMA: 8 solutions per random reachable pose."""
+    out: list[TableSpec] = []
     if "puma_analytic" in A:
         info = pd.DataFrame(list(A["puma_analytic"].frame()["info"]))
         out.append(TableSpec("puma_analytic", "Analytic PUMA (Fu et al.) — 8 solutions per random reachable pose",
@@ -354,8 +376,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                                             "distinct (ARM, ELBOW, WRIST) per pose": int(info["distinct_branches"].min())}]),
                              "Poses = FK of joint angles uniform in [−π, π) (seeded). Every solution is checked by numpy FK "
                              "(|dp| ≤ 1e-6 mm, angle ≤ 1e-8 rad). The document prints no table for it."))
+    return out
 
-    # --- Test 5 ---------------------------------------------------------------------------
+
+def _test5_tables(A: dict, published_dir: Path) -> list[TableSpec]:
+    """Test 5: four robots on the same two-segment task."""
+    out: list[TableSpec] = []
     rows = []
     for stem, a in sorted(A.items()):
         if not stem.startswith("path_test5_"):
@@ -377,10 +403,21 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
     return out
 
 
-def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+TABLE_SECTIONS = (_catalogue_tables, _scara_tables, _test1_tables, _test2_tables,
+                  _test3_tables, _test6_tables, _puma_analytic_tables, _test5_tables)
+
+
+def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+    """Every table of the study, section by section in :data:`TABLE_SECTIONS` order (a section whose
+    archive is absent gives none)."""
+    A = _views(study, archives)
+    return [t for section in TABLE_SECTIONS for t in section(A, published_dir)]
+
+
+def _test1_figures(A: dict, out_dir: Path) -> list[FigureSpec]:
+    """Figs 6.19-6.20: Test 1 error against iteration, ZP and NR."""
     from pipeline.report.plotting import plt, save
 
-    A = _views(study, archives)
     figs = []
     if "test1" in A:
         df = _test_frame(A["test1"])
@@ -396,6 +433,14 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
             ax.legend(fontsize=7)
         figs.append(FigureSpec(save(fig, out_dir, "fig06_19_20_test1_error"), "Figs 6.19–6.20 — Test 1 error vs iteration (ZP, NR)",
                                "ELBOW, six points along +y (Table 6.4). Left: ZP (strategy 5); right: NR with Whitney step control."))
+    return figs
+
+
+def _test3_figures(A: dict, out_dir: Path) -> list[FigureSpec]:
+    """Figs 6.22-6.23 (Test 3 errors per strategy) and Fig. 6.14 (the strategies' weights)."""
+    from pipeline.report.plotting import plt, save
+
+    figs = []
     if "test3" in A:
         df = _test_frame(A["test3"])
         traces = {t["problem_id"]: t for t in A["test3"].traces()}
@@ -416,6 +461,14 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
         figs.append(FigureSpec(save(fig, out_dir, "fig06_22_23_test3_strategies"), "Figs 6.22–6.23 — Test 3, errors vs iteration per strategy",
                                "PUMA, target of Table 6.10. Left: position error; right: orientation error δR = ||R_g Rᵀ − I||²."))
         figs.append(_fig06_14(df, out_dir, plt, save))
+    return figs
+
+
+def _test2_figures(A: dict, out_dir: Path) -> list[FigureSpec]:
+    """Table 6.9 as a plot: Test 2 iterations against precision."""
+    from pipeline.report.plotting import plt, save
+
+    figs = []
     if "test2" in A:
         df = _test_frame(A["test2"])
         pub = published(Path(__file__).resolve().parents[3] / "data" / "published", STUDY, "table06_09")
@@ -431,6 +484,14 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
         ax.legend(fontsize=8)
         figs.append(FigureSpec(save(fig, out_dir, "table06_09_test2_iterations"), "Test 2 — iterations vs precision (Table 6.9 as a plot)",
                                "PUMA; ZP strategy 5 vs NR with Whitney step control."))
+    return figs
+
+
+def _scara_figures(A: dict, out_dir: Path) -> list[FigureSpec]:
+    """Fig. 6.17: the SCARA path's joint values."""
+    from pipeline.report.plotting import plt, save
+
+    figs = []
     if "path_scara1" in A:
         ours = _res_rows(A["path_scara1"])
         fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
@@ -449,7 +510,14 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
             ax.legend(fontsize=7)
         figs.append(FigureSpec(save(fig, out_dir, "fig06_17_scara_path"), "Fig. 6.17 — SCARA path joint values (SCARA1.RES)",
                                "Ours (markers) and the published SCARA1.RES (dotted)."))
-    figs += _drawings(A, out_dir, plt, save)
+    return figs
+
+
+def _test5_figures(A: dict, out_dir: Path) -> list[FigureSpec]:
+    """Figs 6.28-6.29: Test 5 joint values per robot and stage."""
+    from pipeline.report.plotting import plt, save
+
+    figs = []
     t5 = sorted(s for s in A if s.startswith("path_test5_"))
     if t5:
         fig, axes = plt.subplots(2, 3, figsize=(12, 6), squeeze=False)
@@ -463,6 +531,23 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
         figs.append(FigureSpec(save(fig, out_dir, "fig06_28_29_test5"), "Figs 6.28–6.29 — Test 5 joint values per robot and stage",
                                "Joint values along the two-segment task (rad; mm for prismatic joints, Stanford q3)."))
     return figs
+
+
+def _drawing_figures(A: dict, out_dir: Path) -> list[FigureSpec]:
+    """The wireframes and workspace views (:func:`_drawings`)."""
+    from pipeline.report.plotting import plt, save
+
+    return _drawings(A, out_dir, plt, save)
+
+
+FIGURE_SECTIONS = (_test1_figures, _test3_figures, _test2_figures,
+                   _scara_figures, _drawing_figures, _test5_figures)
+
+
+def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+    """Every figure of the study, section by section in :data:`FIGURE_SECTIONS` order."""
+    A = _views(study, archives)
+    return [f for section in FIGURE_SECTIONS for f in section(A, out_dir)]
 
 
 def _fig06_14(df: pd.DataFrame, out_dir: Path, plt, save) -> FigureSpec:
@@ -485,6 +570,47 @@ def _fig06_14(df: pd.DataFrame, out_dir: Path, plt, save) -> FigureSpec:
                       f"c = [(j − N)/(1 − N)]ⁿ (eq. 6.1) and c = (jⁿ − Nⁿ)/(1 − Nⁿ) (eq. 6.2) for the N = {n} joints of "
                       "the Test 3 PUMA, from pipeline.solvers.iterative.zero_position.strategy_weights (the function the "
                       "archived Test 3 solves used): c = 1 at the base, 0 at the wrist.")
+
+
+def _workspace_figures(ws: list, out_dir: Path, plt, save) -> list[FigureSpec]:
+    """The sampled workspace of each catalogue robot and the planar 3R's primary and secondary workspaces."""
+    figs = []
+    if ws:
+        ncol = 3  # about the report's text width: labels stay legible
+        nrow = -(-len(ws) // ncol)
+        fig = plt.figure(figsize=(3.6 * ncol, 3.3 * nrow))
+        for j, x in enumerate(ws):
+            P = np.array(x["points"])
+            if x["planar"]:
+                ax = fig.add_subplot(nrow, ncol, j + 1)
+                ax.scatter(P[:, 0], P[:, 1], s=1)
+                ax.set_aspect("equal")
+                ax.set_title(f"{x['robot']}: hull area {x['hull'] / 1e6:.3g} m²", fontsize=8)
+            else:
+                ax = fig.add_subplot(nrow, ncol, j + 1, projection="3d")
+                ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=0.5)
+                ax.set_title(f"{x['robot']}: hull volume {x['hull'] / 1e9:.3g} m³", fontsize=9)
+            ax.tick_params(labelsize=7)
+        figs.append(FigureSpec(save(fig, out_dir, "workspace_catalogue", svg=False), "Workspace of each catalogue robot (§2.4.1)",
+                               "Sampled effector positions (mm) of uniform random joint values; convex-hull volume / area in the titles."))
+        p3 = next((x for x in ws if "primary_area" in x), None)
+        if p3 is not None:
+            r = np.array(p3["radii"])
+            fig, ax = plt.subplots(figsize=(4.8, 4.4))
+            th = np.linspace(0, 2 * np.pi, 200)
+            for mask, col, lab in ((np.array(p3["secondary"]), "C1", "secondary"), (np.array(p3["primary"]), "C0", "primary")):
+                rr = r[mask]
+                ax.scatter((rr[:, None] * np.cos(th)[None]).ravel()[::7], (rr[:, None] * np.sin(th)[None]).ravel()[::7],
+                           s=0.3, color=col, label=f"{lab}: {p3[lab + '_area'] / 1e6:.3g} m²")
+            ax.set_aspect("equal")
+            ax.legend(fontsize=7, markerscale=10)
+            ax.set_xlabel("x [mm]")
+            ax.set_ylabel("y [mm]")
+            figs.append(FigureSpec(save(fig, out_dir, "workspace_planar3r_primary_secondary", svg=False),
+                                   "Planar 3R — primary vs secondary workspace",
+                                   "Primary: reachable with every orientation (200 ≤ r ≤ 400 mm and the origin for L = 300, 200, 100); "
+                                   "secondary: reachable with some orientation (r ≤ 600 mm)."))
+    return figs
 
 
 def _drawings(A, out_dir, plt, save) -> list[FigureSpec]:
@@ -521,42 +647,7 @@ def _drawings(A, out_dir, plt, save) -> list[FigureSpec]:
         if jog:
             panel(jog, "artropoidal", "{}", "fig06_10_artropoidal", "Fig. 6.10 — ARTROPOIDAL at the poses of Tables 6.1–6.2",
                   "Appendix 2 wireframe (two boxes per link from DH, gripper box, effector frame x/y/z = red/green/blue).", 25)
-        ws = [x for x in recs if x["kind"] == "workspace"]
-        if ws:
-            ncol = 3  # about the report's text width: labels stay legible
-            nrow = -(-len(ws) // ncol)
-            fig = plt.figure(figsize=(3.6 * ncol, 3.3 * nrow))
-            for j, x in enumerate(ws):
-                P = np.array(x["points"])
-                if x["planar"]:
-                    ax = fig.add_subplot(nrow, ncol, j + 1)
-                    ax.scatter(P[:, 0], P[:, 1], s=1)
-                    ax.set_aspect("equal")
-                    ax.set_title(f"{x['robot']}: hull area {x['hull'] / 1e6:.3g} m²", fontsize=8)
-                else:
-                    ax = fig.add_subplot(nrow, ncol, j + 1, projection="3d")
-                    ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=0.5)
-                    ax.set_title(f"{x['robot']}: hull volume {x['hull'] / 1e9:.3g} m³", fontsize=9)
-                ax.tick_params(labelsize=7)
-            figs.append(FigureSpec(save(fig, out_dir, "workspace_catalogue", svg=False), "Workspace of each catalogue robot (§2.4.1)",
-                                   "Sampled effector positions (mm) of uniform random joint values; convex-hull volume / area in the titles."))
-            p3 = next((x for x in ws if "primary_area" in x), None)
-            if p3 is not None:
-                r = np.array(p3["radii"])
-                fig, ax = plt.subplots(figsize=(4.8, 4.4))
-                th = np.linspace(0, 2 * np.pi, 200)
-                for mask, col, lab in ((np.array(p3["secondary"]), "C1", "secondary"), (np.array(p3["primary"]), "C0", "primary")):
-                    rr = r[mask]
-                    ax.scatter((rr[:, None] * np.cos(th)[None]).ravel()[::7], (rr[:, None] * np.sin(th)[None]).ravel()[::7],
-                               s=0.3, color=col, label=f"{lab}: {p3[lab + '_area'] / 1e6:.3g} m²")
-                ax.set_aspect("equal")
-                ax.legend(fontsize=7, markerscale=10)
-                ax.set_xlabel("x [mm]")
-                ax.set_ylabel("y [mm]")
-                figs.append(FigureSpec(save(fig, out_dir, "workspace_planar3r_primary_secondary", svg=False),
-                                       "Planar 3R — primary vs secondary workspace",
-                                       "Primary: reachable with every orientation (200 ≤ r ≤ 400 mm and the origin for L = 300, 200, 100); "
-                                       "secondary: reachable with some orientation (r ≤ 600 mm)."))
+        figs += _workspace_figures([x for x in recs if x["kind"] == "workspace"], out_dir, plt, save)
     if "path_scara1" in A:
         rows = list(A["path_scara1"].messages(PATH_TOPIC))
         poses = [(f"start of segment {r['segment']}", r["q"]) for r in rows if r["index"] == 0]

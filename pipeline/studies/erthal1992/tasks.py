@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.robots import _number
+from pipeline.robots import robot_number
 from pipeline.settings import read_yaml
 
 
@@ -87,7 +87,7 @@ def load_task(path: str | Path, overrides: dict | None = None) -> Task:
     k = int(doc["points_per_segment"])
     if k < 2:
         raise TaskFileError(f"{path}: field 'points_per_segment': at least 2 (both endpoints)")
-    q = np.array([_number(v, str(path), "field 'initial_position'", angle=True) for v in doc["initial_position"]])
+    q = np.array([robot_number(v, str(path), "field 'initial_position'", angle=True) for v in doc["initial_position"]])
     return Task(str(doc["name"]), str(doc["robot"]), T_robot, T_aux, T_tool, P, k, q)
 
 

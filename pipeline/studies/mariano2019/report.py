@@ -67,16 +67,8 @@ def _not_measured_note(st) -> str:
             f"{st.get('hint', '')}.")
 
 
-def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
-    by = _by_measure(archives)
-    counts = by.get("counting", [])
-    out = []
-    checks = []  # numbers the MCU notes state, also given as a table (mcu_checks)
-    mcu = _mcu(by)
-    st = mcu["status"]
-    freq = float(st.get("freq_hz", 16e6))
-
-    # Table I: flop weights vs measured cycles relative to an addition
+def _table01(mcu: dict, st: dict, published_dir: Path) -> TableSpec:
+    """Table I: flop weights against measured cycles relative to an addition."""
     pub1 = published(published_dir, STUDY, "table01_flop_weights")
     weights = {"add": 1, "mul": 1, "div": 4, "sqrt": 4, "sin": 8, "cos": 8, "atan2": 8}
     rows = []
@@ -90,14 +82,16 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         rows.append({"operation": op, "weight [flop] (published)": w,
                      "cycles, median (ours)": float(cyc.median()) if len(cyc) else NOT_MEASURED,
                      "cycles relative to add (ours)": float(cyc.median() / add) if len(cyc) else NOT_MEASURED})
-    out.append(TableSpec("table01_flop_weights", "Table I / Gráfico 4 — weight of each float operation",
-                         pd.DataFrame(rows),
-                         "Published: Table I weights. Ours: ATmega328P cycles of one float operation (avr-libc soft float, "
-                         "simavr), median over operand pairs, minus the cost of moving the operands; relative to an addition. "
-                         + ("" if st["measured"] else _not_measured_note(st))
-                         + (f" Published file: {len(pub1)} rows." if pub1 is not None else "")))
+    return TableSpec("table01_flop_weights", "Table I / Gráfico 4 — weight of each float operation",
+                     pd.DataFrame(rows),
+                     "Published: Table I weights. Ours: ATmega328P cycles of one float operation (avr-libc soft float, "
+                     "simavr), median over operand pairs, minus the cost of moving the operands; relative to an addition. "
+                     + ("" if st["measured"] else _not_measured_note(st))
+                     + (f" Published file: {len(pub1)} rows." if pub1 is not None else ""))
 
-    # eqs. 21-22
+
+def _eq21_22(counts: list) -> TableSpec:
+    """Eqs. 21-22: operations of a general m-link chain, counted and by formula."""
     gen = pd.DataFrame(_msgs(counts, "general"))
     rows = []
     for m, g in gen.groupby("m"):
@@ -109,13 +103,16 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                      "DQ mul (ours)": d["mul"], "DQ mul (eq. 22)": 60 * m - 48,
                      "DQ add (ours)": d["add"], "DQ add (eq. 22)": 44 * m - 40,
                      "DQ ×½ (ours, not in eq. 22)": d["scale"]})
-    out.append(TableSpec("eq21_22_general_chain", "Eqs. 21–22 — operations of a general m-link chain",
-                         pd.DataFrame(rows),
-                         "Counted by running the chain code on a counting number type (links with run-time DH parameters, "
-                         "general 4×4 / DQ products). The DQ link's halvings (θ/2, α/2, a/2, d/2) are listed apart: eq. 22 "
-                         "does not count them."))
+    return TableSpec("eq21_22_general_chain", "Eqs. 21–22 — operations of a general m-link chain",
+                     pd.DataFrame(rows),
+                     "Counted by running the chain code on a counting number type (links with run-time DH parameters, "
+                     "general 4×4 / DQ products). The DQ link's halvings (θ/2, α/2, a/2, d/2) are listed apart: eq. 22 "
+                     "does not count them.")
 
-    arm = pd.DataFrame(_msgs(counts, "arm"))
+
+def _tables02_03(arm: pd.DataFrame, published_dir: Path) -> list[TableSpec]:
+    """Tables II and III: FK and IK operations of the 4-DOF arm."""
+    out = []
     for kind, name, title, pubname in (("fk", "table02_fk_counts", "Table II — FK operations of the 4-DOF arm",
                                         "table02_fk_flop"),
                                        ("ik", "table03_ik_counts", "Table III — IK operations of the 4-DOF arm",
@@ -132,8 +129,11 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                 "finding), so it is set beside MTH.")
         out.append(TableSpec(name, title, pd.DataFrame(rows), note))
 
-    # Table IV: cycles and time
-    pub4 = published(published_dir, STUDY, "table04_interrupt_timing")
+    return out
+
+
+def _table04(mcu: dict, st: dict, freq: float, pub4, checks: list) -> TableSpec:
+    """Table IV: FK cycles and time on the ATmega328P (the checks its note states appended to ``checks``)."""
     fk = mcu["fk"]
     rows = []
     for alg in ("htm", "dq"):
@@ -167,16 +167,15 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                  "counter (≈ µs) probably includes serial printing: 0.233 s is 3.7 M cycles at 16 MHz.")
     else:
         note4 = _not_measured_note(st)
-    out.append(TableSpec("table04_mcu_time", "Table IV — FK time on the ATmega328P", df4, note4))
-    out.append(_print_variant_table(mcu, pub4, st, freq, checks))
-    if checks:
-        out.append(TableSpec("mcu_checks", "Checks of the MCU measurements stated in the notes above",
-                             pd.DataFrame(checks), "Every number the Table IV notes state about our measurements."))
+    return TableSpec("table04_mcu_time", "Table IV — FK time on the ATmega328P", df4, note4)
 
-    # Table V: per function group
+
+def _table05(arm: pd.DataFrame, mcu: dict, st: dict, published_dir: Path) -> TableSpec:
+    """Table V: cost per function group."""
     pub5 = published(published_dir, STUDY, "table05_ram_model_steps")
     parts = arm[(arm["kind"] == "part") & (arm["variant"] == "chain_general")] if len(arm) else arm
     stage_of = {"transformations": "transformation", "products": "product", "translation": "translation"}
+    fk = mcu["fk"]
     fk_col = {"transformations": "links", "products": "products", "translation": "translation"}
     rows = []
     for grp in ("declarations", "transformations", "products", "print_array", "translation", "total"):
@@ -196,13 +195,15 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                 p = pub5[pub5["function"] == grp]
                 row[f"{ALG[alg]} RAM-model steps (published)"] = p[f"{alg}_steps"].iloc[0] if len(p) else np.nan
         rows.append(row)
-    out.append(TableSpec("table05_steps_cycles", "Table V — cost per function group", pd.DataFrame(rows),
-                         "RAM-model steps are replaced by measured cycles (what the RAM model approximates) and by the "
-                         "instrumented operation counts (trig + mul + add + ×½) of the same general functions. Our "
-                         "program has no timed declarations or printing. "
-                         + ("" if st["measured"] else _not_measured_note(st))))
+    return TableSpec("table05_steps_cycles", "Table V — cost per function group", pd.DataFrame(rows),
+                     "RAM-model steps are replaced by measured cycles (what the RAM model approximates) and by the "
+                     "instrumented operation counts (trig + mul + add + ×½) of the same general functions. Our "
+                     "program has no timed declarations or printing. "
+                     + ("" if st["measured"] else _not_measured_note(st)))
 
-    # Table VI: memory
+
+def _table06(mcu: dict, st: dict, published_dir: Path) -> TableSpec:
+    """Table VI: memory of the FK firmware."""
     pub6 = published(published_dir, STUDY, "table06_memory")
     sizes = mcu["sizes"]
     rows = []
@@ -221,15 +222,16 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         row.update({"flash [B] (published)": np.nan if p is None else p["flash_bytes"],
                     "SRAM [B] (published)": np.nan if p is None else p["sram_bytes"]})
         rows.append(row)
-    out.append(TableSpec("table06_memory", "Table VI — memory of the FK firmware (ATmega328P: 32 256 B flash for "
-                         "sketches, 2 048 B SRAM)", pd.DataFrame(rows),
-                         "Ours: avr-size (flash = .text + .data, static SRAM = .data + .bss, as the Arduino IDE reports); "
-                         "'of the FK' = minus the same harness without kinematics; peak stack by stack painting. The "
-                         "published sketch includes the Arduino core and Serial. "
-                         + ("" if st["measured"] else _not_measured_note(st))))
+    return TableSpec("table06_memory", "Table VI — memory of the FK firmware (ATmega328P: 32 256 B flash for "
+                     "sketches, 2 048 B SRAM)", pd.DataFrame(rows),
+                     "Ours: avr-size (flash = .text + .data, static SRAM = .data + .bss, as the Arduino IDE reports); "
+                     "'of the FK' = minus the same harness without kinematics; peak stack by stack painting. The "
+                     "published sketch includes the Arduino core and Serial. "
+                     + ("" if st["measured"] else _not_measured_note(st)))
 
-    # host timing
-    host = pd.DataFrame(_msgs(by.get("host_timing", []), "host_timing"))
+
+def _host_table(host: pd.DataFrame) -> TableSpec:
+    """Host speed of HTM against DQ forward kinematics (not in the document)."""
     rows = []
     if len(host):
         for (robot, impl), g in host.groupby(["robot", "impl"], sort=False):
@@ -245,12 +247,34 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                          "ratio HTM/DQ median (ours)": float(np.median(r)),
                          "ratio p5–p95 (ours)": f"{_q(r, 5):.3f}–{_q(r, 95):.3f}",
                          "DQ faster? (ours)": "yes" if np.median(r) > 1 else "no"})
-    out.append(TableSpec("host_fk_speed", "Host speed — HTM vs DQ forward kinematics (not in the document)",
-                         pd.DataFrame(rows),
-                         "Per-FK time of blocks of FKs, HTM and DQ blocks alternating; ratio per adjacent pair. python = "
-                         "pure-Python chain code of this study (pose + position); numpy = pipeline.kinematics fk_htm / fk_dq "
-                         "one configuration per call (fk_dq also converts base and tool to DQs each call); numpy_batch = "
-                         "one call for a batch; numba = compiled loops of the general chain (pose + position)."))
+    return TableSpec("host_fk_speed", "Host speed — HTM vs DQ forward kinematics (not in the document)",
+                     pd.DataFrame(rows),
+                     "Per-FK time of blocks of FKs, HTM and DQ blocks alternating; ratio per adjacent pair. python = "
+                     "pure-Python chain code of this study (pose + position); numpy = pipeline.kinematics fk_htm / fk_dq "
+                     "one configuration per call (fk_dq also converts base and tool to DQs each call); numpy_batch = "
+                     "one call for a batch; numba = compiled loops of the general chain (pose + position).")
+
+
+def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+    """Tables I-VI and eqs. 21-22 beside ours, the print variant of Table IV, the MCU checks, the host speed,
+    the IK round trip and the verdict, in that order."""
+    by = _by_measure(archives)
+    counts = by.get("counting", [])
+    checks = []  # numbers the MCU notes state, also given as a table (mcu_checks)
+    mcu = _mcu(by)
+    st = mcu["status"]
+    freq = float(st.get("freq_hz", 16e6))
+    arm = pd.DataFrame(_msgs(counts, "arm"))
+    pub4 = published(published_dir, STUDY, "table04_interrupt_timing")
+    fk, sizes = mcu["fk"], mcu["sizes"]
+    out = [_table01(mcu, st, published_dir), _eq21_22(counts), *_tables02_03(arm, published_dir),
+           _table04(mcu, st, freq, pub4, checks)]
+    out.append(_print_variant_table(mcu, pub4, st, freq, checks))
+    if checks:
+        out.append(TableSpec("mcu_checks", "Checks of the MCU measurements stated in the notes above",
+                             pd.DataFrame(checks), "Every number the Table IV notes state about our measurements."))
+    host = pd.DataFrame(_msgs(by.get("host_timing", []), "host_timing"))
+    out += [_table05(arm, mcu, st, published_dir), _table06(mcu, st, published_dir), _host_table(host)]
 
     # IK round trip: the generic solve archives of problem set ik_roundtrip (registered analytic_4dof)
     out.append(TableSpec("ik_roundtrip", "IK round trip FK(IK(pose)) = pose (not in the document)",
@@ -283,6 +307,78 @@ def simavr_byte_cycles(ubrr: int, u2x: bool, freq: float) -> float:
     return (1_000_000 // (baud // 11)) * freq / 1e6
 
 
+def _print_rows(fk: pd.DataFrame, ram: pd.DataFrame, uart: pd.DataFrame, freq: float, pub_ratio: float,
+                pub_cols: dict) -> list[dict]:
+    """The rows of table04_print_variant: FK alone, FK + printing to RAM, FK + printing over simavr's UART
+    per baud rate, and per baud rate FK + printing with a computed 8N1 frame."""
+    def row(region, source, baud, h, d, hc, dc, per_char):
+        r = h / d
+        med = float(np.median(r))
+        rec = "yes" if np.isfinite(pub_ratio) and abs(med / pub_ratio - 1) <= RECOVER else "no"
+        return {"timed region": region, "source": source, "baud set / actual [bit/s]": baud,
+                "HTM characters printed, median (ours)": float(np.median(hc)),
+                "DQ characters printed, median (ours)": float(np.median(dc)),
+                "cycles per character (measured: print cycles / characters; computed: 8N1 byte time)": per_char,
+                "HTM cycles, median (ours)": float(np.median(h)), "DQ cycles, median (ours)": float(np.median(d)),
+                "HTM time [ms] at 16 MHz (ours)": 1e3 * float(np.median(h)) / freq,
+                "DQ time [ms] at 16 MHz (ours)": 1e3 * float(np.median(d)) / freq,
+                "ratio HTM/DQ, median (ours)": med, "ratio min–max (ours)": f"{r.min():.3f}–{r.max():.3f}",
+                **pub_cols, f"recovers the published ratio (within {RECOVER:.0%})": rec}
+
+    measured = "measured (simavr)"
+    h, d = _paired(fk, "total")
+    rows = [row("FK only (Table IV, table04_mcu_time)", measured, "—", h, d, np.zeros(len(h)), np.zeros(len(d)), np.nan)]
+    if len(ram):
+        h, d = _paired(ram, "total")
+        hc, dc = _paired(ram, "chars")
+        per = float(np.median(ram["print"] / ram["chars"]))
+        rows.append(row("FK + print, text to RAM (formatting only, no UART)", measured, "—", h, d, hc, dc, per))
+    for baud, g in uart.groupby("baud", sort=True):
+        actual = float(g["baud_actual"].iloc[0])
+        bset = f"{int(baud)} / {actual:.0f}"
+        h, d = _paired(g, "total")
+        hc, dc = _paired(g, "chars")
+        rows.append(row(f"FK + print at {int(baud)} baud (simavr UART)", measured, bset, h, d, hc, dc,
+                        float(np.median(g["print"] / g["chars"]))))
+    for baud, g in uart.groupby("baud", sort=True):
+        if not len(ram):
+            break
+        actual = float(g["baud_actual"].iloc[0])
+        byte = UART_BITS * freq / actual   # cycles per 8N1 character
+        comp = g[["variant", "i", "fk", "chars"]].merge(ram[["variant", "i", "print"]], on=["variant", "i"])
+        comp["total"] = comp["fk"] + np.maximum(comp["print"], comp["chars"] * byte)
+        h, d = _paired(comp, "total")
+        hc, dc = _paired(comp, "chars")
+        rows.append(row(f"FK + print at {int(baud)} baud, 8N1 frame (computed)",
+                        f"computed: FK and formatting measured, UART = characters × {UART_BITS} bit / baud",
+                        f"{int(baud)} / {actual:.0f}", h, d, hc, dc, byte))
+    return rows
+
+
+def _uart_formula_check(ram: pd.DataFrame, uart: pd.DataFrame, freq: float, checks: list) -> list[str]:
+    """Per baud rate, how far the computed rows' formula with simavr's own byte time is from the simavr rows
+    (one phrase each for the note; the numbers appended to ``checks``)."""
+    # the computed rows' formula with simavr's own byte time, against the simavr rows (its accuracy)
+    check = []
+    if len(ram):
+        for baud, g in uart.groupby("baud", sort=True):
+            byte = simavr_byte_cycles(g["ubrr"].iloc[0], bool(g["u2x"].iloc[0]), freq)
+            m = g[["variant", "i", "fk", "chars", "total"]].merge(ram[["variant", "i", "print"]], on=["variant", "i"])
+            est = m["fk"] + np.maximum(m["print"], m["chars"] * byte)
+            dev = est / m["total"] - 1
+            ratio8n1 = byte / (UART_BITS * freq / float(g["baud_actual"].iloc[0]))
+            check.append(f"{int(baud)} baud {dev.min():+.1%} to {dev.max():+.1%} (simavr's byte time {byte:.0f} "
+                         f"cycles = {ratio8n1:.3f} × the 8N1 one)")
+            checks.extend([{"quantity": f"computed rows' deviation from the simavr rows, smallest, {int(baud)} baud",
+                            "value": 100 * float(dev.min()), "unit": "%"},
+                           {"quantity": f"computed rows' deviation from the simavr rows, largest, {int(baud)} baud",
+                            "value": 100 * float(dev.max()), "unit": "%"},
+                           {"quantity": f"simavr's byte time, {int(baud)} baud", "value": float(byte), "unit": "cycles"},
+                           {"quantity": f"simavr's byte time / the 8N1 byte time, {int(baud)} baud",
+                            "value": float(ratio8n1), "unit": "-"}])
+    return check
+
+
 def _print_variant_table(mcu, pub4, st, freq, checks: list | None = None) -> TableSpec:
     """Table IV with the result printed inside the timed region (print_array of Tabela V).
 
@@ -307,69 +403,9 @@ def _print_variant_table(mcu, pub4, st, freq, checks: list | None = None) -> Tab
             "Print variants NOT MEASURED: the MCU archive has no mcu_print records (rerun mariano_measure_mcu).")
         return TableSpec(name, title, pd.DataFrame([{"timed region": NOT_MEASURED, **pub_cols}]), why)
 
-    def row(region, source, baud, h, d, hc, dc, per_char):
-        r = h / d
-        med = float(np.median(r))
-        rec = "yes" if np.isfinite(pub_ratio) and abs(med / pub_ratio - 1) <= RECOVER else "no"
-        return {"timed region": region, "source": source, "baud set / actual [bit/s]": baud,
-                "HTM characters printed, median (ours)": float(np.median(hc)),
-                "DQ characters printed, median (ours)": float(np.median(dc)),
-                "cycles per character (measured: print cycles / characters; computed: 8N1 byte time)": per_char,
-                "HTM cycles, median (ours)": float(np.median(h)), "DQ cycles, median (ours)": float(np.median(d)),
-                "HTM time [ms] at 16 MHz (ours)": 1e3 * float(np.median(h)) / freq,
-                "DQ time [ms] at 16 MHz (ours)": 1e3 * float(np.median(d)) / freq,
-                "ratio HTM/DQ, median (ours)": med, "ratio min–max (ours)": f"{r.min():.3f}–{r.max():.3f}",
-                **pub_cols, f"recovers the published ratio (within {RECOVER:.0%})": rec}
-
-    measured = "measured (simavr)"
-    h, d = _paired(fk, "total")
-    rows = [row("FK only (Table IV, table04_mcu_time)", measured, "—", h, d, np.zeros(len(h)), np.zeros(len(d)), np.nan)]
-    ram = pr[pr["mode"] == "ram"]
-    if len(ram):
-        h, d = _paired(ram, "total")
-        hc, dc = _paired(ram, "chars")
-        per = float(np.median(ram["print"] / ram["chars"]))
-        rows.append(row("FK + print, text to RAM (formatting only, no UART)", measured, "—", h, d, hc, dc, per))
-    uart = pr[pr["mode"] == "uart"]
-    for baud, g in uart.groupby("baud", sort=True):
-        actual = float(g["baud_actual"].iloc[0])
-        bset = f"{int(baud)} / {actual:.0f}"
-        h, d = _paired(g, "total")
-        hc, dc = _paired(g, "chars")
-        rows.append(row(f"FK + print at {int(baud)} baud (simavr UART)", measured, bset, h, d, hc, dc,
-                        float(np.median(g["print"] / g["chars"]))))
-    for baud, g in uart.groupby("baud", sort=True):
-        if not len(ram):
-            break
-        actual = float(g["baud_actual"].iloc[0])
-        byte = UART_BITS * freq / actual   # cycles per 8N1 character
-        comp = g[["variant", "i", "fk", "chars"]].merge(ram[["variant", "i", "print"]], on=["variant", "i"])
-        comp["total"] = comp["fk"] + np.maximum(comp["print"], comp["chars"] * byte)
-        h, d = _paired(comp, "total")
-        hc, dc = _paired(comp, "chars")
-        rows.append(row(f"FK + print at {int(baud)} baud, 8N1 frame (computed)",
-                        f"computed: FK and formatting measured, UART = characters × {UART_BITS} bit / baud",
-                        f"{int(baud)} / {actual:.0f}", h, d, hc, dc, byte))
-    df = pd.DataFrame(rows)
-
-    # the computed rows' formula with simavr's own byte time, against the simavr rows (its accuracy)
-    check = []
-    if len(ram):
-        for baud, g in uart.groupby("baud", sort=True):
-            byte = simavr_byte_cycles(g["ubrr"].iloc[0], bool(g["u2x"].iloc[0]), freq)
-            m = g[["variant", "i", "fk", "chars", "total"]].merge(ram[["variant", "i", "print"]], on=["variant", "i"])
-            est = m["fk"] + np.maximum(m["print"], m["chars"] * byte)
-            dev = est / m["total"] - 1
-            ratio8n1 = byte / (UART_BITS * freq / float(g["baud_actual"].iloc[0]))
-            check.append(f"{int(baud)} baud {dev.min():+.1%} to {dev.max():+.1%} (simavr's byte time {byte:.0f} "
-                         f"cycles = {ratio8n1:.3f} × the 8N1 one)")
-            checks.extend([{"quantity": f"computed rows' deviation from the simavr rows, smallest, {int(baud)} baud",
-                            "value": 100 * float(dev.min()), "unit": "%"},
-                           {"quantity": f"computed rows' deviation from the simavr rows, largest, {int(baud)} baud",
-                            "value": 100 * float(dev.max()), "unit": "%"},
-                           {"quantity": f"simavr's byte time, {int(baud)} baud", "value": float(byte), "unit": "cycles"},
-                           {"quantity": f"simavr's byte time / the 8N1 byte time, {int(baud)} baud",
-                            "value": float(ratio8n1), "unit": "-"}])
+    ram, uart = pr[pr["mode"] == "ram"], pr[pr["mode"] == "uart"]
+    df = pd.DataFrame(_print_rows(fk, ram, uart, freq, pub_ratio, pub_cols))
+    check = _uart_formula_check(ram, uart, freq, checks)
     n_conf = int(pr["i"].nunique())
     digits = int(pr["digits"].iloc[0])
     err = max(float(np.max(np.abs(np.asarray(v, float) - np.asarray(r, float))))
@@ -484,26 +520,11 @@ def _verdict(arm, fk, sizes, host, st, prt=None, pub_print=np.nan) -> pd.DataFra
     return pd.DataFrame(rows)
 
 
-def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+def _per_part_figures(arm: pd.DataFrame, out_dir: Path) -> list[FigureSpec]:
+    """Gráficos 2 and 3: operations of each link transformation and of each product, general and folded code."""
     from pipeline.report.plotting import plt, save
 
-    by = _by_measure(archives)
-    counts = by.get("counting", [])
     figs = []
-    gen = pd.DataFrame(_msgs(counts, "general"))
-    if len(gen):
-        fig, ax = plt.subplots(figsize=(6.4, 3.8))
-        for alg, ls in (("htm", "-"), ("dq", "--")):
-            g = gen[gen["algebra"] == alg].sort_values("m")
-            ax.plot(g["m"], g["mul"], ls, marker="o", label=f"{ALG[alg]} multiplications")
-            ax.plot(g["m"], g["add"], ls, marker="s", label=f"{ALG[alg]} additions/subtractions")
-        ax.set_xlabel("links m")
-        ax.set_ylabel("operations (counted)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-        figs.append(FigureSpec(save(fig, out_dir, "grafico1_ops_vs_m"), "Gráfico 1 — operations of a general chain vs m",
-                               "Counted by instrumentation; equal to eqs. 21–22 for every m (DQ halvings not included)."))
-    arm = pd.DataFrame(_msgs(counts, "arm"))
     if len(arm):
         parts = arm[arm["kind"] == "part"]
         for stage, stem, title in (("transformation", "grafico2_per_transformation",
@@ -530,6 +551,30 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
             figs.append(FigureSpec(save(fig, out_dir, stem), title,
                                    "Left: general functions (eqs. 21–22 model); right: the same code with the arm's "
                                    "constants folded (α and zero lengths known at compile time)."))
+    return figs
+
+
+def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
+    """Gráficos 1-4 of the document from our counts and measurements, and the host speed ratios."""
+    from pipeline.report.plotting import plt, save
+
+    by = _by_measure(archives)
+    counts = by.get("counting", [])
+    figs = []
+    gen = pd.DataFrame(_msgs(counts, "general"))
+    if len(gen):
+        fig, ax = plt.subplots(figsize=(6.4, 3.8))
+        for alg, ls in (("htm", "-"), ("dq", "--")):
+            g = gen[gen["algebra"] == alg].sort_values("m")
+            ax.plot(g["m"], g["mul"], ls, marker="o", label=f"{ALG[alg]} multiplications")
+            ax.plot(g["m"], g["add"], ls, marker="s", label=f"{ALG[alg]} additions/subtractions")
+        ax.set_xlabel("links m")
+        ax.set_ylabel("operations (counted)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        figs.append(FigureSpec(save(fig, out_dir, "grafico1_ops_vs_m"), "Gráfico 1 — operations of a general chain vs m",
+                               "Counted by instrumentation; equal to eqs. 21–22 for every m (DQ halvings not included)."))
+    figs += _per_part_figures(pd.DataFrame(_msgs(counts, "arm")), out_dir)
     mcu = _mcu(by)
     ops = mcu["ops"]
     if len(ops):

@@ -84,7 +84,8 @@ def motions_of(study, pts: pd.DataFrame) -> list[str]:
     return [m for m in study.problem_sets if m in set(pts["motion"])]
 
 
-def _label(settings: dict, method: str) -> str:
+def method_label(settings: dict, method: str) -> str:
+    """The label the study settings give ``method`` (the method name when they give none)."""
     return settings["methods"].get(method, {}).get("label", method)
 
 
@@ -105,7 +106,7 @@ def _table5_2(study, g_pts: pd.DataFrame, methods: list[str], pub2) -> pd.DataFr
             continue
         pname = st["methods"][m].get("published_as", "")
         rows.append({
-            "method": _label(st, m),
+            "method": method_label(st, m),
             "points (ours)": len(g),
             "document's error measure": g["doc_measure"].iloc[0],
             "mean error, document's measure (ours)": g["doc_error"].mean(),
@@ -126,21 +127,15 @@ def _table5_2(study, g_pts: pd.DataFrame, methods: list[str], pub2) -> pd.DataFr
     return pd.DataFrame(rows)
 
 
-def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+def _table5_1(study, pts: pd.DataFrame, reps: pd.DataFrame, methods: list, motions: list,
+              pub1) -> tuple[TableSpec, dict]:
+    """Tabela 5.1: IK time of each whole motion per method; also the mean times ``(method, motion) -> s``."""
     st = study.settings
-    pts, reps = load_runs(study, archives)
-    methods = [m for m in st["table_methods"] if m in set(pts["method"])]
-    motions = motions_of(study, pts)
-    pub1 = published(published_dir, STUDY, "table5_1")
-    pub2 = published(published_dir, STUDY, "table5_2")
-    out = []
-
-    # Tabela 5.1 -----------------------------------------------------------------------------
     rows = []
     mean_t = {}
     for m in methods:
         pname = st["methods"][m].get("published_as", "")
-        row = {"method": _label(st, m)}
+        row = {"method": method_label(st, m)}
         for mo in motions:
             r = reps[(reps["method"] == m) & (reps["motion"] == mo)]
             mean_t[(m, mo)] = float(r["total_time_s"].mean())
@@ -161,7 +156,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             pa = _pub(pub1, st["methods"]["analytic"].get("published_as", ""), col)
             t51[f"{MOTION_LABEL.get(mo, mo)}: × analytic (published)"] = [
                 _pub(pub1, st["methods"][m].get("published_as", ""), col) / pa for m in methods]
-    out.append(TableSpec(
+    table = (TableSpec(
         "table5_1_motion_time", "Tabela 5.1 — IK time of each whole motion per method", t51,
         "Ours: sum of the per-point thread CPU times of the whole motion (each solve() call, IK only; machine "
         "load does not move them), mean over the repetitions as the document averaged 5 runs; "
@@ -173,8 +168,14 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         "columns (one repetition: SciPy's nfev, the descent's FK calls, the closed form's 8 checks) compare "
         "the methods without the platform. "
         "Our trajectories are designed (the document gives none), so point counts differ too."))
+    return table, mean_t
 
-    # Tabela 5.2 -----------------------------------------------------------------------------
+
+def _table5_2_tables(study, pts: pd.DataFrame, methods: list, motions: list,
+                     pub2) -> tuple[list[TableSpec], pd.DataFrame]:
+    """Tabela 5.2 on its one motion (and, beside it, both motions pooled); also the points it is computed on."""
+    st = study.settings
+    out = []
     # "Média de erro e iteração ao longo de um movimento": one motion (table5_2_motion, default home,
     # the motion of Figura 5.2); both motions pooled run beside it as the earlier reading
     one = st.get("table5_2_motion", "home")
@@ -200,8 +201,12 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             "The reading before the document's 'um movimento' was followed: every point of both motions "
             "(repetition 0). The pick-and-place points where BFGS stalls on pure translations raise its "
             "mean error here. " + common))
+    return out, pts52
 
-    # Continuity -----------------------------------------------------------------------------
+
+def _continuity(study, pts: pd.DataFrame, methods: list, motions: list) -> TableSpec:
+    """The largest joint jump between consecutive points, per method and motion (not in the document)."""
+    st = study.settings
     rows = []
     for m in methods:
         for mo in motions:
@@ -209,20 +214,24 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             jj = joint_jumps(g)
             per_point = jj.max(axis=1)
             k = int(np.argmax(per_point))
-            rows.append({"method": _label(st, m), "motion": MOTION_LABEL.get(mo, mo),
+            rows.append({"method": method_label(st, m), "motion": MOTION_LABEL.get(mo, mo),
                          "largest joint jump [rad] (ours)": float(per_point[k]),
                          "at point": int(g["problem_id"].iloc[k]), "segment": g["segment"].iloc[k],
                          "joint": int(np.argmax(jj[k])) + 1,
                          "median per-point jump [rad] (ours)": float(np.median(per_point)),
                          "points with a jump > 0.5 rad (ours)": int((per_point > 0.5).sum()),
                          "failed points (ours)": int((~g["success"].astype(bool)).sum())})
-    out.append(TableSpec(
-        "continuity", "Continuity — largest joint jump between consecutive points", pd.DataFrame(rows),
-        "Jump = max over joints of |q_k − q_(k−1)| (the first point against the motion's start joints). "
-        "A branch flip mid-trajectory shows as a jump of the order of 1 rad or more; consecutive "
-        "points are at most a few millimetres apart at full scale. Not reported by the document."))
+    return TableSpec(
+    "continuity", "Continuity — largest joint jump between consecutive points", pd.DataFrame(rows),
+    "Jump = max over joints of |q_k − q_(k−1)| (the first point against the motion's start joints). "
+    "A branch flip mid-trajectory shows as a jump of the order of 1 rad or more; consecutive "
+    "points are at most a few millimetres apart at full scale. Not reported by the document.")
 
-    # Extra runs: Jacobian model and squared cost ---------------------------------------------
+
+def _extra_runs(study, pts: pd.DataFrame, reps: pd.DataFrame, motions: list) -> list[TableSpec]:
+    """The effect of the document's Jacobian model and of its non-squared cost ([] without those runs)."""
+    st = study.settings
+    out = []
     extra = [m for m in study.solvers if m not in st["table_methods"] and m in set(pts["method"])]
     if extra:
         rows = []
@@ -237,7 +246,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
                 base = pts[(pts["method"] == partner.get(m, "")) & (pts["motion"] == mo)].sort_values("problem_id")
                 dq = (float(np.abs(np.array(g["q_solution"].tolist()) - np.array(base["q_solution"].tolist())).max())
                       if len(base) == len(g) and len(g) else np.nan)
-                rows.append({"method": _label(st, m), "motion": MOTION_LABEL.get(mo, mo),
+                rows.append({"method": method_label(st, m), "motion": MOTION_LABEL.get(mo, mo),
                              f"max |q − q(listing/consistent variant)| [rad]": dq,
                              "mean iterations per point": g["iterations"].mean(),
                              "max iterations": int(g["iterations"].max()),
@@ -260,10 +269,21 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
             "squared form of the theory chapter: with the listing's cost BFGS stalls (0 iterations, "
             "'precision loss') on pure-translation segments, where the warm start already has the exact "
             "orientation and the forward-difference gradient of ‖ΔR‖_F at its kink points uphill."))
-
-    # Published orderings ----------------------------------------------------------------------
-    out.append(_orderings(study, pts52, mean_t, methods, motions))
     return out
+
+
+def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
+    """Tabelas 5.1 and 5.2 beside ours, continuity, the extra runs and the published orderings, in that order."""
+    st = study.settings
+    pts, reps = load_runs(study, archives)
+    methods = [m for m in st["table_methods"] if m in set(pts["method"])]
+    motions = motions_of(study, pts)
+    pub1 = published(published_dir, STUDY, "table5_1")
+    pub2 = published(published_dir, STUDY, "table5_2")
+    t51, mean_t = _table5_1(study, pts, reps, methods, motions, pub1)
+    t52, pts52 = _table5_2_tables(study, pts, methods, motions, pub2)
+    return ([t51, *t52, _continuity(study, pts, methods, motions), *_extra_runs(study, pts, reps, motions),
+             _orderings(study, pts52, mean_t, methods, motions)])
 
 
 def _orderings(study, pts, mean_t, methods, motions) -> TableSpec:
@@ -284,7 +304,7 @@ def _orderings(study, pts, mean_t, methods, motions) -> TableSpec:
     for mo in motions:
         t = {m: mean_t[(m, mo)] for m in methods}
         lab = MOTION_LABEL.get(mo, mo)
-        vals = ", ".join(f"{_label(st, m)} {t[m]:.3g} s" for m in sorted(t, key=t.get))
+        vals = ", ".join(f"{method_label(st, m)} {t[m]:.3g} s" for m in sorted(t, key=t.get))
         if "analytic" in t and num:
             fastest_num = min(num, key=t.get)
             add(f"{lab}: analytic fastest by far (≥ 3× faster than any numerical method)",
@@ -296,17 +316,17 @@ def _orderings(study, pts, mean_t, methods, motions) -> TableSpec:
             sp = [m for m in num if solver_of(study, m) in SCIPY]
             if "lbfgsb" in sp and len(sp) > 1:
                 add(f"{lab}: L-BFGS-B fastest of the SciPy methods (same interpreted machinery)",
-                    min(sp, key=t.get) == "lbfgsb", ", ".join(f"{_label(st, m)} {t[m]:.3g} s" for m in sorted(sp, key=t.get)))
-    ivals = ", ".join(f"{_label(st, m)} {it[m]:.1f}" for m in sorted(num, key=lambda m: it[m]))
+                    min(sp, key=t.get) == "lbfgsb", ", ".join(f"{method_label(st, m)} {t[m]:.3g} s" for m in sorted(sp, key=t.get)))
+    ivals = ", ".join(f"{method_label(st, m)} {it[m]:.1f}" for m in sorted(num, key=lambda m: it[m]))
     if "lbfgsb" in num:
         add("L-BFGS-B fewest iterations per point", min(num, key=lambda m: it[m]) == "lbfgsb", ivals)
     if "nelder_mead" in num:
         add("Nelder-Mead most iterations per point", max(num, key=lambda m: it[m]) == "nelder_mead", ivals)
     if "bfgs" in num:
-        pv = ", ".join(f"{_label(st, m)} {pos[m]:.2e} m / {ang[m]:.2e} rad" for m in num)
+        pv = ", ".join(f"{method_label(st, m)} {pos[m]:.2e} m / {ang[m]:.2e} rad" for m in num)
         add("BFGS smallest error of the numerical methods (common measure: position and angle)",
             min(num, key=lambda m: pos[m]) == "bfgs" and min(num, key=lambda m: ang[m]) == "bfgs", pv)
-        dv = ", ".join(f"{_label(st, m)} {doc[m]:.2e}" for m in num)
+        dv = ", ".join(f"{method_label(st, m)} {doc[m]:.2e}" for m in num)
         add("BFGS smallest error of the numerical methods (each method's own measure, as published)",
             min(num, key=lambda m: doc[m]) == "bfgs", dv)
         # the same comparison restricted to the points where BFGS iterated at all (no stall at the kink)
@@ -321,7 +341,7 @@ def _orderings(study, pts, mean_t, methods, motions) -> TableSpec:
         if len(sub):
             sp_ = sub.groupby("method")["position_error"].mean()
             sa_ = sub.groupby("method")["orientation_error"].mean()
-            pv = ", ".join(f"{_label(st, m)} {sp_[m]:.2e} m / {sa_[m]:.2e} rad" for m in num)
+            pv = ", ".join(f"{method_label(st, m)} {sp_[m]:.2e} m / {sa_[m]:.2e} rad" for m in num)
             add(f"BFGS smallest error, on the {len(b)} points of segments that turn the tool (common measure)",
                 min(num, key=lambda m: sp_[m]) == "bfgs" and min(num, key=lambda m: sa_[m]) == "bfgs", pv)
     return TableSpec(
