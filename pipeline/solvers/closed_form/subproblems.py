@@ -369,6 +369,19 @@ def pos_default(case, pref):
     return cis(pref[1])
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _distance_pair(hA, pA, hB, pB, u, v, clip, pref_a):
+    """Both branches of joint B (SP3: the point ``u`` about line B at the distance from line A that ``v``
+    has), then joint A for each (SP1 taking the moved point to ``v``): ``tA+, tB+, ok+, tA-, tB-, ok-``."""
+    dw = perp(hA, sub(v, pA))
+    dd = math.sqrt(dot(dw, dw))
+    tBa, oka = sp3(hB, sub(u, pB), sub(pA, pB), dd, 1.0, clip, True)
+    tBb, okb = sp3(hB, sub(u, pB), sub(pA, pB), dd, -1.0, clip, True)
+    tAa = sp1(hA, sub(about(hB, pB, tBa, u), pA), sub(v, pA), pref_a) if oka else ONE
+    tAb = sp1(hA, sub(about(hB, pB, tBb, u), pA), sub(v, pA), pref_a) if okb else ONE
+    return tAa, tBa, oka, tAb, tBb, okb
+
+
 @numba.njit(cache=True, error_model="numpy")
 def pos3pair(case, H, P, o, x, w, sa, clip, pref):
     """(z1, z2, z3) = e^{iθ} of joints 1-3 with E_1 E_2 E_3 x = w, for position case ``case`` (1: axes
@@ -402,24 +415,14 @@ def pos3pair(case, H, P, o, x, w, sa, clip, pref):
         if not ok:
             return z
         x3 = about(h3, p3, t3, x)
-        dw = perp(h1, sub(w, p1))
-        dd = math.sqrt(dot(dw, dw))
-        t2a, oka = sp3(h2, sub(x3, p2), sub(p1, p2), dd, 1.0, clip, True)
-        t2b, okb = sp3(h2, sub(x3, p2), sub(p1, p2), dd, -1.0, clip, True)
-        t1a = sp1(h1, sub(about(h2, p2, t2a, x3), p1), sub(w, p1), pref[0]) if oka else ONE
-        t1b = sp1(h1, sub(about(h2, p2, t2b, x3), p1), sub(w, p1), pref[0]) if okb else ONE
+        t1a, t2a, oka, t1b, t2b, okb = _distance_pair(h1, p1, h2, p2, x3, w, clip, pref[0])
         return t1a, t2a, t3, oka, t1b, t2b, t3, okb
     tm, ok = sp4(h2, h1, sub(w, p1), dot(h2, x) - dot(h2, p1), sa, clip)
     if not ok:
         return z
     t1 = tm.conjugate()
     w1 = about(h1, p1, t1.conjugate(), w)
-    dw = perp(h2, sub(w1, p2))
-    dd = math.sqrt(dot(dw, dw))
-    t3a, oka = sp3(h3, sub(x, p3), sub(p2, p3), dd, 1.0, clip, True)
-    t3b, okb = sp3(h3, sub(x, p3), sub(p2, p3), dd, -1.0, clip, True)
-    t2a = sp1(h2, sub(about(h3, p3, t3a, x), p2), sub(w1, p2), pref[1]) if oka else ONE
-    t2b = sp1(h2, sub(about(h3, p3, t3b, x), p2), sub(w1, p2), pref[1]) if okb else ONE
+    t2a, t3a, oka, t2b, t3b, okb = _distance_pair(h2, p2, h3, p3, x, w1, clip, pref[1])
     return t1, t2a, t3a, oka, t1, t2b, t3b, okb
 
 

@@ -30,8 +30,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.pose as _jit
-from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NEVER, now_ns, quat_from_rot, quat_relative,
-                                          relative_translation_norm, rodrigues)
+from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NEVER, dh_joint, jacobian_at, now_ns,
+                                          quat_from_rot, quat_relative, relative_translation_norm, rodrigues)
 from pipeline.solvers.kernels.loop import error_row, iterate
 
 
@@ -98,12 +98,7 @@ def fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C):
                 axes[i, r] = C[r, 0] * k0 + C[r, 1] * k1 + C[r, 2] * k2
                 origins[i, r] = C[r, 3]
             continue
-        th = offs[i]
-        di = d[i]
-        if prism[i]:
-            di += q[i]
-        else:
-            th += q[i]
+        th, di = dh_joint(offs, d, prism, q, i)
         ct, st = math.cos(th), math.sin(th)
         cal, sal, ai = ca[i], sa[i], a[i]
         if form == 1:  # modified: Rx(alpha) Tx(a) Rz(theta) Tz(d); axis = z after Rx(alpha) Tx(a)
@@ -137,19 +132,8 @@ def fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C):
 
 @numba.njit(cache=True)
 def _jacobian(prism, axes, origins, T, J):
-    n = axes.shape[0]
-    p0, p1, p2 = T[0, 3], T[1, 3], T[2, 3]
-    for i in range(n):
-        z0, z1, z2 = axes[i, 0], axes[i, 1], axes[i, 2]
-        if prism[i]:
-            J[0, i], J[1, i], J[2, i] = z0, z1, z2
-            J[3, i], J[4, i], J[5, i] = 0.0, 0.0, 0.0
-        else:
-            r0, r1, r2 = p0 - origins[i, 0], p1 - origins[i, 1], p2 - origins[i, 2]
-            J[0, i] = z1 * r2 - z2 * r1
-            J[1, i] = z2 * r0 - z0 * r2
-            J[2, i] = z0 * r1 - z1 * r0
-            J[3, i], J[4, i], J[5, i] = z0, z1, z2
+    """:func:`pipeline.solvers.kernels.kin.jacobian` at the effector position of ``T`` (4, 4)."""
+    jacobian_at(prism, axes, origins, T[0, 3], T[1, 3], T[2, 3], J)
 
 
 @numba.njit(cache=True)

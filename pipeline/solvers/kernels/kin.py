@@ -151,6 +151,19 @@ def rodrigues(k0, k1, k2, angle):
             v * k0 * k2 - s * k1, v * k1 * k2 + s * k0, c + v * k2 * k2)
 
 
+@numba.njit(cache=True, inline="always")
+def dh_joint(offs, d, prism, q, i):
+    """Joint ``i``'s DH angle and offset with its joint value added: ``(theta [rad], d [length])``, the
+    value going to ``d`` for a prismatic joint and to ``theta`` for a revolute one."""
+    th = offs[i]
+    di = d[i]
+    if prism[i]:
+        di += q[i]
+    else:
+        th += q[i]
+    return th, di
+
+
 @numba.njit(cache=True)
 def link_transform(a, alpha, d, offs, prism, modified, q, i, L):
     """Rows 0-2 of joint ``i``'s link transform into ``L`` (4, 4); returns (cos alpha_i, sin alpha_i).
@@ -179,12 +192,7 @@ def link_transform(a, alpha, d, offs, prism, modified, q, i, L):
                 L[r, 2] = o0 * m02 + o1 * m12 + o2 * m22
                 L[r, 3] = a[o + 4 * r + 3]
         return 1.0, 0.0
-    th = offs[i]
-    di = d[i]
-    if prism[i]:
-        di += q[i]
-    else:
-        th += q[i]
+    th, di = dh_joint(offs, d, prism, q, i)
     ct, st = np.cos(th), np.sin(th)
     ca, sa = np.cos(alpha[i]), np.sin(alpha[i])
     if modified:
@@ -232,6 +240,15 @@ def forward(a, alpha, d, offs, prism, modified, base, tool, q, axes, origins, T)
 
 @numba.njit(cache=True)
 def jacobian(prism, axes, origins, p, J):
+    """The geometric Jacobian ``J`` (6, n) (rows: linear [length/rad or 1], angular [1]) of the chain
+    with joint axes ``axes`` (n, 3) through ``origins`` (n, 3) [length], at the effector position ``p``
+    (3,) [length]; a prismatic joint (``prism`` (n,) bool) moves along its axis."""
+    jacobian_at(prism, axes, origins, p[0], p[1], p[2], J)
+
+
+@numba.njit(cache=True, inline="always")
+def jacobian_at(prism, axes, origins, p0, p1, p2, J):
+    """:func:`jacobian` at the effector position ``(p0, p1, p2)`` [length] (the one Jacobian loop)."""
     n = axes.shape[0]
     for i in range(n):
         z0, z1, z2 = axes[i, 0], axes[i, 1], axes[i, 2]
@@ -239,7 +256,7 @@ def jacobian(prism, axes, origins, p, J):
             J[0, i], J[1, i], J[2, i] = z0, z1, z2
             J[3, i], J[4, i], J[5, i] = 0.0, 0.0, 0.0
         else:
-            r0, r1, r2 = p[0] - origins[i, 0], p[1] - origins[i, 1], p[2] - origins[i, 2]
+            r0, r1, r2 = p0 - origins[i, 0], p1 - origins[i, 1], p2 - origins[i, 2]
             J[0, i] = z1 * r2 - z2 * r1
             J[1, i] = z2 * r0 - z0 * r2
             J[2, i] = z0 * r1 - z1 * r0
