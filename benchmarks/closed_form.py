@@ -36,7 +36,7 @@ The machine is shared: a verdict is a ratio of medians measured in the same bloc
 the process (``time.process_time``) is printed beside wall time for each section. The run begins
 with the machine (CPU model, the compiler's target, cores, versions, the load average) and ends with
 the load average: the same code compiles to other vector code on another CPU, so the verdicts are
-this machine's (an Intel and an AMD Zen 4 machine disagree on three of them; README).
+this machine's (an Intel and an AMD Zen 4 machine disagree on three of them; benchmarks/results/closed_forms.md).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Read every channel of an ik-pipeline archive with only `mcap` and `protobuf` (no `import pipeline`).
 
-The schemas are in the file; this is the snippet the README shows. Prints one JSON object: the
+The schemas are in the file; this is the snippet docs/archives.md shows. Prints one JSON object: the
 decoded messages per topic, with every repeated field as a list.
 """
 import json

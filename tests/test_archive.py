@@ -103,7 +103,7 @@ def _snippet(path) -> dict:
 
 
 def test_every_channel_reads_with_mcap_and_protobuf_alone_and_agrees_with_the_reader(tmp_path, ur5):
-    """The README snippet (no `import pipeline`) decodes every message with the schemas in the file,
+    """The docs' snippet (docs/archives.md) (no `import pipeline`) decodes every message with the schemas in the file,
     finds no NaN or Infinity, and gets the same records, stored traces and solutions as `pipeline`."""
     pytest.importorskip("google.protobuf", reason="protobuf (test extra) not installed")
     p = tmp_path / "a.mcap"

@@ -8,7 +8,7 @@ any machine, whatever its CPU or BLAS. Re-running the solves of an archive is a 
 never read errors.
 
 Channels (all protobuf, schemas written into the file as FileDescriptorSets, so any MCAP reader
-with ``protobuf`` decodes them without this package; the README shows how)
+with ``protobuf`` decodes them without this package; docs/archives.md "Reading an archive without this package" shows how)
 ------------------------------------------------------------------------------------------------
 ``/ik/solve``      ``ik_pipeline.SolveBatch``, up to :data:`BATCH` solves a message, fields in
                    :data:`SOLVE_FIELDS`: per solve its problem id, repetition, chain, stop reason

@@ -32,7 +32,7 @@ def runs_frame(archives: list[Archive]) -> pd.DataFrame:
     return df
 
 
-SAMPLE_COLUMNS = {  # per-sample file column -> its meaning (README "Per-sample data" lists them)
+SAMPLE_COLUMNS = {  # per-sample file column -> its meaning (docs/archives.md "Per-sample data" lists them)
     "study": "study id", "robot": "robot name", "problem_set": "problem set", "solver": "solver label",
     "method": "registered method", "library": "ours or the peer library's package", "problem_id": "goal id in the "
     "problem file", "repetition": "repetition (timing runs)", "success": "FK-verified success (within limits where "

@@ -1,4 +1,4 @@
-"""The one timing definition of every solve (written down once; README "Timing" says the same).
+"""The one timing definition of every solve (written down once; docs/solvers.md "Timing, one definition" says the same).
 
 ``solve_time_s``
     The method's own computation for one problem: from its first to its last operation, excluding
