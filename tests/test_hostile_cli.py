@@ -18,7 +18,6 @@ import os
 import shutil
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -63,15 +62,14 @@ def _snapshot(root: Path) -> dict:
     return {str(p): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(root.rglob("*")) if p.is_file()}
 
 
-def _run(argv: list[str]) -> tuple[int, str, str, float]:
+def _run(argv: list[str]) -> tuple[int, str, str]:
     out, err = io.StringIO(), io.StringIO()
-    t0 = time.monotonic()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
             rc = main(argv)
         except SystemExit as exc:  # argparse: exit 2 with a usage line
             rc = exc.code
-    return rc, out.getvalue(), err.getvalue(), time.monotonic() - t0
+    return rc, out.getvalue(), err.getvalue()
 
 
 SHELL_TEXT = [
@@ -233,14 +231,13 @@ def test_case_is_one_line_and_changes_nothing(case, ws):
     if argv[0].startswith("mariano") and argv[0] not in _verbs():
         pytest.skip(f"no {argv[0]} verb")
     before = _snapshot(ws)
-    rc, out, err, seconds = _run(argv)
+    rc, out, err = _run(argv)
     assert rc == 2, (rc, out[-500:], err[-2000:])
     lines = err.rstrip("\n").split("\n")
     line = lines[-1]
     assert "Traceback" not in err
     assert len(lines) == 1, err
     assert want.replace("@W", str(ws)) in line, line
-    assert seconds < 10
     assert not (ws / MARK).exists() and not (ROOT / MARK).exists()
     assert _snapshot(ws) == before, "a refused command changed the workspace"
 
@@ -256,7 +253,7 @@ def test_force_overwrites_an_ordinary_output(ws, tmp_path):
     out = tmp_path / "records.csv"
     assert _run(["inspect", str(ws / "a.mcap"), "--csv", str(out)])[0] == 0
     first = out.read_bytes()
-    rc, _, err, _ = _run(["inspect", str(ws / "a.mcap"), "--csv", str(out)])
+    rc, _, err = _run(["inspect", str(ws / "a.mcap"), "--csv", str(out)])
     assert rc == 2 and "exists (use --force to overwrite)" in err
     assert _run(["inspect", str(ws / "a.mcap"), "--csv", str(out), "--force"])[0] == 0
     assert out.read_bytes() == first
@@ -278,7 +275,7 @@ def test_hard_link_and_symlink_to_the_input_are_the_input(ws, tmp_path):
     hard = tmp_path / "hard.mcap"
     os.link(ws / "a.mcap", hard)
     for out in (link, hard):
-        rc, _, err, _ = _run(["inspect", str(ws / "a.mcap"), "--csv", str(out), "--force"])
+        rc, _, err = _run(["inspect", str(ws / "a.mcap"), "--csv", str(out), "--force"])
         assert rc == 2 and "is also an input of this command" in err, err
 
 
@@ -300,7 +297,7 @@ def test_new_study_writes_nothing_through_format(ws):
     """A title with braces and quotes lands in the YAML as text; the file loads and says what was given."""
     from pipeline.settings import load_study
 
-    rc, out, err, _ = _run(["new_study", "fmt", "--robots", "ur5e", "--solvers", "dls", "--data", str(ws / "d"),
+    rc, out, err = _run(["new_study", "fmt", "--robots", "ur5e", "--solvers", "dls", "--data", str(ws / "d"),
                             "--title", "{src.__class__} \"q\" $(x)\nsecond: line"])
     assert rc == 0, err
     st = load_study(ws / "d" / "studies" / "fmt.yaml")
@@ -325,7 +322,7 @@ def test_lbfgsb_bounds_of_the_wrong_length_fail_check_inputs(tmp_path):
     cfg = tmp_path / "c.yaml"
     cfg.write_text(yaml.safe_dump({"scale": "quick", "studies": ["bnd"], "data_dir": str(data),
                                    "results_dir": str(tmp_path / "r")}))
-    rc, _, err, _ = _run(["check_inputs", "--config", str(cfg)])
+    rc, _, err = _run(["check_inputs", "--config", str(cfg)])
     assert rc == 2
     assert "bnd.yaml: solvers/lb on robot 'ur5e': field 'bounds': 3 pairs for a robot with 6 joints" in err, err
 
@@ -333,7 +330,7 @@ def test_lbfgsb_bounds_of_the_wrong_length_fail_check_inputs(tmp_path):
 @pytest.mark.parametrize("key", ["results_dir", "data_dir"])
 @pytest.mark.parametrize("value", ["$(touch PWNED)", "a b", "a;b", "{x}", "-rf", "résultats"])
 def test_config_folders_with_shell_text_are_refused(key, value):
-    rc, _, err, _ = _run(["check_inputs", "--set", f"{key}={value}"])
+    rc, _, err = _run(["check_inputs", "--set", f"{key}={value}"])
     assert rc == 2 and f"field '{key}'" in err and ("not allowed in a path" in err or "is not of type" in err), err
 
 
