@@ -269,7 +269,7 @@ def outside_limits(model: RobotModel, q: np.ndarray) -> list[int]:
     return [j for j in range(model.n) if not (lim[j, 0] - LIMIT_TOL <= q[j] <= lim[j, 1] + LIMIT_TOL)]
 
 
-def same_result(a: IKResult, b: IKResult, where: str, skip=(), solver: str = "") -> None:
+def same_result(a: IKResult, b: IKResult, where: str, skip=()) -> None:
     """Every field of two results equal bit for bit, timings (and the compile record) and ``skip`` aside."""
     for f in fields(a):
         if f.name in TIMES or f.name in skip:

@@ -75,8 +75,8 @@ def test_batch_equals_single_calls(case: Case):
     single = case.run(path="solve")
     assert len(batch) == len(bare) == len(single) == len(case.goals)
     for i, (b, s) in enumerate(zip(batch, single)):
-        same_result(b, s, case.where(i), solver=case.solver)
-        same_result(bare[i], s, case.where(i) + " (no traces)", skip={"trace"}, solver=case.solver)
+        same_result(b, s, case.where(i))
+        same_result(bare[i], s, case.where(i) + " (no traces)", skip={"trace"})
 
 
 @contract(deterministic_only=True)
@@ -85,7 +85,7 @@ def test_same_inputs_same_output(case: Case):
     first = case.run()  # (computed by another property of this case, often: then many calls ago)
     fresh = case.run(fresh=True)
     for i in range(len(first)):
-        same_result(first[i], fresh[i], case.where(i) + " (fresh binding)", solver=case.solver)
+        same_result(first[i], fresh[i], case.where(i) + " (fresh binding)")
 
 
 @contract()

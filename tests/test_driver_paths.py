@@ -8,9 +8,8 @@ path it replaces: the N-problem kernels (``Solver.batch`` + ``finish_batch``) ag
 
 from __future__ import annotations
 
-import json
 import math
-from dataclasses import fields, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -20,10 +19,10 @@ from pipeline.problems import random_joint_pairs
 from pipeline.robots import load_robot
 from pipeline.solvers import NotApplicableError, get, make_settings, names, prepare
 from pipeline.solvers.core.driver import Bound
+from tests.contract import same_result
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOTS = ("kuka_lwr", "ur5", "puma560", "mariano_4dof")
-TIMES = {"solve_time_s", "ik_time_s", "call_time_s", "cpu_time_s", "compiled", "compile_time_s"}  # and the compile record
 
 
 def _cases(attr: str):
@@ -47,23 +46,6 @@ def _problems(model, n=40, seed=5):
     return ps.goal_transforms(), ps.q_start
 
 
-def _same(a, b, where: str) -> None:
-    for f in fields(a):
-        if f.name in TIMES:
-            continue
-        x, y = getattr(a, f.name), getattr(b, f.name)
-        if f.name == "info":
-            x, y = ({k: v for k, v in dict(d).items() if "time" not in k} for d in (x, y))
-            assert json.dumps(x, sort_keys=True, default=str) == json.dumps(y, sort_keys=True, default=str), where
-        elif x is None or y is None:
-            assert x is None and y is None, f"{where}: {f.name}"
-        elif isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
-            x, y = np.asarray(x), np.asarray(y)
-            assert x.shape == y.shape and np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), f"{where}: {f.name}"
-        else:
-            assert type(x) is type(y) and (x == y or (x != x and y != y)), f"{where}: {f.name} {x!r} {y!r}"
-
-
 @pytest.mark.parametrize("name,robot", _cases("batch"))
 @pytest.mark.parametrize("mapping", [{}, {"criterion": "position"}, {"length_unit": "mm"}])
 def test_batch_kernel_equals_one_solve_per_problem(name, robot, mapping):
@@ -75,7 +57,7 @@ def test_batch_kernel_equals_one_solve_per_problem(name, robot, mapping):
     slow = Bound(replace(get(name), batch=None), prep, s).solve_many(T, S)
     assert len(fast) == len(slow) == len(T)
     for i in range(len(T)):
-        _same(fast.result(i), slow.result(i), f"{name} {robot} problem {i}")
+        same_result(fast.result(i), slow.result(i), f"{name} {robot} problem {i}")
 
 
 @pytest.mark.parametrize("name,robot", _cases("bind_call"))
@@ -89,7 +71,7 @@ def test_fused_call_equals_run1_and_finish(name, robot, mapping):
     T, S = _problems(model, seed=6)
     T[3, :3, 3] *= 100.0  # one goal out of reach
     for i in range(len(T)):
-        _same(fused.solve(T[i], S[i], i), generic.solve(T[i], S[i], i), f"{name} {robot} problem {i}")
+        same_result(fused.solve(T[i], S[i], i), generic.solve(T[i], S[i], i), f"{name} {robot} problem {i}")
 
 
 def test_restarts_run_the_bound_search(lwr):
