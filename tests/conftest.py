@@ -83,8 +83,8 @@ def homogeneous(R=None, t=None) -> np.ndarray:
 @pytest.fixture(scope="session")
 def quick_build(tmp_path_factory):
     """One quick-scale Snakemake build of the whole workflow, shared by the workflow and browser tests
-    (tests/test_workflow.py's ``built``, tests/test_browser.py)."""
-    from tests.test_workflow import _snakemake
+    (tests/workflow/test_workflow.py's ``built``, tests/report/test_browser.py)."""
+    from tests.workflow.test_workflow import _snakemake
 
     results = tmp_path_factory.mktemp("results")
     _snakemake(results)

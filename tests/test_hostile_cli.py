@@ -35,7 +35,7 @@ MARK = "PWNED"  # the file every shell payload tries to create
 @pytest.fixture(scope="module")
 def ws(tmp_path_factory):
     """A workspace: data folder copy, an archive, a problem file, a URDF, a results tree with both."""
-    from tests.test_inspect import _write
+    from tests.jobs.test_inspect import _write
 
     w = tmp_path_factory.mktemp("hostile_cli")
     (w / "d" / "studies").mkdir(parents=True)

@@ -17,9 +17,9 @@ modified DH puts ``Rx(alpha) Tx(a)`` first; the general (URDF) form is ``origin 
 the translation of ``T_goal T^-1`` (for the dual-quaternion norm criteria). :func:`pose_check8` gives
 the same floats for 8 poses at once, as the lanes of vector instructions (a batch's finish): both
 take their sines, cosines and arctangent from :mod:`pipeline.kinematics.vmath`, whose polynomials
-vectorize, and share every formula (:func:`_joint_step`, :func:`_errors_of`). ``tests/test_fast_path.py``
+vectorize, and share every formula (:func:`_joint_step`, :func:`_errors_of`). ``tests/solvers/core/test_fast_path.py``
 compares the check with the numpy HTM forward kinematics on random chains of every form,
-``tests/test_vmath.py`` the two checks with each other.
+``tests/kinematics/test_vmath.py`` the two checks with each other.
 """
 
 from __future__ import annotations

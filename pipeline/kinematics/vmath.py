@@ -7,8 +7,8 @@ returns, besides its value, whether its argument is ordinary; a caller takes lib
 others (a NaN, an infinity, or an angle too large for the reduction here). Being our own arithmetic,
 the results are also the same on every machine, whatever its libm.
 
-Accuracy: within 2 units in the last place of libm's (``tests/test_vmath.py`` for sin and cos,
-``tests/test_kernel_helpers.py`` for atan2).
+Accuracy: within 2 units in the last place of libm's (``tests/kinematics/test_vmath.py`` for sin and cos,
+``tests/solvers/closed_form/test_kernel_helpers.py`` for atan2).
 """
 
 from __future__ import annotations

@@ -238,7 +238,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
               TableSpec("answer", "Which method for which arm (from the archives)", ans,
                         f"Per robot and problem set, one recommendation. {RULE} The call column is a complete "
                         f"program: the robot loaded once, the solver bound once with the label's settings that "
-                        f"differ from the registry's defaults, then a loop over 1 000 goals (tests/test_answer_calls.py "
+                        f"differ from the registry's defaults, then a loop over 1 000 goals (tests/studies/test_answer_calls.py "
                         f"runs every one in a fresh process).")]
     for robot, g in race.groupby("robot", sort=False):
         g = g.drop(columns="robot").copy()

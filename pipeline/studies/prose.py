@@ -9,7 +9,7 @@ number goes::
 table's first column, or ``column=value, column=value`` to match several columns), the column, and a
 Python format spec (default ``.4g``; ``,.0f`` prints ``1,234``). A placeholder whose table, row or value
 is missing in a build (a quick build leaves some tables out) prints ``n/a``; one that names a column
-the table does not have is a study-file error, caught by ``tests/test_prose_numbers.py`` on a build.
+the table does not have is a study-file error, caught by ``tests/studies/test_prose_numbers.py`` on a build.
 
 The report's prose may hold numbers about our results only through placeholders: the same test
 reads every reason, caption and interpretation of a built report and fails on a number that none of

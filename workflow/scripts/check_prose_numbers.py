@@ -6,7 +6,7 @@ Reads each study's table notes, figure captions, claims' reasons and interpretat
 its tables) in RESULTS (pipeline.studies.prose.untabled_numbers) and prints one line per number
 that none of the study's tables (ours or published), published files, settings or ``prose_facts``
 holds. Exit status 1 when there is any: such a number was typed by hand and may have drifted from
-the build. tests/test_workflow.py runs the same check on the quick build.
+the build. tests/workflow/test_workflow.py runs the same check on the quick build.
 """
 
 from __future__ import annotations

@@ -491,7 +491,7 @@ def bind_call(prep: Prepared, s: AnalyticPumaSettings):
     (two compiled dispatches, a :class:`Raw` and an :class:`IKResult` built by keyword) cost ~5 us
     around a ~6 us kernel; here the kernel, the independent FK check and the limit record are one
     compiled call (:func:`puma_call`) and the result is built positionally, with the generic path's
-    values bit for bit (tests/test_fastpath_ur.py). ``T_goal`` in the robot file's unit; ``t0`` the
+    values bit for bit (tests/solvers/closed_form/test_fastpath_ur.py). ``T_goal`` in the robot file's unit; ``t0`` the
     caller's start on the call clock [ns].
     """
     if s.require_limits:

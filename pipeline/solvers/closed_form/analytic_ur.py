@@ -548,7 +548,7 @@ def bind_call(prep: Prepared, s: AnalyticURSettings):
     this VM's fast phase and 11-13 us in its slow one. Here the kernel, the choice, the independent
     FK check and the limit record are one compiled call (:func:`ur_call`, 6 array arguments, the
     robot, the settings and the check's model packed once into one array), and the result is built
-    positionally. Its values are those of the generic path bit for bit (tests/test_fastpath_ur.py).
+    positionally. Its values are those of the generic path bit for bit (tests/solvers/closed_form/test_fastpath_ur.py).
     ``T_goal`` is in the robot file's unit (as the public call takes it); ``t0`` the caller's start
     on the call clock [ns], so ``call_time_s`` covers the whole call, result included.
     """

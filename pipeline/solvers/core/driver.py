@@ -19,10 +19,10 @@ driver owns the protocol around the method's own computation:
 For N problems the driver runs the method's batch kernel (``Solver.batch``: the Jacobian loop and
 the closed forms, on ``threads`` cores) and :func:`pipeline.solvers.core.finish_batch` (the same
 result rule per problem), or else steps 1-5 per problem; results are the same either way
-(tests/test_fast_path.py, tests/test_contract.py).
+(tests/solvers/core/test_fast_path.py, tests/solvers/test_contract.py).
 
 Two fast paths stay, each measured (``python benchmarks/bench_fast.py --only paths``) and each held
-equal to the path it replaces field by field (tests/test_driver_paths.py):
+equal to the path it replaces field by field (tests/solvers/core/test_driver_paths.py):
 
 * ``Solver.batch`` (the N-problem kernels): 1.3x (Jacobian DLS, cerbaro2019 settings) to 3x (the
   closed forms) the throughput of per-problem calls on one thread, and the only path on several

@@ -105,7 +105,7 @@ def verify(model: RobotModel, T_goal: np.ndarray, q: np.ndarray, settings: Setti
 
     Uses the numpy reference FK (not a compiled kernel). The DQ norm of ``Q_goal Q*`` is taken in
     its closed form ``sqrt(1 + |t|^2 / 4)``, t the translation of ``T_goal T^-1`` (tested against the
-    explicit dual-quaternion product in tests/test_kinematics.py).
+    explicit dual-quaternion product in tests/kinematics/test_kinematics.py).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Allocation-free hot loop of the Jacobian IK methods, and their batch form on every core.
 
 The loop of 000 §3 (the four Jacobian methods), computed without allocating inside the loop
-(``tests/test_fast_path.py`` holds its iterates to the same loop written with the numpy kinematics):
+(``tests/solvers/core/test_fast_path.py`` holds its iterates to the same loop written with the numpy kinematics):
 
 * forward kinematics multiplies the running 3x4 frame by each link in place, with the link's
   cos/sin alpha computed once per robot (:func:`lean_chain`), about 36 multiply-adds per link;

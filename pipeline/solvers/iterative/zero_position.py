@@ -20,7 +20,7 @@ origin differences of the DH frames, :func:`pipeline.kinematics.zero_position.pz
 to the current configuration, and :func:`pipeline.solvers.kernels.kin.forward` returns exactly them
 (``axes``, ``origins``) for any DH chain: standard or modified, prismatic joints, base and tool
 transforms. Taking the zero position at the current configuration of each step makes the
-document's ``q - q0`` bookkeeping vanish; tests/test_solvers_erthal.py checks that the axes and
+document's ``q - q0`` bookkeeping vanish; tests/solvers/iterative/test_solvers_erthal.py checks that the axes and
 origins of ``forward`` equal the PZ description (rotated by the PZ forward kinematics) on the
 robots of the catalogue.
 

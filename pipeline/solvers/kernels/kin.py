@@ -4,7 +4,7 @@ One transcription of :mod:`pipeline.kinematics` into scalar loops: forward kinem
 and modified DH chains with prismatic joints and base/tool transforms (:func:`forward`, which also
 returns the joint axes and origins for :func:`jacobian`), the geometric Jacobian, quaternion and
 pose-error helpers, a thin SVD for small matrices, and the monotonic clock every kernel times its
-solve with (:func:`now_ns`). ``tests/test_solvers.py`` checks these against the numpy reference.
+solve with (:func:`now_ns`). ``tests/solvers/iterative/test_solvers.py`` checks these against the numpy reference.
 
 Array arguments of a chain, in this order everywhere (see :class:`pipeline.solvers.core.Prepared`):
 ``a, alpha, d, offs, prism, modified, base, tool`` with shapes (n,), (n,), (n,), (n,), (n,) bool,
@@ -333,7 +333,7 @@ def small_svd(J):
     descending order, ``Vt`` (k, n), k = min(m, n); singular vectors of zero singular values are
     zero. For the 6 x 7 Jacobians here this costs about a microsecond, where the LAPACK call
     spends most of its time on workspace handling, so that the SVD methods' timings reflect the
-    method. Checked against numpy in tests/test_solvers.py.
+    method. Checked against numpy in tests/solvers/iterative/test_solvers.py.
     """
     m, n = J.shape
     tall = m > n

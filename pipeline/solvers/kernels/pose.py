@@ -3,7 +3,7 @@
 The loop itself is :func:`pipeline.solvers.iterative.lean.solve`; this module holds what it calls that is
 written as a straight transcription of 000 (the pose error 6-vector, the four updates of eqs. 48-61,
 the stop rule of §3.4), and the layout of the packed parameters (:func:`pipeline.solvers.iterative.jacobian.packed`).
-``tests/test_solvers.py`` and ``tests/test_fast_path.py`` check them, and the loop's iterates,
+``tests/solvers/iterative/test_solvers.py`` and ``tests/solvers/core/test_fast_path.py`` check them, and the loop's iterates,
 against the numpy kinematics.
 """
 

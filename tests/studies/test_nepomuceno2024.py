@@ -1,6 +1,6 @@
 """nepomuceno2024 (004_957b32c2b06ea31d.txt): robots, the study's registered solvers and their
 document constants, closed-form UR IK on the study's robots, motions. The solvers themselves are
-tested in tests/test_solvers_optimizers.py."""
+tested in tests/solvers/iterative/test_solvers_optimizers.py."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from pipeline.studies.nepomuceno2024.problems import set_motion
 from pipeline.studies.nepomuceno2024.trajectory import (
     build_motion, interpolate, load_motions, pose_from_spec, segment_count)
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 ROBOTS = ["ur5_nepomuceno", "ur5e"]
 STUDY_DOC = load_study(ROOT / "data/studies/nepomuceno2024.yaml")
 STUDY = STUDY_DOC.settings

@@ -34,7 +34,7 @@ from pipeline.robots import LENGTH_UNITS, RobotModel, load_robot, parse_robot
 from pipeline.solvers import NotApplicableError, StopReason, solve, solve_batch
 from tests.conftest import random_transform
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 ROBOTS = ROOT / "data" / "robots"
 
 POS_TOL_M = 1e-8     # every returned solution reproduces the goal to this [m] ...

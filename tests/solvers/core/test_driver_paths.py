@@ -19,9 +19,9 @@ from pipeline.problems import random_joint_pairs
 from pipeline.robots import load_robot
 from pipeline.solvers import NotApplicableError, get, make_settings, names, prepare
 from pipeline.solvers.core.driver import Bound
-from tests.contract import same_result
+from tests.solvers.contract import same_result
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 ROBOTS = ("kuka_lwr", "ur5", "puma560", "mariano_4dof")
 
 

@@ -22,7 +22,7 @@ from pipeline.solvers import NotApplicableError, Prepared, SettingsError, StopRe
 from pipeline.solvers.iterative import optimizers as opt
 from tests.conftest import chains
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 LWR = load_robot(ROOT / "data/robots/kuka_lwr.yaml")          # lengths in cm
 UR5 = load_robot(ROOT / "data/robots/ur5_nepomuceno.yaml")
 UR5E = load_robot(ROOT / "data/robots/ur5e.yaml")

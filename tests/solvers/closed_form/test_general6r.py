@@ -22,7 +22,7 @@ from pipeline.solvers.core import Prepared
 from pipeline.solvers.core.models import metric as _metric
 from pipeline.solvers.core.registry import get
 from tests.conftest import random_transform
-from tests.test_analytic_geometry import _lengths, _twists, as_general, dh_model, robot, wrapped
+from tests.solvers.closed_form.test_analytic_geometry import _lengths, _twists, as_general, dh_model, robot, wrapped
 
 
 def general_arm(seed: int, conv: str = "standard", unit: str = "m", form: str = "dh"):

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.browser import Browser, find_chromium
+from tests.report.browser import Browser, find_chromium
 from tests.conftest import ROOT
 
 pytestmark = pytest.mark.workflow

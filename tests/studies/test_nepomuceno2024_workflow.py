@@ -15,7 +15,7 @@ from pipeline.settings import load_study
 from pipeline.studies.nepomuceno2024 import build_figures, build_tables
 from pipeline.studies.nepomuceno2024.problems import set_motion
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 STUDY_FILE = ROOT / "data/studies/nepomuceno2024.yaml"
 ROBOT = ROOT / "data/robots/ur5_nepomuceno.yaml"
 METHODS = ["pinv", "lbfgsb", "nelder_mead", "analytic"]

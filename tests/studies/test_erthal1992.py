@@ -26,7 +26,7 @@ from pipeline.studies.erthal1992.problems import placement
 from pipeline.studies.erthal1992.runs import q_from_settings
 from pipeline.studies.erthal1992.tasks import parse_res
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data"
 STUDY = load_study(DATA / "studies" / "erthal1992.yaml")
 SETS = STUDY.problem_sets
@@ -357,7 +357,7 @@ def test_cartesiano_axes_are_decoupled():
     from pipeline.kinematics import fk_htm
     from pipeline.robots import load_robot
 
-    m = load_robot(Path(__file__).resolve().parent.parent / "data" / "robots" / "cartesiano.yaml")
+    m = load_robot(Path(__file__).resolve().parents[2] / "data" / "robots" / "cartesiano.yaml")
     q = np.array([1000.0, 800.0, 650.0, 0.0, 0.0, np.pi])  # Table 6.13 initial configuration
     np.testing.assert_allclose(fk_htm(m.chain, q)[:3, 3], [1000, 800, 750], atol=1e-9)
     for i in range(3):

@@ -20,7 +20,7 @@ from pipeline.robots import RobotModel, load_robot
 from pipeline.solvers import NotApplicableError, StopReason, solve
 from pipeline.solvers.core import Prepared, pose_errors
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 ARM = load_robot(ROOT / "data/robots/mariano_4dof.yaml")
 POS_TOL = 1e-9   # relative to the arm's reach: closed form in double precision
 ROT_TOL = 1e-7   # rad; near-stretched arms lose ~sqrt(eps) in theta3 (beta close to 1)

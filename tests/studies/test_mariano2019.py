@@ -18,7 +18,7 @@ from pipeline.studies.mariano2019 import closed_form as CF
 from pipeline.studies.mariano2019 import counting as K
 from pipeline.studies.mariano2019.measure import arm_fk_counts, arm_ik_counts, mcu_records
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 ARM = load_robot(ROOT / "data/robots/mariano_4dof.yaml")
 P = CF.arm_params(ARM)
 FK_TOL = 1e-12        # same double-precision formulas in a different order: a few ulps of ~30 cm

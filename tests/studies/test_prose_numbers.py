@@ -1,6 +1,6 @@
 """Numbers in a study's prose come from its tables (pipeline.studies.prose): placeholders are filled at
 build time, and a number no table, setting or listed fact holds is reported (the built report's check
-runs in tests/test_workflow.py)."""
+runs in tests/workflow/test_workflow.py)."""
 
 from __future__ import annotations
 

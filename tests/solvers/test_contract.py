@@ -1,6 +1,6 @@
 """The solver contract on any machine (issue 41, item 4): properties every registered method keeps.
 
-Each test below is one property, run by :func:`tests.contract.contract` over every solver x
+Each test below is one property, run by :func:`tests.solvers.contract.contract` over every solver x
 {``solve``, ``solve_batch``} x {restarts, ``require_limits``} x drawn chains (standard DH, modified
 DH, general form, prismatic joints, the solver's home catalogue arm), with derandomized hypothesis
 examples, so CI on any CPU crosses restarts, ``require_limits`` and the batch (what the golden
@@ -17,7 +17,7 @@ import pytest
 
 from pipeline.kinematics import fk_htm
 from pipeline.solvers import StopReason, solve
-from tests.contract import (FK_SLACK, STOP_VALUES, Case, contract, outside_limits, pose_errors, reach,
+from tests.solvers.contract import (FK_SLACK, STOP_VALUES, Case, contract, outside_limits, pose_errors, reach,
                             same_result)
 
 SUCCESS = int(StopReason.SUCCESS)
@@ -68,7 +68,7 @@ def test_results_finite_or_reported_failure(case: Case):
 @contract(paths=("solve_batch",), deterministic_only=True)
 def test_batch_equals_single_calls(case: Case):
     """(c) ``solve_batch`` on N goals gives what N ``solve`` calls give, every field bit for bit but the
-    timings (the driver's promise: pipeline/solvers/core/driver.py, tests/test_driver_paths.py); without
+    timings (the driver's promise: pipeline/solvers/core/driver.py, tests/solvers/core/test_driver_paths.py); without
     traces, every field but the trace."""
     batch = case.run(path="solve_batch")
     bare = case.run(path="solve_batch_notrace")
@@ -172,7 +172,7 @@ def _planted(bug: str, real_solve, real_batch):
     ("unreachable_success", test_unreachable_goal_is_reported_failure, "unreachable goal reported as success")])
 def test_each_property_catches_a_planted_bug(bug, prop, says, monkeypatch):
     """Each property fails on answers carrying the bug it is about (on dls, a 6-joint DH arm)."""
-    import tests.contract as c
+    import tests.solvers.contract as c
 
     monkeypatch.setattr(c, "_RUNS", {})
     s, b = _planted(bug, c.solve, c.solve_batch)

@@ -261,7 +261,7 @@ def test_new_study_writes_the_answers_protocol(tmp_path):
     from pipeline.settings import load_study
     from pipeline.studies import get_study_module
 
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     data = tmp_path / "data"
     (data / "studies").mkdir(parents=True)
     shutil.copytree(root / "data" / "robots", data / "robots")

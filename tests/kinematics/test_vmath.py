@@ -15,7 +15,7 @@ from pipeline.kinematics import fk_htm
 from pipeline.kinematics.fkcheck import CHECK8_SCRATCH, check_model, pose_check, pose_check8
 from pipeline.kinematics.vmath import SINCOS_MAX, sincos, sincos_core
 from pipeline.solvers.core import pose_errors
-from tests.test_fast_path import _chain
+from tests.solvers.core.test_fast_path import _chain
 
 
 @numba.njit(cache=False)

@@ -17,7 +17,7 @@ import pytest
 
 from pipeline.solvers import Bound, SettingsError, bind, get, make_settings, prepare, solve
 from pipeline.solvers.core import IKResult, check
-from tests.test_analytic_fast import CASES, _problems
+from tests.solvers.closed_form.test_analytic_fast import CASES, _problems
 
 TIMINGS = ("solve_time_s", "ik_time_s", "call_time_s", "cpu_time_s", "compiled", "compile_time_s")  # compiled: a first call
 CRITERIA = ({}, {"criterion": "position"}, {"criterion": "dq_norm", "tol_dq": 1 + 1e-9},

@@ -1,7 +1,7 @@
 """Headless Chromium driven over the DevTools protocol on a pipe (``--remote-debugging-pipe``).
 
 Standard library only: no WebDriver, no browser download. Chromium is Debian's ``chromium``
-(``workflow/install_system_packages.sh``). Used by tests/test_browser.py to render the report as a
+(``workflow/install_system_packages.sh``). Used by tests/report/test_browser.py to render the report as a
 reader would: console errors, network requests, JavaScript checks and screenshots.
 """
 

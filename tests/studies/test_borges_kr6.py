@@ -1,6 +1,6 @@
 """Study borges_kr6 (002_56eb235931bf5f5d.txt): robot, the three methods with the study's settings, problem
 generators, archives through the generic solve, the report's annotation. The solvers themselves (registered
-inverse_jacobian_fd, levenberg_marquardt, pso) are tested on any robot in tests/test_solvers_borges.py."""
+inverse_jacobian_fd, levenberg_marquardt, pso) are tested on any robot in tests/solvers/iterative/test_solvers_borges.py."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from pipeline.settings import load_study
 from pipeline.solvers import solve
 from pipeline.studies.borges_kr6 import problems as P
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 ROBOT = ROOT / "data/robots/kuka_kr6_r700_sixx.yaml"
 STUDY = ROOT / "data/studies/borges_kr6.yaml"
 

@@ -41,7 +41,7 @@ def _jobs(proc):
 
 @pytest.fixture(scope="module")
 def built(quick_build):
-    return quick_build  # one quick build per session (tests/conftest.py), shared with tests/test_browser.py
+    return quick_build  # one quick build per session (tests/conftest.py), shared with tests/report/test_browser.py
 
 
 def test_dry_run_plans_everything(tmp_path):
@@ -343,7 +343,7 @@ def test_a_replay_of_a_built_archive_is_a_3d_scene_ending_at_the_archived_soluti
     from pipeline.cli import main
     from pipeline.io.archive import read_archive
     from pipeline.robots import load_robot
-    from tests.test_replay import TOPICS, _assert_pose, _decoder, _read, _tool_m
+    from tests.jobs.test_replay import TOPICS, _assert_pose, _decoder, _read, _tool_m
 
     src, out = built / study / "runs" / archive, tmp_path / "replay.mcap"
     arch = read_archive(src)

@@ -48,7 +48,7 @@ from pipeline.solvers import (IKResult, NotApplicableError, StopReason, catalogu
                               solve, solve_batch)
 from tests.conftest import random_transform
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 PATHS = ("solve", "solve_batch")
 # settings variants: restarts on/off x require_limits on/off (the Settings base's fields, every method has them)
@@ -82,7 +82,7 @@ BASE = {"geometric_iterative": {"max_iterations": 200}, "zero_position": {"max_i
 
 # Known contract failures: (solver, property name, kind or None) -> reason, marked xfail(strict=True) so that
 # a fix shows up as an unexpected pass. None today (the rtb adapter's one is its own strict xfail,
-# tests/test_contract.py::test_rtb_failed_call_is_repeatable).
+# tests/solvers/test_contract.py::test_rtb_failed_call_is_repeatable).
 KNOWN: dict = {}
 
 TIMES = {"solve_time_s", "ik_time_s", "call_time_s", "cpu_time_s", "compiled", "compile_time_s"}
@@ -366,7 +366,7 @@ def contract(paths=PATHS, variants=tuple(VARIANTS), kinds=KINDS, deterministic_o
 
         test.__name__, test.__qualname__, test.__doc__ = prop.__name__, prop.__qualname__, prop.__doc__
         test.__module__ = prop.__module__
-        test.prop = prop  # the bare property (tests/test_contract.py plants bugs under it)
+        test.prop = prop  # the bare property (tests/solvers/test_contract.py plants bugs under it)
         return pytest.mark.parametrize("solver,kind", _solver_params(prop.__name__, kinds))(test)
 
     return decorate

@@ -23,7 +23,7 @@ from pipeline.solvers.core.registry import bind
 from tests.conftest import homogeneous, rodrigues
 from pipeline.solvers.closed_form import subproblems as sp
 
-ROBOTS = Path(__file__).resolve().parents[1] / "data" / "robots"
+ROBOTS = Path(__file__).resolve().parents[3] / "data" / "robots"
 NOLIM = np.column_stack([np.full(6, -np.inf), np.full(6, np.inf)])
 CLIP = 1e-9
 

@@ -25,7 +25,7 @@ from pipeline.solvers import NotApplicableError, SettingsError, StopReason, make
 from pipeline.solvers.kernels import kin as _kin
 from pipeline.solvers.iterative.zero_position import strategy_weights
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 ROBOTS = ROOT / "data" / "robots"
 LWR = load_robot(ROBOTS / "kuka_lwr.yaml")
 UR5 = load_robot(ROBOTS / "ur5_nepomuceno.yaml")

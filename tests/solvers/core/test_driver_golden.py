@@ -7,23 +7,23 @@ compiles for the host CPU, OpenBLAS picks kernels by CPU): elsewhere this test s
 
 Every registered method but the peers that are not deterministic, ``trac_ik`` (two racing threads and a
 wall-time budget), ``rtb_ik_nr`` and ``rtb_ik_gn`` (a failed call returns a configuration drawn from an unseeded
-``rand()``, tests/test_contract.py) is run on a few catalogue robots (each method on those it applies to), on
+``rand()``, tests/solvers/test_contract.py) is run on a few catalogue robots (each method on those it applies to), on
 seeded goals, through the single call (``bind(...).solve``) under several settings (defaults, restarts,
 ``require_limits``, both, every success criterion, another working unit). Everything but the timings must
 equal the snapshot bit for bit: q, success, stop_reason, iterations, claimed_success, within_limits, errors,
 traces (a digest of their bytes), analytic solutions and ``info`` (time-valued keys left out).
 
 What the snapshot no longer holds, because tests that run on any CPU check it now: the batch call (with and
-without traces) equals the single calls field by field (tests/test_contract.py's batch property over every
-solver, settings variant and drawn chain; tests/test_driver_paths.py for the batch kernels), so equal single
+without traces) equals the single calls field by field (tests/solvers/test_contract.py's batch property over every
+solver, settings variant and drawn chain; tests/solvers/core/test_driver_paths.py for the batch kernels), so equal single
 calls here imply equal batches; restarts and ``require_limits`` keep their promises (a success is real and
 within the limits, results finite or a reported failure, the same inputs the same output, an unreachable goal a
-reported failure: tests/test_contract.py). The snapshot's single-call records are those recorded before
+reported failure: tests/solvers/test_contract.py). The snapshot's single-call records are those recorded before
 (the batch records were dropped from the same file, no value was recorded again).
 
 Record the snapshot (only from a build whose results are the reference)::
 
-    python tests/test_driver_golden.py --record
+    python tests/solvers/core/test_driver_golden.py --record
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 GOLDEN = ROOT / "tests" / "data" / "driver_golden" / "golden.npz"
 
 ROBOTS = ("kuka_lwr", "ur5", "puma560", "mariano_4dof", "scara")
@@ -192,12 +192,12 @@ def _build() -> str:
 @pytest.fixture(scope="module")
 def golden():
     if not GOLDEN.exists():
-        pytest.skip(f"no golden snapshot ({GOLDEN}); record it with python tests/test_driver_golden.py --record")
+        pytest.skip(f"no golden snapshot ({GOLDEN}); record it with python tests/solvers/core/test_driver_golden.py --record")
     with np.load(GOLDEN, allow_pickle=False) as z:
         out = {k: z[k] for k in z.files}
     if str(out.pop("__build__", np.array(""))) != _build():
         pytest.skip(f"golden snapshot recorded on another build than this one ({_build()}): its bits do not apply "
-                    "here (tests/test_contract.py checks the solvers' promises on any build)")
+                    "here (tests/solvers/test_contract.py checks the solvers' promises on any build)")
     return out
 
 
