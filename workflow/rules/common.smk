@@ -60,6 +60,7 @@ RES = {
 
 # cheap rules run in the Snakemake process's own machine, never submitted to a cluster
 localrules:
+    place_archive,
     aggregate_tables,
     render_report,
     manifest,
@@ -132,6 +133,29 @@ def robot_solvers(sid, pset, robot):
 def robot_sets(sid, robot):
     """Problem sets of `robot` (the sets of its one job under `job_per_robot`)."""
     return [p for p in study_doc(sid)["problem_sets"] if robot in set_robots(sid, p)]
+
+
+def robot_labels(sid, robot):
+    """Solver labels of `robot`'s one job under `job_per_robot` (the same on each of its problem sets,
+    checked with the config)."""
+    return robot_solvers(sid, robot_sets(sid, robot)[0], robot)
+
+
+def robot_problem_files(wildcards):
+    """The problem files of one `job_per_robot` job, in the order of its `--problem-set` list."""
+    sid, robot = wildcards.study, wildcards.robot
+    return [f"{RESULTS}/{sid}/problems/{p}/{robot}.csv.gz" for p in robot_sets(sid, robot)]
+
+
+def robot_job_archives(wildcards, output):
+    """Where one `job_per_robot` job writes its archives: inside its own folder, one per (problem set,
+    label), in the order `solve_problems --out` takes them."""
+    sid, robot = wildcards.study, wildcards.robot
+    return [
+        f"{output[0]}/{p}/{robot}__{lab}.mcap"
+        for p in robot_sets(sid, robot)
+        for lab in robot_labels(sid, robot)
+    ]
 
 
 def _expand_archive(sid, entry):

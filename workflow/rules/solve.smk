@@ -85,56 +85,62 @@ rule solve_problems:
 
 # A study with `job_per_robot: true` runs every solver of every problem set of a robot in one job
 # (one process start and one kernel warm-up per robot), writing the same archives (and contents, timings
-# aside) as one job per solver would. The one rule made in a loop: a Snakemake job's outputs are its
-# rule's output patterns, so a job whose archives differ in number from robot to robot (the solvers that
-# apply differ) needs a rule of its own; `group:` would keep the jobs together on a cluster but not
-# in one process.
-for _sid, _robot in dict.fromkeys(
-    (sid, r)
-    for sid in PER_ROBOT_STUDIES
-    for p in study_doc(sid)["problem_sets"]
-    for r in set_robots(sid, p)
-):
-    _sets = robot_sets(_sid, _robot)
-    _labels = robot_solvers(_sid, _sets[0], _robot)
-    if not _labels:
-        continue
-    if any(robot_solvers(_sid, p, _robot) != _labels for p in _sets):
-        sys.exit(
-            f"error: {DATA}/studies/{_sid}.yaml: job_per_robot needs the same solvers on every problem set of {_robot}"
-        )
+# aside) as one job per solver would. A Snakemake job's outputs are its rule's output patterns and the
+# archives of a robot differ in number from robot to robot (the solvers that apply differ), so the job
+# writes them into a hidden folder of its own, results/<study>/.runs_<robot>/<set>/ (`directory()`, outside
+# the manifest, at the depth of runs/<set>/ so that the problem and robot paths an archive records relative
+# to itself hold in both places), and `place_archive` hard-links each one to its place under runs/ (one
+# local job per archive: an `ln`, no Python process).
+rule solve_robot:
+    input:
+        problems=robot_problem_files,
+        robot=f"{DATA}/robots/{{robot}}.yaml",
+        kernels=ancient(KERNELS),
+    output:
+        directory(f"{RESULTS}/{{study}}/.runs_{{robot}}"),
+    log:
+        f"{RESULTS}/{{study}}/logs/solve_problems__{{robot}}.log",
+    benchmark:
+        f"{RESULTS}/{{study}}/benchmarks/{{robot}}.tsv"
+    wildcard_constraints:
+        study=_alternatives(PER_ROBOT_STUDIES),
+    threads: 1
+    resources:
+        mem_mb=RES["solve_robot"]["mem_mb"],
+        runtime=RES["solve_robot"]["runtime"],
+    params:
+        settings=study_file,
+        # a changed setting of any solver re-runs the job
+        solvers=lambda w: [STUDIES[w.study]["solvers"][lab] for lab in robot_labels(w.study, w.robot)],
+        caps=lambda w: [
+            [STUDIES[w.study]["caps"][p][lab] for lab in robot_labels(w.study, w.robot)]
+            for p in robot_sets(w.study, w.robot)
+        ],
+        labels=lambda w: " ".join(robot_labels(w.study, w.robot)),
+        psets=lambda w: " ".join(robot_sets(w.study, w.robot)),
+        out=robot_job_archives,
+        scale=SCALE,
+        env=ENV,
+    shell:
+        "{params.env} python -m pipeline solve_problems --study {params.settings} --problem-set {params.psets}"
+        " --robot {input.robot} --solver {params.labels} --problems {input.problems}"
+        " --scale {params.scale} --out {params.out} > {log} 2>&1"
 
-    rule:
-        name:
-            f"solve_{_sid}__{_robot}"
-        input:
-            problems=[f"{RESULTS}/{_sid}/problems/{p}/{_robot}.csv.gz" for p in _sets],
-            robot=f"{DATA}/robots/{_robot}.yaml",
-            kernels=ancient(KERNELS),
-        output:
-            [
-                f"{RESULTS}/{_sid}/runs/{p}/{_robot}__{lab}.mcap"
-                for p in _sets
-                for lab in _labels
-            ],
-        log:
-            f"{RESULTS}/{_sid}/logs/solve_problems__{_robot}.log",
-        benchmark:
-            f"{RESULTS}/{_sid}/benchmarks/{_robot}.tsv"
-        threads: 1
-        resources:
-            mem_mb=RES["solve_robot"]["mem_mb"],
-            runtime=RES["solve_robot"]["runtime"],
-        params:
-            settings=f"{DATA}/studies/{_sid}.yaml",
-            # a changed setting of any solver re-runs the job
-            solvers=[STUDIES[_sid]["solvers"][lab] for lab in _labels],
-            caps=[[STUDIES[_sid]["caps"][p][lab] for lab in _labels] for p in _sets],
-            labels=" ".join(_labels),
-            psets=" ".join(_sets),
-            scale=SCALE,
-            env=ENV,
-        shell:
-            "{params.env} python -m pipeline solve_problems --study {params.settings} --problem-set {params.psets}"
-            " --robot {input.robot} --solver {params.labels} --problems {input.problems}"
-            " --scale {params.scale} --out {output} > {log} 2>&1"
+
+rule place_archive:
+    input:
+        f"{RESULTS}/{{study}}/.runs_{{robot}}",
+    output:
+        f"{RESULTS}/{{study}}/runs/{{pset}}/{{robot}}__{{solver}}.mcap",
+    log:
+        f"{RESULTS}/{{study}}/logs/place_archive__{{pset}}__{{robot}}__{{solver}}.log",
+    wildcard_constraints:
+        study=_alternatives(PER_ROBOT_STUDIES),
+    threads: 1
+    resources:
+        mem_mb=RES["light"]["mem_mb"],
+        runtime=RES["light"]["runtime"],
+    params:
+        archive=lambda w, input: f"{input[0]}/{w.pset}/{w.robot}__{w.solver}.mcap",
+    shell:
+        "(ln -f {params.archive:q} {output:q} || cp -p {params.archive:q} {output:q}) > {log:q} 2>&1"

@@ -30,7 +30,7 @@ import sys
 
 def plan(config: dict, config_files: list[str]) -> dict:
     """Validate and describe the run (see the module docstring)."""
-    from pipeline.settings import check_config_files, check_inputs
+    from pipeline.settings import ConfigError, check_config_files, check_inputs
 
     check_config_files(config_files, config)
     scale = config["scale"]
@@ -45,7 +45,21 @@ def plan(config: dict, config_files: list[str]) -> dict:
             "repetitions": {p: st.repetitions(p, scale) for p in sets},
             "caps": {p: {label: st.solver_cap(p, label, scale) for label in st.set_solvers(p)} for p in sets},
         }
+        if st.doc.get("job_per_robot"):
+            _same_labels(st.id, studies[st.id]["jobs"], config["data_dir"], ConfigError)
     return {"config": config, "studies": studies}
+
+
+def _same_labels(sid: str, jobs: list, data: str, error) -> None:
+    """A `job_per_robot` study runs the same solvers on every problem set of a robot (one job writes
+    them all, under one list of labels)."""
+    labels: dict = {}
+    for pset, robot, label in jobs:
+        labels.setdefault(robot, {}).setdefault(pset, []).append(label)
+    for robot, by_set in labels.items():
+        if len({tuple(v) for v in by_set.values()}) > 1:
+            raise error(f"{data}/studies/{sid}.yaml: job_per_robot: needs the same solvers on every problem set of "
+                        f"{robot} (they differ: {', '.join(sorted(by_set))})")
 
 
 def main(argv: list[str]) -> int:
