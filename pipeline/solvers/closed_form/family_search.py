@@ -11,10 +11,10 @@ each bracket is refined by regula falsi (Illinois); the last two angles then by 
 
 No lane pass: a search's cost is its residual evaluations, not one latency-bound chain.
 
-:func:`solve_search` is one function of about 200 lines, an exception to the 80-line rule: split into
-helpers (the grid, the brackets, the dips, the regula falsi, the last two joints; inlined or not), the
-same floats came 12-25 % slower on the offset-wrist arms (xarm6 58-62 µs against 50-52 µs a goal, crx10ia
-61-66 against 51-55; the cause was not found), and kept whole it is as fast as before.
+The stages are functions of their own (the grid, the sign changes, the dips, the regula falsi, the last
+two joints, the duplicate test); the pose's fixed inputs travel as one tuple ``ctx``, unpacked by
+:func:`_ev` which numba inlines (``inline="always"``) where the residual is evaluated: as a call of its
+own, passing every array of the tuple, it cost 10-15 % on the offset-wrist arms.
 """
 
 from __future__ import annotations
@@ -67,71 +67,108 @@ def _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, t, clip, pref
             b += 1
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _ev(ctx, t, F1, V1, TH):
+    """:func:`_search_eval` at ``t`` with the pose's fixed inputs ``ctx`` = (mode, case, H, P, RM, pM, Rg,
+    pg, o, c, w, g, hh, clip, pref)."""
+    mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, clip, pref = ctx
+    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, t, clip, pref, F1, V1, TH)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _signed(ctx, t, b, sg, F1, V1, TH):
+    """``sg · f_b(t)``, or 1e300 where branch ``b`` does not exist at ``t``."""
+    _ev(ctx, t, F1, V1, TH)
+    return sg * F1[b] if V1[b] else 1e300
+
+
 @numba.njit(cache=True, error_model="numpy")
-def _dip(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, clip, pref, b, lo, hi, sg, F1, V1, TH):
+def _dip(ctx, b, lo, hi, sg, F1, V1, TH):
     """Golden-section search for the minimum of ``sg · f_b`` on [lo, hi] (both ends of sign ``sg``),
     stopped as soon as it goes below 0: (found, where, f there). A close pair of roots (or one
     near a branch's edge) leaves no sign change on the grid; this finds the point between them."""
     gr = 0.6180339887498949
     x1 = hi - gr * (hi - lo)
     x2 = lo + gr * (hi - lo)
-    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, x1, clip, pref, F1, V1, TH)
-    y1 = sg * F1[b] if V1[b] else 1e300
-    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, x2, clip, pref, F1, V1, TH)
-    y2 = sg * F1[b] if V1[b] else 1e300
+    y1 = _signed(ctx, x1, b, sg, F1, V1, TH)
+    y2 = _signed(ctx, x2, b, sg, F1, V1, TH)
     for _ in range(24):
         if min(y1, y2) < 0.0:
             break
         if y1 < y2:
             hi, x2, y2 = x2, x1, y1
             x1 = hi - gr * (hi - lo)
-            _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, x1, clip, pref, F1, V1, TH)
-            y1 = sg * F1[b] if V1[b] else 1e300
+            y1 = _signed(ctx, x1, b, sg, F1, V1, TH)
         else:
             lo, x1, y1 = x1, x2, y2
             x2 = lo + gr * (hi - lo)
-            _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, x2, clip, pref, F1, V1, TH)
-            y2 = sg * F1[b] if V1[b] else 1e300
+            y2 = _signed(ctx, x2, b, sg, F1, V1, TH)
     if y1 < y2:
         return y1 < 0.0, x1, sg * y1
     return y2 < 0.0, x2, sg * y2
 
 
 @numba.njit(cache=True, error_model="numpy")
-def solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q):
-    """Position case for joints 1-3 and a one-dimensional search: mode 4, axes 5-6 meet and θ4 is
-    searched; mode 6, axes 4-5 meet and θ6 is searched (see :func:`_search_eval`). Up to 16."""
-    h4, h5, h6 = row(H, 3), row(H, 4), row(H, 5)
-    if mode == 4:
-        c = meet_point(h5, row(P, 4), h6, row(P, 5))
-        hh = dot(h5, h6)
-    else:
-        c = meet_point(h4, row(P, 3), h5, row(P, 4))
-        hh = dot(h4, h5)
-    w = wrist_target(Rg, pg, RM, pM, c)
-    o = case_point(case, H, P)
-    g = gm(Rg, RM, h6)
-    e6 = any_perp(h6)
-    e5 = any_perp(h5)
-    N = samples
-    Fs = np.empty((N + 1, 4))
-    Vs = np.zeros((N + 1, 4), np.bool_)
-    TH = np.empty((4, 3), np.complex128)
-    THs = np.empty((N + 1, 4, 3), np.complex128)
-    F1 = np.empty(4)
-    V1 = np.zeros(4, np.bool_)
+def _edge(ctx, b, good, bad, fg, F1, V1, TH):
+    """Where branch ``b`` stops existing between ``good`` (it exists, residual ``fg``) and ``bad`` (it
+    does not), by 16 bisections: (the last point where it exists, its residual there)."""
+    for _ in range(16):
+        m = 0.5 * (good + bad)
+        _ev(ctx, m, F1, V1, TH)
+        if V1[b]:
+            good = m
+            fg = F1[b]
+        else:
+            bad = m
+    return good, fg
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _push(BR, BB, nb, a0, f0, a1, f1, b):
+    """Store the bracket (a0, f0, a1, f1) of branch ``b`` as number ``nb``; the new count."""
+    BR[nb, 0], BR[nb, 1], BR[nb, 2], BR[nb, 3] = a0, f0, a1, f1
+    BB[nb] = b
+    return nb + 1
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _grid(ctx, N, Fs, Vs, THs):
+    """Every branch at the ``N`` grid angles -π + 2πi/N, row N a copy of row 0 (the circle closed)."""
     step = 2.0 * math.pi / N
     for i in range(N):
-        _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, -math.pi + i * step, clip, pref, Fs[i], Vs[i],
-                     THs[i])
+        _ev(ctx, -math.pi + i * step, Fs[i], Vs[i], THs[i])
     for b in range(4):
         Fs[N, b] = Fs[0, b]
         Vs[N, b] = Vs[0, b]
         for j in range(3):
             THs[N, b, j] = THs[0, b, j]
-    # brackets (lo, f(lo), hi, f(hi)) of sign changes per branch
-    BR = np.empty((64, 4))
-    BB = np.empty(64, np.int64)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _fine_cell(ctx, b, a0, f0, f1, step, BR, BB, nb, F1, V1, TH):
+    """A cell where the branch's joints 1-3 turn fast (a near-singular position sub-problem): the
+    residual may cross zero and back between grid points, so sample it 8 times finer."""
+    xa, fa_ = a0, f0
+    for kk in range(1, 9):
+        xb = a0 + step * kk / 8.0
+        if kk < 8:
+            _ev(ctx, xb, F1, V1, TH)
+            if not V1[b]:
+                break
+            fb_ = F1[b]
+        else:
+            fb_ = f1
+        if fa_ * fb_ < 0.0 and nb < 64:
+            nb = _push(BR, BB, nb, xa, fa_, xb, fb_, b)
+        xa, fa_ = xb, fb_
+    return nb
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _sign_changes(ctx, N, Fs, Vs, THs, BR, BB, F1, V1, TH):
+    """Brackets (lo, f(lo), hi, f(hi)) of the sign changes of each branch along the grid, a branch's
+    edge inside a cell found by :func:`_edge`; their count."""
+    step = 2.0 * math.pi / N
     nb = 0
     for b in range(4):
         for i in range(N):
@@ -142,51 +179,30 @@ def solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q):
                 continue
             f0, f1 = Fs[i, b], Fs[i + 1, b]
             if v0 != v1:  # the branch ends inside: find its edge by bisection, evaluate there
-                good, bad = (a0, a1) if v0 else (a1, a0)
-                fg = f0 if v0 else f1
-                for _ in range(16):
-                    m = 0.5 * (good + bad)
-                    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, m, clip, pref, F1, V1, TH)
-                    if V1[b]:
-                        good = m
-                        fg = F1[b]
-                    else:
-                        bad = m
                 if v0:
-                    a1, f1 = good, fg
+                    a1, f1 = _edge(ctx, b, a0, a1, f0, F1, V1, TH)
                 else:
-                    a0, f0 = good, fg
+                    a0, f0 = _edge(ctx, b, a1, a0, f1, F1, V1, TH)
             if f0 * f1 <= 0.0:
                 if nb < 64 and not (f1 == 0.0 and v1 and i + 1 < N):  # a zero on a grid point: once
-                    BR[nb, 0], BR[nb, 1], BR[nb, 2], BR[nb, 3] = a0, f0, a1, f1
-                    BB[nb] = b
-                    nb += 1
+                    nb = _push(BR, BB, nb, a0, f0, a1, f1, b)
                 continue
             if not (v0 and v1):
                 continue
-            # the branch's joints 1-3 turn fast across this cell (a near-singular position sub-problem):
-            # the residual may cross zero and back between grid points; sample the cell finer
             fast = 0.0
             for j in range(3):
                 fast = max(fast, abs(THs[i + 1, b, j] - THs[i, b, j]))
             if fast > 0.35:
-                xa, fa_ = a0, f0
-                for kk in range(1, 9):
-                    xb = a0 + step * kk / 8.0
-                    if kk < 8:
-                        _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, xb, clip, pref, F1, V1, TH)
-                        if not V1[b]:
-                            break
-                        fb_ = F1[b]
-                    else:
-                        fb_ = f1
-                    if fa_ * fb_ < 0.0 and nb < 64:
-                        BR[nb, 0], BR[nb, 1], BR[nb, 2], BR[nb, 3] = xa, fa_, xb, fb_
-                        BB[nb] = b
-                        nb += 1
-                    xa, fa_ = xb, fb_
-    # no sign change on the grid: a close pair of roots (or a pair near a branch's edge) hides where
-    # |f| has a local minimum; look there when the parabola through the neighbours says it may cross
+                nb = _fine_cell(ctx, b, a0, f0, f1, step, BR, BB, nb, F1, V1, TH)
+    return nb
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _dips(ctx, N, Fs, Vs, BR, BB, nb, F1, V1, TH):
+    """No sign change on the grid: a close pair of roots (or a pair near a branch's edge) hides where
+    |f| has a local minimum; look there (:func:`_dip`) when the parabola through the neighbours says it
+    may cross, and bracket both roots. The new bracket count."""
+    step = 2.0 * math.pi / N
     for b in range(4):
         for i in range(N):
             if not Vs[i, b]:
@@ -208,8 +224,7 @@ def solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q):
                     continue
             sg = 1.0 if fi > 0.0 else -1.0
             ai = -math.pi + i * step
-            found, xm, fm = _dip(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, clip, pref, b, ai - step,
-                                 ai + step, sg, F1, V1, TH)
+            found, xm, fm = _dip(ctx, b, ai - step, ai + step, sg, F1, V1, TH)
             if not found or nb + 2 > 64:
                 continue
             # one root between a_i and xm; the other between xm and the far side (its grid point, or
@@ -218,90 +233,121 @@ def solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q):
             vf = vr if xm > ai else vl
             ff = fr if xm > ai else fl
             if not vf:
-                good, bad = xm, far
-                ff = fm
-                for _ in range(16):
-                    mm = 0.5 * (good + bad)
-                    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, mm, clip, pref, F1, V1, TH)
-                    if V1[b]:
-                        good = mm
-                        ff = F1[b]
-                    else:
-                        bad = mm
-                far = good
-            BR[nb, 0], BR[nb, 1], BR[nb, 2], BR[nb, 3] = ai, fi, xm, fm
-            BB[nb] = b
-            nb += 1
+                far, ff = _edge(ctx, b, xm, far, fm, F1, V1, TH)
+            nb = _push(BR, BB, nb, ai, fi, xm, fm, b)
             if ff * fm <= 0.0:
-                BR[nb, 0], BR[nb, 1], BR[nb, 2], BR[nb, 3] = xm, fm, far, ff
-                BB[nb] = b
-                nb += 1
+                nb = _push(BR, BB, nb, xm, fm, far, ff, b)
+    return nb
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _root(ctx, b, a0, f0, a1, f1, F1, V1, TH):
+    """The root of branch ``b`` in the bracket [a0, a1] by Illinois regula falsi (a midpoint where the
+    branch stops existing)."""
+    if f0 == 0.0:
+        return a0
+    if f1 == 0.0:
+        return a1
+    a, fa, bb, fb = a0, f0, a1, f1
+    root = bb
+    for _ in range(60):
+        m = bb - fb * (bb - a) / (fb - fa)
+        _ev(ctx, m, F1, V1, TH)
+        if not V1[b]:
+            m = 0.5 * (a + bb)
+            _ev(ctx, m, F1, V1, TH)
+            if not V1[b]:
+                break
+        fm = F1[b]
+        if fm * fb < 0.0:
+            a, fa = bb, fb
+        else:
+            fa *= 0.5
+        bb, fb = m, fm
+        root = m
+        if abs(fm) < 1e-15 or abs(bb - a) < 1e-14:
+            break
+    return root
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _wrist_pair(mode, H, Rg, RM, g, e5, e6, pref, t):
+    """The two joints the search leaves, by sp1, into ``t`` (its joints 1-3 and the searched one set):
+    mode 4, ``R5 R6 = (R1..R4)ᵀ RgM`` (θ5 from h6, θ6 from e6); mode 6, ``R4 R5 = (R1 R2 R3)ᵀ RgM R6ᵀ``
+    (θ4 from h5, θ5 from e5)."""
+    h4, h5, h6 = row(H, 3), row(H, 4), row(H, 5)
+    t1, t2, t3 = t[0], t[1], t[2]
+    if mode == 4:
+        zr = t[3]
+        nh6 = rotz(h4, zr.conjugate(), back3(H, t1, t2, t3, g))
+        t[4] = sp1(h5, h6, nh6, pref[4])
+        y = rotz(h4, zr.conjugate(), back3(H, t1, t2, t3, gm(Rg, RM, e6)))
+        y = rotz(h5, t[4].conjugate(), y)
+        t[5] = sp1(h6, e6, y, pref[5])
+    else:
+        zr = t[5]
+        nh5 = back3(H, t1, t2, t3, gm(Rg, RM, rotz(h6, zr.conjugate(), h5)))
+        t[3] = sp1(h4, h5, nh5, pref[3])
+        y = back3(H, t1, t2, t3, gm(Rg, RM, rotz(h6, zr.conjugate(), e5)))
+        y = rotz(h4, t[3].conjugate(), y)
+        t[4] = sp1(h5, e5, y, pref[4])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _keep(Q, n, t):
+    """Append ``t`` to the first ``n`` rows of ``Q`` unless it is there already (a root on a grid point
+    is found from both of its intervals); the new count (rows past ``Q``'s are counted, not stored)."""
+    for k in range(min(n, Q.shape[0])):
+        dd = 0.0
+        for j in range(6):
+            dd += abs(Q[k, j] - t[j])
+        if dd < 1e-9:
+            return n
+    if n < Q.shape[0]:
+        for j in range(6):
+            Q[n, j] = t[j]
+    return n + 1
+
+
+@numba.njit(cache=True, error_model="numpy")
+def solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q):
+    """Position case for joints 1-3 and a one-dimensional search: mode 4, axes 5-6 meet and θ4 is
+    searched; mode 6, axes 4-5 meet and θ6 is searched (see :func:`_search_eval`). Up to 16."""
+    h4, h5, h6 = row(H, 3), row(H, 4), row(H, 5)
+    if mode == 4:
+        c = meet_point(h5, row(P, 4), h6, row(P, 5))
+        hh = dot(h5, h6)
+    else:
+        c = meet_point(h4, row(P, 3), h5, row(P, 4))
+        hh = dot(h4, h5)
+    w = wrist_target(Rg, pg, RM, pM, c)
+    o = case_point(case, H, P)
+    g = gm(Rg, RM, h6)
+    ctx = (mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, clip, pref)
+    N = samples
+    Fs = np.empty((N + 1, 4))
+    Vs = np.zeros((N + 1, 4), np.bool_)
+    TH = np.empty((4, 3), np.complex128)
+    THs = np.empty((N + 1, 4, 3), np.complex128)
+    F1 = np.empty(4)
+    V1 = np.zeros(4, np.bool_)
+    BR = np.empty((64, 4))
+    BB = np.empty(64, np.int64)
+    _grid(ctx, N, Fs, Vs, THs)
+    nb = _sign_changes(ctx, N, Fs, Vs, THs, BR, BB, F1, V1, TH)
+    nb = _dips(ctx, N, Fs, Vs, BR, BB, nb, F1, V1, TH)
     t = np.zeros(6, np.complex128)
     n = 0
     for kb in range(nb):
         b = BB[kb]
-        a0, f0, a1, f1 = BR[kb, 0], BR[kb, 1], BR[kb, 2], BR[kb, 3]
-        if True:
-            if f0 == 0.0:
-                root = a0
-            elif f1 == 0.0:
-                root = a1
-            else:
-                # Illinois regula falsi on [a0, a1]
-                a, fa, bb, fb = a0, f0, a1, f1
-                root = bb
-                for _ in range(60):
-                    m = bb - fb * (bb - a) / (fb - fa)
-                    _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, m, clip, pref, F1, V1, TH)
-                    if not V1[b]:
-                        m = 0.5 * (a + bb)
-                        _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, m, clip, pref, F1, V1, TH)
-                        if not V1[b]:
-                            break
-                    fm = F1[b]
-                    if fm * fb < 0.0:
-                        a, fa = bb, fb
-                    else:
-                        fa *= 0.5
-                    bb, fb = m, fm
-                    root = m
-                    if abs(fm) < 1e-15 or abs(bb - a) < 1e-14:
-                        break
-            _search_eval(mode, case, H, P, RM, pM, Rg, pg, o, c, w, g, hh, root, clip, pref, F1, V1, TH)
-            if not V1[b]:
-                continue
-            t1, t2, t3 = TH[b, 0], TH[b, 1], TH[b, 2]
-            t[0], t[1], t[2] = t1, t2, t3
-            zr = cis(root)
-            if mode == 4:
-                t[3] = zr
-                # R5 R6 = (R1..R4)ᵀ RgM: θ5 from h6, θ6 from e6
-                nh6 = rotz(h4, zr.conjugate(), back3(H, t1, t2, t3, g))
-                t[4] = sp1(h5, h6, nh6, pref[4])
-                y = rotz(h4, zr.conjugate(), back3(H, t1, t2, t3, gm(Rg, RM, e6)))
-                y = rotz(h5, t[4].conjugate(), y)
-                t[5] = sp1(h6, e6, y, pref[5])
-            else:
-                t[5] = zr
-                # R4 R5 = (R1 R2 R3)ᵀ RgM R6ᵀ: θ4 from h5, θ5 from e5
-                nh5 = back3(H, t1, t2, t3, gm(Rg, RM, rotz(h6, zr.conjugate(), h5)))
-                t[3] = sp1(h4, h5, nh5, pref[3])
-                y = back3(H, t1, t2, t3, gm(Rg, RM, rotz(h6, zr.conjugate(), e5)))
-                y = rotz(h4, t[3].conjugate(), y)
-                t[4] = sp1(h5, e5, y, pref[4])
-            # a root on a grid point is found from both of its intervals: keep it once
-            dup = False
-            for k in range(min(n, Q.shape[0])):
-                dd = 0.0
-                for j in range(6):
-                    dd += abs(Q[k, j] - t[j])
-                if dd < 1e-9:
-                    dup = True
-            if not dup:
-                if n < Q.shape[0]:
-                    for j in range(6):
-                        Q[n, j] = t[j]
-                n += 1
+        root = _root(ctx, b, BR[kb, 0], BR[kb, 1], BR[kb, 2], BR[kb, 3], F1, V1, TH)
+        _ev(ctx, root, F1, V1, TH)
+        if not V1[b]:
+            continue
+        t[0], t[1], t[2] = TH[b, 0], TH[b, 1], TH[b, 2]
+        t[3 if mode == 4 else 5] = cis(root)
+        _wrist_pair(mode, H, Rg, RM, g, any_perp(h5), any_perp(h6), pref, t)
+        n = _keep(Q, n, t)
     return n
 
 
