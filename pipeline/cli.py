@@ -125,6 +125,19 @@ def cmd_plot_figures(args) -> None:
     print(plot_figures(args.study, args.archives, args.out_dir))
 
 
+def cmd_check_prose(args) -> None:
+    from pipeline.settings import load_study
+    from pipeline.studies.prose import untabled_numbers
+
+    study = load_study(args.study)
+    bad = untabled_numbers(study, args.built, args.published)
+    for where, number, context in bad:
+        print(f"{study.id}: {where}: {number!r} in “…{context.strip()}…”")
+    if bad:
+        raise CLIError(f"{args.study}: {len(bad)} number(s) in the prose bound to no cell (listed above)")
+    print(f"{study.id}: every number in the prose is bound to a cell, a setting or a document fact")
+
+
 def cmd_import_urdf(args) -> None:
     from pipeline.jobs.robot_files import import_urdf
 
@@ -338,6 +351,13 @@ def _report_verbs(sub) -> None:
         p.add_argument("--published", default="data/published", help="folder of the documents' tables")
         p.add_argument("--out-dir", required=True)
         p.set_defaults(func=fn)
+
+    p = sub.add_parser("check_prose", help="fail on a number in a built study's prose that no bound cell, setting "
+                       "or document fact gives (pipeline.studies.prose)")
+    p.add_argument("--study", required=True)
+    p.add_argument("--built", required=True, help="the study's results folder (tables/, figures/)")
+    p.add_argument("--published", default="data/published", help="folder of the documents' tables")
+    p.set_defaults(func=cmd_check_prose)
 
     p = sub.add_parser("render_report", help="assemble the self-contained HTML report")
     p.add_argument("--config", default="workflow/config/config.yaml")

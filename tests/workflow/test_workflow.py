@@ -167,8 +167,8 @@ def test_deleting_an_archive_rebuilds_only_its_dependents(built):
     jobs = _jobs(_snakemake(built, "-n"))
     # the archive itself, the rerun of its failures, the study's tables/figures, the report, the manifest
     assert jobs.get("solve_problems") == 1 and "make_problems" not in jobs
-    assert set(jobs) <= {"solve_problems", "rerun_failures", "aggregate_tables", "plot_figures", "render_report",
-                         "manifest", "all", "cerbaro2019"}
+    assert set(jobs) <= {"solve_problems", "rerun_failures", "aggregate_tables", "plot_figures", "check_prose",
+                         "render_report", "manifest", "all", "cerbaro2019"}
 
 
 def test_deleting_a_tables_folder_rebuilds_it_and_the_report(built):
