@@ -24,6 +24,7 @@ claim names a table the study builds from its archives, the column that holds th
 ``column_largest: {of: [COL, ...], of_published: [PCOL, ...]}``
                                   in every row the value exceeds the row's values in the columns ``of``
 ``nonzero_exactly: [ROW, ...]``   the rows whose value is not zero are exactly these (e.g. 1 = converged)
+``close: {rows: [A, B], rel: R}``  A's and B's values lie within a relative R of each other (|A − B| <= R max(|A|, |B|))
 
 An optional ``rows: {column: value, ...}`` keeps only the matching rows first (e.g. the ``mean``
 rows of a table with a ``statistic`` column; a list of values keeps the rows matching any of them).
@@ -69,7 +70,7 @@ import pandas as pd
 from pipeline.studies.specs import TableSpec
 
 CHECKS = ("max", "min", "order", "less", "ratio_at_least", "within", "abs_at_most", "column_less", "at_most",
-          "at_least", "all_at_least", "same_as", "column_largest", "nonzero_exactly")
+          "at_least", "all_at_least", "same_as", "column_largest", "nonzero_exactly", "close")
 HOLDS, DIFFERS, MISSING, NOT_COMPARABLE = "holds", "differs", "not reproduced", "not comparable here"
 TIE, CANNOT_FAIL, NOT_REPRODUCIBLE = "tie", "cannot fail here", "not reproducible here"
 NOT_MEASURED = "not measured in this build"
@@ -255,12 +256,24 @@ def _check_nonzero_exactly(kind: str, arg, frame: pd.DataFrame | None, key: str,
             f"not zero at: {', '.join(got) or 'none'} (claim: {', '.join(str(a) for a in arg)})")
 
 
+def _check_close(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                 on_published: bool) -> tuple[str, str]:
+    """Check ``close``."""
+    a, b = (str(x) for x in arg["rows"])
+    vals = _values(frame, key, col, [a, b])
+    if vals is None:
+        return MISSING, ""
+    gap = abs(vals[a] - vals[b]) / max(abs(vals[a]), abs(vals[b]), 1e-300)
+    return ((HOLDS if gap <= float(arg["rel"]) else DIFFERS),
+            f"{a} {vals[a]:.4g}, {b} {vals[b]:.4g} ({100 * gap:.3g} % apart; claim: ≤ {100 * float(arg['rel']):g} %)")
+
+
 _CHECKERS = {
     "max": _check_max_min, "min": _check_max_min, "order": _check_order, "less": _check_less,
     "ratio_at_least": _check_ratio_at_least, "within": _check_within, "abs_at_most": _check_abs_at_most,
     "column_less": _check_column_less, "at_most": _check_at_most_at_least, "at_least": _check_at_most_at_least,
     "all_at_least": _check_all_at_least, "same_as": _check_same_as, "column_largest": _check_column_largest,
-    "nonzero_exactly": _check_nonzero_exactly
+    "nonzero_exactly": _check_nonzero_exactly, "close": _check_close
 }  # check kind -> its function (CHECKS lists the kinds)
 
 

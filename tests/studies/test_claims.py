@@ -186,3 +186,9 @@ def test_ties_cannot_fail_not_reproducible_and_unmeasured_reasons():
     assert list(t["why"]) == ["B by a hair", "", "by construction", "no table measures it", NOT_MEASURED]
     assert count_line(list(t["verdict (ours)"])) == (
         "1 of 5 claims hold (1 tie, 1 cannot fail here, 1 not reproducible here, 1 not reproduced)")
+
+
+def test_close_check():
+    assert evaluate({"close": {"rows": ["B", "C"], "rel": 0.34}}, FRAME, "method", "x (ours)")[0] == HOLDS
+    assert evaluate({"close": {"rows": ["B", "C"], "rel": 0.3}}, FRAME, "method", "x (ours)")[0] == DIFFERS
+    assert evaluate({"close": {"rows": ["B", "Z"], "rel": 0.3}}, FRAME, "method", "x (ours)")[0] == MISSING
