@@ -186,14 +186,12 @@ BOUND = "‹cell›"  # what a placeholder leaves in a study file's prose when i
 def study_file_prose(study) -> list[tuple[str, str]]:
     """(where, text) of the prose a study file types: every claim's reasons (of every reading) and the
     interpretations, with each placeholder replaced by :data:`BOUND` (its number is the cell it names)."""
-    from pipeline.studies.claims import readings
-
     pieces = []
-    for k, c in enumerate(study.doc.get("claims") or []):
-        for label, r, _ in readings(c):
+    for k, c in enumerate(study.doc.get("claims") or []):  # the claim's own fields, then each reading's
+        for label, r in [(c.get("reading") or "headline", c)] + [(x["label"], x) for x in c.get("readings") or []]:
             for field in ("reason", "not_comparable", "cannot_fail", "not_reproducible"):
                 if r.get(field):
-                    pieces.append((f"claims/{k} {label or 'headline'} ({field})", PLACEHOLDER.sub(BOUND, str(r[field]))))
+                    pieces.append((f"claims/{k} {label} ({field})", PLACEHOLDER.sub(BOUND, str(r[field]))))
     for i in study.doc.get("interpretations", []):
         for field in ("choice", "evidence"):
             pieces.append((f"interpretation {i['topic']!r} ({field})", PLACEHOLDER.sub(BOUND, str(i.get(field, "")))))
