@@ -11,6 +11,7 @@ rerun_failures    rerun one archive's failed problems with changed stop rules (T
 race              time one arm's finalists against each other in one process, interleaved (after its solve jobs)
 aggregate_tables  compute a study's tables from its archives, beside the published values
 plot_figures      render a study's figures from its archives
+check_prose       fail on a number in a built study's prose bound to no cell, setting or document fact
 render_report     assemble results/report.html
 inspect           summarise an archive per solver (counts, success, times with units), one problem, CSV
 replay            re-run archived problems into a Foxglove-viewable MCAP (arm, goal, joints per iteration)
@@ -130,6 +131,8 @@ def cmd_check_prose(args) -> None:
     from pipeline.studies.prose import untabled_numbers
 
     study = load_study(args.study)
+    if not (Path(args.built) / "tables").is_dir():
+        raise CLIError(f"--built {args.built}: no tables/ folder (build the study's tables first)")
     bad = untabled_numbers(study, args.built, args.published)
     for where, number, context in bad:
         print(f"{study.id}: {where}: {number!r} in “…{context.strip()}…”")
