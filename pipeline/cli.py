@@ -11,6 +11,7 @@ rerun_failures    rerun one archive's failed problems with changed stop rules (T
 race              time one arm's finalists against each other in one process, interleaved (after its solve jobs)
 aggregate_tables  compute a study's tables from its archives, beside the published values
 plot_figures      render a study's figures from its archives
+check_prose       fail on a number in a built study's prose bound to no cell, setting or document fact
 render_report     assemble results/report.html
 inspect           summarise an archive per solver (counts, success, times with units), one problem, CSV
 replay            re-run archived problems into a Foxglove-viewable MCAP (arm, goal, joints per iteration)
@@ -123,6 +124,21 @@ def cmd_plot_figures(args) -> None:
     from pipeline.jobs.build import plot_figures
 
     print(plot_figures(args.study, args.archives, args.out_dir))
+
+
+def cmd_check_prose(args) -> None:
+    from pipeline.settings import load_study
+    from pipeline.studies.prose import untabled_numbers
+
+    study = load_study(args.study)
+    if not (Path(args.built) / "tables").is_dir():
+        raise CLIError(f"--built {args.built}: no tables/ folder (build the study's tables first)")
+    bad = untabled_numbers(study, args.built, args.published)
+    for where, number, context in bad:
+        print(f"{study.id}: {where}: {number!r} in “…{context.strip()}…”")
+    if bad:
+        raise CLIError(f"{args.study}: {len(bad)} number(s) in the prose bound to no cell (listed above)")
+    print(f"{study.id}: every number in the prose is bound to a cell, a setting or a document fact")
 
 
 def cmd_import_urdf(args) -> None:
@@ -338,6 +354,13 @@ def _report_verbs(sub) -> None:
         p.add_argument("--published", default="data/published", help="folder of the documents' tables")
         p.add_argument("--out-dir", required=True)
         p.set_defaults(func=fn)
+
+    p = sub.add_parser("check_prose", help="fail on a number in a built study's prose that no bound cell, setting "
+                       "or document fact gives (pipeline.studies.prose)")
+    p.add_argument("--study", required=True)
+    p.add_argument("--built", required=True, help="the study's results folder (tables/, figures/)")
+    p.add_argument("--published", default="data/published", help="folder of the documents' tables")
+    p.set_defaults(func=cmd_check_prose)
 
     p = sub.add_parser("render_report", help="assemble the self-contained HTML report")
     p.add_argument("--config", default="workflow/config/config.yaml")

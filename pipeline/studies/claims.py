@@ -24,6 +24,7 @@ claim names a table the study builds from its archives, the column that holds th
 ``column_largest: {of: [COL, ...], of_published: [PCOL, ...]}``
                                   in every row the value exceeds the row's values in the columns ``of``
 ``nonzero_exactly: [ROW, ...]``   the rows whose value is not zero are exactly these (e.g. 1 = converged)
+``close: {rows: [A, B], rel: R}``  A's and B's values lie within a relative R of each other (|A − B| <= R max(|A|, |B|))
 
 An optional ``rows: {column: value, ...}`` keeps only the matching rows first (e.g. the ``mean``
 rows of a table with a ``statistic`` column; a list of values keeps the rows matching any of them).
@@ -37,6 +38,20 @@ its FK share, position or orientation error), ``reading`` names the one the clai
 **Not comparable.** ``not_comparable: WHY`` marks a claim the build cannot check fairly (e.g. it
 compares compiled code with an interpreted library): its verdict is *not comparable here*, its
 values are still shown, and it does not count as holding or differing.
+
+**Cannot fail.** ``cannot_fail: WHY`` marks a claim whose check holds by construction here (e.g. a
+solver's tolerance guarantees it): its verdict is *cannot fail here*, its values are still shown, and
+it does not count as holding.
+
+**Not reproducible.** ``not_reproducible: WHY`` (instead of ``table``, ``key``, ``ours``, ``check``) is a
+headline of the document that no table of the build can decide: its verdict is *not reproducible here*,
+with the reason, and it counts among the study's headlines.
+
+**Ties.** ``tie_within: R`` (``max``, ``min``, ``less``, ``order``): when the values the verdict turns on
+lie within a relative R of each other (the measure's noise), the verdict is *tie*, not holds or differs.
+
+**Missing values.** A claim *not reproduced* in a build shows no reason beyond "not measured in this
+build": a reason explains a measured difference, and a build that did not measure has none to explain.
 
 The verdict is computed, never typed: *holds* when the check passes on our values, *differs* when
 it fails, *not reproduced* when the table, a row or a value is missing (e.g. a quick build without
@@ -55,8 +70,10 @@ import pandas as pd
 from pipeline.studies.specs import TableSpec
 
 CHECKS = ("max", "min", "order", "less", "ratio_at_least", "within", "abs_at_most", "column_less", "at_most",
-          "at_least", "all_at_least", "same_as", "column_largest", "nonzero_exactly")
+          "at_least", "all_at_least", "same_as", "column_largest", "nonzero_exactly", "close")
 HOLDS, DIFFERS, MISSING, NOT_COMPARABLE = "holds", "differs", "not reproduced", "not comparable here"
+TIE, CANNOT_FAIL, NOT_REPRODUCIBLE = "tie", "cannot fail here", "not reproducible here"
+NOT_MEASURED = "not measured in this build"
 
 
 class ClaimError(ValueError):
@@ -239,13 +256,46 @@ def _check_nonzero_exactly(kind: str, arg, frame: pd.DataFrame | None, key: str,
             f"not zero at: {', '.join(got) or 'none'} (claim: {', '.join(str(a) for a in arg)})")
 
 
+def _check_close(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+                 on_published: bool) -> tuple[str, str]:
+    """Check ``close``."""
+    a, b = (str(x) for x in arg["rows"])
+    vals = _values(frame, key, col, [a, b])
+    if vals is None:
+        return MISSING, ""
+    gap = abs(vals[a] - vals[b]) / max(abs(vals[a]), abs(vals[b]), 1e-300)
+    return ((HOLDS if gap <= float(arg["rel"]) else DIFFERS),
+            f"{a} {vals[a]:.4g}, {b} {vals[b]:.4g} ({100 * gap:.3g} % apart; claim: ≤ {100 * float(arg['rel']):g} %)")
+
+
 _CHECKERS = {
     "max": _check_max_min, "min": _check_max_min, "order": _check_order, "less": _check_less,
     "ratio_at_least": _check_ratio_at_least, "within": _check_within, "abs_at_most": _check_abs_at_most,
     "column_less": _check_column_less, "at_most": _check_at_most_at_least, "at_least": _check_at_most_at_least,
     "all_at_least": _check_all_at_least, "same_as": _check_same_as, "column_largest": _check_column_largest,
-    "nonzero_exactly": _check_nonzero_exactly
+    "nonzero_exactly": _check_nonzero_exactly, "close": _check_close
 }  # check kind -> its function (CHECKS lists the kinds)
+
+
+def _is_tie(check: dict, frame: pd.DataFrame | None, key: str, col: str, rel: float) -> bool:
+    """Whether the values a ``max``/``min``/``less``/``order`` verdict turns on lie within a relative
+    ``rel`` of each other (for ``max``/``min``: the named row and the best of the others)."""
+    (kind, arg), = check.items()
+    if kind in ("max", "min"):
+        vals = _all_rows(frame, key, col)
+        if vals is None or str(arg) not in vals or len(vals) < 2:
+            return False
+        others = [v for r, v in vals.items() if r != str(arg)]
+        pairs = [(vals[str(arg)], max(others) if kind == "max" else min(others))]
+    elif kind in ("less", "order"):
+        names = [str(a) for a in arg]
+        vals = _values(frame, key, col, names)
+        if vals is None:
+            return False
+        pairs = list(zip([vals[r] for r in names], [vals[r] for r in names[1:]]))
+    else:
+        return False
+    return any(abs(x - y) <= rel * max(abs(x), abs(y)) for x, y in pairs)
 
 
 def evaluate(check: dict, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None = None,
@@ -275,11 +325,21 @@ def select(frame: pd.DataFrame | None, rows: dict | None) -> pd.DataFrame | None
 def evaluate_claim(c: dict, frame: pd.DataFrame | None) -> tuple[str, str, str, str]:
     """(our verdict, our values, verdict on the published numbers, those values) of one claim (or one
     reading of it, :func:`readings`) on its (row-selected) table; the published pair is empty when the
-    claim has no published column. A ``not_comparable`` claim's verdict is :data:`NOT_COMPARABLE`."""
+    claim has no published column. A ``not_comparable`` claim's verdict is :data:`NOT_COMPARABLE`, a
+    ``cannot_fail`` one's :data:`CANNOT_FAIL`, a ``not_reproducible`` one's :data:`NOT_REPRODUCIBLE`; a
+    ``tie_within`` claim whose deciding values are that close is a :data:`TIE`."""
+    if c.get("not_reproducible"):
+        return NOT_REPRODUCIBLE, "", "", ""
     kind, arg = next(iter(c["check"].items()))
     verdict, ours = evaluate(c["check"], frame, c["key"], c["ours"], c.get("published"))
+    if verdict in (HOLDS, DIFFERS) and c.get("tie_within") is not None \
+            and _is_tie(c["check"], frame, c["key"], c["ours"], float(c["tie_within"])):
+        verdict = TIE
+        ours += f" (within {100 * float(c['tie_within']):g} %: a tie)"
     if c.get("not_comparable"):
         verdict = NOT_COMPARABLE
+    elif c.get("cannot_fail") and verdict != MISSING:
+        verdict = CANNOT_FAIL
     two_columns = {"column_less": "than_published", "same_as": "than_published", "column_largest": "of_published"}
     if not c.get("published") or kind == "within" or (kind in two_columns and two_columns[kind] not in arg):
         return verdict, ours, "", ""
@@ -303,8 +363,9 @@ def readings(c: dict) -> list[tuple[str, dict, bool]]:
 def count_line(verdicts: list[str]) -> str:
     """``"n of m claims hold"`` and how many differ, are not comparable here or not reproduced."""
     counts = pd.Series(verdicts, dtype=object).value_counts()
-    rest = [f"{int(counts[v])} {'differ' if v == DIFFERS and counts[v] > 1 else v}"
-            for v in (DIFFERS, NOT_COMPARABLE, MISSING) if counts.get(v, 0)]
+    plural = {DIFFERS: "differ", TIE: "ties"}
+    rest = [f"{int(counts[v])} {plural[v] if v in plural and counts[v] > 1 else v}"
+            for v in (DIFFERS, TIE, CANNOT_FAIL, NOT_COMPARABLE, NOT_REPRODUCIBLE, MISSING) if counts.get(v, 0)]
     head = f"{int(counts.get(HOLDS, 0))} of {len(verdicts)} claims hold"
     return head + (f" ({', '.join(rest)})" if rest else "")
 
@@ -330,13 +391,14 @@ def claims_table(study, tables: list[TableSpec]) -> TableSpec | None:
     rows, headline = [], []
     for k, c in enumerate(claims):
         for label, r, counts in readings(c):
-            frame = select(by_name.get(r["table"]), r.get("rows"))
+            frame = select(by_name.get(r.get("table")), r.get("rows"))
             verdict, ours, pub_verdict, pub = evaluate_claim(r, frame)
-            why = r.get("not_comparable", "") if verdict == NOT_COMPARABLE else (
-                "" if verdict == HOLDS else r.get("reason", ""))
+            why = {NOT_COMPARABLE: r.get("not_comparable", ""), CANNOT_FAIL: r.get("cannot_fail", ""),
+                   NOT_REPRODUCIBLE: r.get("not_reproducible", ""), HOLDS: "",
+                   MISSING: NOT_MEASURED if r.get("reason") else ""}.get(verdict, r.get("reason", ""))
             rows.append({"claim of the document": c["claim"] if counts else "↳ the same claim, another reading",
                          "reading": label or "—", "counts": "yes" if counts else "no (shown beside)",
-                         "where": c.get("where", "") if counts else "", "table": r["table"],
+                         "where": c.get("where", "") if counts else "", "table": r.get("table", "—"),
                          "our values": ours or "—", "published values": pub or "—",
                          "verdict (ours)": verdict, "verdict (published numbers)": pub_verdict or "—",
                          "why": _filled(study, k, why, by_name)})
@@ -348,7 +410,10 @@ def claims_table(study, tables: list[TableSpec]) -> TableSpec | None:
                      "the published column. Where a claim can be read on more than one row or measure, each "
                      "reading has a row and only the one matching what the document measured counts "
                      "('counts'). 'not reproduced' = the table, a row or a value is missing in this build; "
-                     "'not comparable here' = the build cannot check the claim fairly (the reason says why). "
+                     "'not comparable here' = the build cannot check the claim fairly (the reason says why); "
+                     "'cannot fail here' = the check holds by construction in this build (the reason says why); "
+                     "'not reproducible here' = no table of the build can decide it (the reason says why); "
+                     "'tie' = the values the verdict turns on lie within the measure's noise. "
                      "The reasons are ours, one line each, their numbers filled in from the tables.")
 
 
@@ -368,5 +433,6 @@ def with_claims(study, tables: list[TableSpec]) -> list[TableSpec]:
     return head + list(tables)
 
 
-__all__ = ["CHECKS", "ClaimError", "DIFFERS", "HOLDS", "MISSING", "NOT_COMPARABLE", "claims_table", "count_line",
+__all__ = ["CANNOT_FAIL", "CHECKS", "ClaimError", "DIFFERS", "HOLDS", "MISSING", "NOT_COMPARABLE", "NOT_MEASURED",
+           "NOT_REPRODUCIBLE", "TIE", "claims_table", "count_line",
            "evaluate", "evaluate_claim", "not_reproduced_table", "readings", "select", "with_claims"]

@@ -11,9 +11,12 @@ Python format spec (default ``.4g``; ``,.0f`` prints ``1,234``). A placeholder w
 is missing in a build (a quick build leaves some tables out) prints ``n/a``; one that names a column
 the table does not have is a study-file error, caught by ``tests/studies/test_prose_numbers.py`` on a build.
 
-The report's prose may hold numbers about our results only through placeholders: the same test
-reads every reason, caption and interpretation of a built report and fails on a number that none of
-the study's tables (ours or published), settings or listed document facts (``prose_facts``) holds.
+The report's prose may hold numbers about our results only through placeholders: the same check
+(:func:`untabled_numbers`, run by the build's ``check_prose`` rule and by the tests) reads every reason,
+caption and interpretation of a built study. A number typed in the study file's prose (outside a
+placeholder) must be the document's (a published file or column), a setting or a listed document fact
+(``prose_facts``): matching some cell of ours is not enough, since it need not be the cell the
+sentence describes. The notes and captions the code writes are held by any table of the study.
 """
 
 from __future__ import annotations
@@ -177,9 +180,47 @@ def prose_of(study, folder) -> list[tuple[str, str]]:
     return pieces
 
 
+BOUND = "‹cell›"  # what a placeholder leaves in a study file's prose when its typed numbers are checked
+
+
+def study_file_prose(study) -> list[tuple[str, str]]:
+    """(where, text) of the prose a study file types: every claim's reasons (of every reading) and the
+    interpretations, with each placeholder replaced by :data:`BOUND` (its number is the cell it names)."""
+    pieces = []
+    for k, c in enumerate(study.doc.get("claims") or []):  # the claim's own fields, then each reading's
+        for label, r in [(c.get("reading") or "headline", c)] + [(x["label"], x) for x in c.get("readings") or []]:
+            for field in ("reason", "not_comparable", "cannot_fail", "not_reproducible"):
+                if r.get(field):
+                    pieces.append((f"claims/{k} {label} ({field})", PLACEHOLDER.sub(BOUND, str(r[field]))))
+    for i in study.doc.get("interpretations", []):
+        for field in ("choice", "evidence"):
+            pieces.append((f"interpretation {i['topic']!r} ({field})", PLACEHOLDER.sub(BOUND, str(i.get(field, "")))))
+    return pieces
+
+
+def _unheld(pieces, values: list[float]) -> list[tuple[str, str, str]]:
+    """(where, number, context) of every number of ``pieces`` that is not a label and ``values`` do not hold."""
+    bad = []
+    for where, text in pieces:
+        for m in _NUMBER.finditer(text):
+            before, after = text[max(0, m.start() - 12):m.start()], text[m.end():m.end() + 2]
+            if _LABEL.search(before) or _RANGE_OF_LABELS.search(text[max(0, m.start() - 30):m.start()]) or re.match(r"[-‑]?[A-Za-zµμ°×x]", after) and not re.match(r"\s", after) \
+                    or re.search(r"[A-Za-zα-ωΑ-Ωθ_]$", before) or before.endswith("(") and after.startswith(")"):
+                continue  # a label (Table 7, eq. 47, item (4)) or part of a name (UR5, 6-DoF, 3x3, θ1)
+            tok = _numbers(m.group(1))
+            if tok and not _held(tok[0], values):
+                bad.append((where, m.group(1), text[max(0, m.start() - 40):m.end() + 20]))
+    return bad
+
+
 def untabled_numbers(study, folder, published_dir) -> list[tuple[str, str, str]]:
-    """(where, number, context) of every number in a built study's prose that no table of the study (ours
-    or published), no published file of the document, no setting and no ``prose_facts`` entry holds."""
+    """(where, number, context) of every number in a built study's prose that is not bound to a cell.
+
+    The study file's own prose (claims' reasons, interpretations: :func:`study_file_prose`) states our
+    results only through placeholders, each bound to the cell it names; a number typed there is held
+    only by the document (its published files and the tables' published columns), the study's settings
+    or its ``prose_facts``, never by any cell of ours that happens to match. The table notes and figure
+    captions the study's code writes (from the values it computes) are held by any table of the study."""
     from pathlib import Path
 
     folder = Path(folder)
@@ -189,19 +230,14 @@ def untabled_numbers(study, folder, published_dir) -> list[tuple[str, str, str]]
     if claims.is_file():  # the values a verdict rests on, not the prose beside them (the reasons are checked)
         frames.append(read_csv(claims, keep_default_na=False)[["our values", "published values"]])
     pub = Path(published_dir) / study.id
-    frames += [read_csv(p, keep_default_na=False) for p in sorted(pub.glob("*.csv"))] if pub.is_dir() else []
-    values = _value_set(frames, _settings_numbers(study.doc))
-    bad = []
-    for where, text in prose_of(study, folder):
-        for m in _NUMBER.finditer(text):
-            before, after = text[max(0, m.start() - 12):m.start()], text[m.end():m.end() + 2]
-            if _LABEL.search(before) or _RANGE_OF_LABELS.search(text[max(0, m.start() - 30):m.start()]) or re.match(r"[-‑]?[A-Za-zµμ°×x]", after) and not re.match(r"\s", after) \
-                    or re.search(r"[A-Za-zα-ωΑ-Ωθ_]$", before):
-                continue  # a label (Table 7, eq. 47) or part of a name (UR5, 6-DoF, 3x3, θ1)
-            tok = _numbers(m.group(1))
-            if tok and not _held(tok[0], values):
-                bad.append((where, m.group(1), text[max(0, m.start() - 40):m.end() + 20]))
-    return bad
+    documents = [read_csv(p, keep_default_na=False) for p in sorted(pub.glob("*.csv"))] if pub.is_dir() else []
+    settings = _settings_numbers(study.doc)
+    published_columns = [f[[c for c in f.columns if "published" in str(c)]] for f in frames]
+    document_values = _value_set(documents + [f for f in published_columns if len(f.columns)], settings)
+    built = [(w, t) for w, t in prose_of(study, folder)
+             if not w.startswith(("claims row", "interpretation "))]  # the study file's prose: checked bound
+    return (_unheld(built, _value_set(frames + documents, settings))
+            + _unheld(study_file_prose(study), document_values))
 
 
-__all__ += ["prose_of", "untabled_numbers"]
+__all__ += ["BOUND", "prose_of", "study_file_prose", "untabled_numbers"]

@@ -165,3 +165,30 @@ def test_a_placeholder_naming_an_unknown_column_is_one_line_naming_the_study_fil
          "reason": "B is {{ t | B | no such column }}"}]})
     with pytest.raises(UsageError, match=r"^data/studies/x.yaml: field 'claims/0': placeholder .*no column 'no such column'"):
         claims_table(study, [TableSpec("t", "T", FRAME)])
+
+
+# ---- verdicts added in issue 45: ties, claims that cannot fail, headlines no table decides -------------
+
+def test_ties_cannot_fail_not_reproducible_and_unmeasured_reasons():
+    from pipeline.studies.claims import CANNOT_FAIL, NOT_MEASURED, NOT_REPRODUCIBLE, TIE, count_line
+
+    close = pd.DataFrame({"method": ["A", "B", "C"], "x (ours)": [1.0, 1.004, 0.5]})
+    base = {"table": "t", "key": "method", "ours": "x (ours)"}
+    study = SimpleNamespace(path="s.yaml", doc={"claims": [
+        {"claim": "A largest", **base, "check": {"max": "A"}, "tie_within": 0.01, "reason": "B by a hair"},
+        {"claim": "B largest", **base, "check": {"max": "B"}, "tie_within": 0.001},
+        {"claim": "C below A", **base, "check": {"less": ["C", "A"]}, "cannot_fail": "by construction"},
+        {"claim": "not decidable", "not_reproducible": "no table measures it"},
+        {"claim": "in a table this build lacks", "table": "absent", "key": "method", "ours": "x (ours)",
+         "check": {"min": "A"}, "reason": "ours is {{ absent | A | x }}"}]})
+    t = claims_table(study, [TableSpec("t", "T", close)]).frame
+    assert list(t["verdict (ours)"]) == [TIE, HOLDS, CANNOT_FAIL, NOT_REPRODUCIBLE, MISSING]
+    assert list(t["why"]) == ["B by a hair", "", "by construction", "no table measures it", NOT_MEASURED]
+    assert count_line(list(t["verdict (ours)"])) == (
+        "1 of 5 claims hold (1 tie, 1 cannot fail here, 1 not reproducible here, 1 not reproduced)")
+
+
+def test_close_check():
+    assert evaluate({"close": {"rows": ["B", "C"], "rel": 0.34}}, FRAME, "method", "x (ours)")[0] == HOLDS
+    assert evaluate({"close": {"rows": ["B", "C"], "rel": 0.3}}, FRAME, "method", "x (ours)")[0] == DIFFERS
+    assert evaluate({"close": {"rows": ["B", "Z"], "rel": 0.3}}, FRAME, "method", "x (ours)")[0] == MISSING

@@ -379,7 +379,7 @@ def test_workflow_dry_run_uses_the_generic_solve_rule(tmp_path):
     log = out.stdout
     rules = {ln.split()[1].rstrip(":") for ln in log.splitlines() if ln.startswith(("rule ", "localrule "))}
     assert rules <= {"compile_kernels", "make_problems", "solve_problems", "erthal_catalogue", "erthal_path_rows",
-                     "aggregate_tables", "plot_figures", "study"}, rules
+                     "aggregate_tables", "plot_figures", "check_prose", "study"}, rules
     n_jobs = sum(1 for p in SETS if p not in STUDY.settings["full_only_problem_sets"]
                  for _ in STUDY.set_robots(p) for _ in STUDY.set_solvers(p))
     assert log.count("rule solve_problems:") == n_jobs

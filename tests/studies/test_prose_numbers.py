@@ -47,3 +47,41 @@ def test_listed_document_facts_pass(tmp_path):
     assert untabled_numbers(study, folder, tmp_path / "published") == []
     study, folder = _built(tmp_path / "b", "Eberhart & Shi 2001", "")
     assert [b[1] for b in untabled_numbers(study, folder, tmp_path / "published")] == ["2001"]
+
+
+def test_a_typed_number_in_the_study_file_is_not_held_by_some_cell_of_ours(tmp_path):
+    """Issue 45: in a reason or interpretation a number about our results must come from the cell the
+    placeholder names; typed by hand it fails even where it equals some cell of the study."""
+    study, folder = _built(tmp_path, "", "A took 48.3 s; B took {{ t | B | v (ours) | .1f }} s")
+    bad = untabled_numbers(study, folder, tmp_path / "published")
+    assert [b[1] for b in bad] == ["48.3"], bad
+    # the table note the code writes may still state any cell of the study
+    study, folder = _built(tmp_path / "b", "A took 48.3 s", "B took {{ t | B | v (ours) | .1f }} s")
+    assert untabled_numbers(study, folder, tmp_path / "published") == []
+
+
+def test_claims_reasons_are_checked_in_the_study_file_with_their_placeholders_bound(tmp_path):
+    study, folder = _built(tmp_path, "", "")
+    study.doc["claims"] = [{"claim": "x", "table": "t", "key": "method", "ours": "v (ours)", "check": {"max": "B"},
+                            "reason": "ours {{ t | A | v (ours) | .1f }}, typed 48.3",
+                            "readings": [{"label": "other", "reason": "also 12346"}]}]
+    assert [b[1] for b in untabled_numbers(study, folder, tmp_path / "published")] == ["48.3", "12346"]
+
+
+def test_check_prose_verb_fails_on_a_typed_result(tmp_path, capsys):
+    """The build's check_prose rule: exit 0 when every number is bound, 2 (one error line) when a study
+    file's reason types a result by hand."""
+    from pipeline.cli import main
+    from tests.conftest import DATA
+
+    (tmp_path / "built" / "tables").mkdir(parents=True)
+    assert main(["check_prose", "--study", str(DATA / "studies" / "mariano2019.yaml"),
+                 "--built", str(tmp_path / "built"), "--published", str(DATA / "published")]) == 0
+    text = (DATA / "studies" / "mariano2019.yaml").read_text()
+    bad = text.replace("the same closed form (", "the same closed form (typed 123.4; ", 1)
+    assert bad != text
+    (tmp_path / "mariano2019.yaml").write_text(bad)
+    assert main(["check_prose", "--study", str(tmp_path / "mariano2019.yaml"), "--built", str(tmp_path / "built"),
+                 "--published", str(DATA / "published")]) == 2
+    out, err = capsys.readouterr()
+    assert "'123.4'" in out and err.count("\n") == 1 and "number(s) in the prose bound to no cell" in err

@@ -218,7 +218,12 @@ def problem_set_files(wildcards):
 
 
 def study_targets(sid):
-    return [f"{RESULTS}/{sid}/tables", f"{RESULTS}/{sid}/figures"]
+    """A study's tables and figures, and the stamp of its prose check (rule check_prose)."""
+    return [
+        f"{RESULTS}/{sid}/tables",
+        f"{RESULTS}/{sid}/figures",
+        f"{RESULTS}/{sid}/.prose_checked",
+    ]
 
 
 def study_inputs(wildcards):

@@ -52,6 +52,31 @@ rule plot_figures:
         " --out-dir {output} > {log} 2>&1"
 
 
+# The build fails on a number in a study's prose (claims' reasons, interpretations, notes, captions)
+# that no bound cell, setting or document fact gives (pipeline/studies/prose.py); a hidden stamp
+# (outside the manifest) records that the check passed.
+rule check_prose:
+    input:
+        tables=f"{RESULTS}/{{study}}/tables",
+        figures=f"{RESULTS}/{{study}}/figures",
+    output:
+        touch(f"{RESULTS}/{{study}}/.prose_checked"),
+    log:
+        f"{RESULTS}/{{study}}/logs/check_prose.log",
+    threads: 1
+    resources:
+        mem_mb=RES["light"]["mem_mb"],
+        runtime=RES["light"]["runtime"],
+    params:
+        settings=study_file,
+        study=lambda w: study_doc(w.study),  # the prose is in the settings: a change re-runs the check
+        built=lambda w: f"{RESULTS}/{w.study}",
+        published=f"{DATA}/published",
+    shell:
+        "python -m pipeline check_prose --study {params.settings} --built {params.built}"
+        " --published {params.published} > {log} 2>&1"
+
+
 rule render_report:
     input:
         targets=[t for sid in STUDIES for t in study_targets(sid)],
