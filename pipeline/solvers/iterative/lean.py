@@ -30,7 +30,8 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.pose as _jit
-from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, LIM_ACTIVE, LIM_OFF, LIM_WEIGHTED, NEVER,
+from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, LIM_ACTIVE, LIM_OFF, LIM_REFLECT, LIM_WEIGHTED,
+                                          NEVER,
                                           dh_joint,
                                           jacobian_at, now_ns, quat_from_rot, quat_relative,
                                           relative_translation_norm, rodrigues)
@@ -287,6 +288,21 @@ def _into_box(q, fp):
 
 
 @numba.njit(cache=True, inline="always")
+def _reflect_into_box(q, fp):
+    """``search_limits = reflect``: a joint past a limit is mirrored at it (``2 hi - q`` or ``2 lo - q``),
+    then clamped into the box (held in ``fp``, :data:`pipeline.solvers.kernels.pose.I_LIMITS`)."""
+    n = q.shape[0]
+    for j in range(n):
+        lo, hi = fp[_jit.N_FP + j], fp[_jit.N_FP + n + j]
+        x = q[j]
+        if x > hi:
+            x = 2.0 * hi - x
+        elif x < lo:
+            x = 2.0 * lo - x
+        q[j] = min(max(x, lo), hi)
+
+
+@numba.njit(cache=True, inline="always")
 def _met(crit, err, dp, ang, fp):
     """The success test: ``err <= tol_dq`` (dq_norm criteria) or ``|dp| <= tol_pos`` and ``angle <= tol_rot``."""
     if crit == CRIT_DQ_NORM or crit == CRIT_DQ_BODY:
@@ -359,7 +375,9 @@ def _advance(problem, state, q, it):
     t_ik = now_ns(clk) - t0 if time_ik else 0
     for j in range(n):
         q[j] += dq[j]
-    if lim != LIM_OFF:
+    if lim == LIM_REFLECT:
+        _reflect_into_box(q, fp)
+    elif lim != LIM_OFF:
         _into_box(q, fp)
     for r in range(3):
         for c in range(4):

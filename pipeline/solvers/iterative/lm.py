@@ -34,7 +34,7 @@ import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import LIM_ACTIVE, LIM_OFF, NEVER, SEARCH_LIMITS
+from pipeline.solvers.kernels.kin import LIM_ACTIVE, LIM_OFF, LIM_REFLECT, NEVER, SEARCH_LIMITS
 from pipeline.solvers.kernels.loop import iterate, pose_row
 from pipeline.solvers.core import POSITION_CRITERIA, Prepared, Raw, Settings, search_limits_setting, setting
 from pipeline.solvers.core.driver import run_loop
@@ -200,9 +200,11 @@ def _bounded_step(A, g, q, lo, hi, lim, h):
     """``search_limits``: the damped step ``h`` (n,) = -A^-1 g (``A`` = J^T J + lambda I (n, n), ``g`` (n,)) kept in
     the joint box ``[lo, hi]`` around ``q`` (n,). active_set: a joint the step takes past a limit is held at it
     (``h_j = limit - q_j``) and the system solved again for the free joints, ``A_FF h_F = -(g_F + A_FB h_B)``, at
-    most n passes; then (both modes) ``q + h`` is clamped into the box. Returns the predicted decrease of
-    ``|f|^2`` under the linear model, ``-(2 g.h + h.(A - lambda I).h)``, which is MRPT's ``h^T (lambda h - g)``
-    for the unconstrained step; the caller rejects a step whose prediction is not positive."""
+    most n passes; reflect: a joint past a limit is mirrored at it; then (every mode) ``q + h`` is clamped into
+    the box. Returns ``(h, mirrored)``: the kept step (n,) and whether a joint was mirrored. The caller judges
+    the kept step by :func:`_predicted` (MRPT's ``h^T (lambda h - g)`` for the unconstrained step) and takes a
+    mirrored step even when it does not decrease the error (with the damping unchanged): a mirrored step
+    leaves the limit rather than stalling on it, which is what makes reflection work."""
     n = q.shape[0]
     held = np.zeros(n, np.bool_)
     if lim == LIM_ACTIVE:
@@ -229,9 +231,14 @@ def _bounded_step(A, g, q, lo, hi, lim, h):
                     Ar[j, j] = 1.0
                     r[j] = h[j]
             h[:] = np.linalg.solve(Ar, r)
+    mirrored = False
     for j in range(n):
-        h[j] = min(max(q[j] + h[j], lo[j]), hi[j]) - q[j]
-    return h
+        x = q[j] + h[j]
+        if lim == LIM_REFLECT and (x > hi[j] or x < lo[j]):  # mirrored at the limit it passed
+            x = 2.0 * hi[j] - x if x > hi[j] else 2.0 * lo[j] - x
+            mirrored = True
+        h[j] = min(max(x, lo[j]), hi[j]) - q[j]
+    return h, mirrored
 
 
 @numba.njit(cache=True)
@@ -255,10 +262,11 @@ def _step(problem, state, q, it):
     for i in range(n):
         A[i, i] += lam
     lim = problem[21]
+    mirrored = False
     try:
         h = -np.linalg.solve(A, g)
         if lim != LIM_OFF:
-            h = _bounded_step(A, g, q, problem[22], problem[23], lim, h)
+            h, mirrored = _bounded_step(A, g, q, problem[22], problem[23], lim, h)
     except Exception:  # singular damped system (lambda = 0 and J^T J singular)
         return np.nan, False, False, 0
     found = False
@@ -279,6 +287,8 @@ def _step(problem, state, q, it):
         else:  # a kept step whose model predicts no decrease is rejected (damping grows)
             denom = _predicted(H, g, h)
             rho = (Fx - Fnew) / denom if denom > 0.0 else -1.0
+            if mirrored and not rho > 0.0:  # a mirrored step is taken (it leaves the limit), damping unchanged
+                rho = 0.5
         if rho > 0:
             q[:] = xnew
             f[:] = fnew

@@ -47,9 +47,10 @@ CRIT_POS_ORIENT, CRIT_POSITION, CRIT_DQ_NORM, CRIT_DQ_BODY = (CRITERION_CODE[c] 
 # Joint limits inside a Jacobian-family search (the ``search_limits`` setting): off (the unconstrained
 # iterates of the documents), clamp (each iterate clamped to the box), active_set (a joint the step
 # would take past a limit is held at it and the step re-solved for the others), weighted (Chan & Dubey's
-# weighted least norm: a joint moving towards a limit is slowed by its limit gradient; then clamped)
-SEARCH_LIMITS = ("off", "clamp", "active_set", "weighted")
-LIM_OFF, LIM_CLAMP, LIM_ACTIVE, LIM_WEIGHTED = range(4)
+# weighted least norm: a joint moving towards a limit is slowed by its limit gradient; then clamped),
+# reflect (a joint past a limit is mirrored at it, then clamped)
+SEARCH_LIMITS = ("off", "clamp", "active_set", "weighted", "reflect")
+LIM_OFF, LIM_CLAMP, LIM_ACTIVE, LIM_WEIGHTED, LIM_REFLECT = range(5)
 # Trace rows: TRACE_COLS columns (pipeline.io.layout.TRACE_COLUMNS), the last one |dp|
 TRACE_DP = TRACE_COLS - 1
 NEVER = 1 << 62  # a grow limit or iteration cap that is never reached
