@@ -275,6 +275,8 @@ def _step(problem, state, q, it):
     else:
         for i in range(n):
             xnew[i] = q[i] + h[i]
+        if lim != LIM_OFF:  # q + (limit - q) can miss the limit by a rounding
+            _into_box(xnew, problem[22], problem[23])
         _residual(a, alpha, d, offs, prism, modified, base, tool, Tg, xnew, kind, pose, scale, fnew, T, qa, qb, rv)
         Fnew = 0.0
         for i in range(fnew.shape[0]):
