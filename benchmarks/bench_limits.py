@@ -4,7 +4,7 @@ Usage::
 
     python benchmarks/bench_limits.py [--goals 500] [--robots franka_panda,kuka_iiwa14]
                                       [--methods dls,sdls,pseudoinverse,levenberg_marquardt]
-                                      [--modes off,clamp,active_set,weighted,reflect]
+                                      [--modes off,clamp,reflect]
                                       [--restart-modes off,clamp,reflect] [--out results.md]
 
 Goals: ``arm_benchmark``'s cold set (seed 31, start and goal uniform within the limits), drawn as the
@@ -152,9 +152,8 @@ def main() -> None:
     ap.add_argument("--goals", type=int, default=500)
     ap.add_argument("--robots", default="franka_panda,kuka_iiwa14")
     ap.add_argument("--methods", default="dls,sdls,pseudoinverse,levenberg_marquardt")
-    ap.add_argument("--modes", default="off,clamp,active_set,weighted,reflect")
-    ap.add_argument("--restart-modes", default="off,clamp,reflect",
-                    help="modes run with restarts (active_set and weighted lose on the single search)")
+    ap.add_argument("--modes", default="off,clamp,reflect")
+    ap.add_argument("--restart-modes", default="off,clamp,reflect", help="modes run with restarts")
     ap.add_argument("--out", help="write the tables (markdown) here as well as printing them")
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT))  # this checkout's package, whatever is installed

@@ -85,14 +85,11 @@ def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, ab
 
 def search_limits_setting():
     """The ``search_limits`` field of the Jacobian-family methods (issue 43): joint limits inside the search."""
-    return setting("off", "joint limits inside the search: off (iterates unconstrained, the documents' "
-                   "methods; the result is wrapped into the limits afterwards), clamp (every iterate, the start "
-                   "included, clamped into the limits), active_set (a joint the step would take past a limit is "
-                   "held at it and the step solved again for the other joints, then clamped), weighted (Chan & Dubey's "
-                   "weighted least norm: a joint moving towards a limit is slowed by its limit-cost gradient, then "
-                   "clamped; Levenberg-Marquardt: as clamp), reflect (a joint a step takes past a limit is mirrored "
-                   "at it, then clamped: the search leaves the limit instead of stalling on it; Levenberg-Marquardt "
-                   "takes a mirrored step even when it does not lower the error)",
+    return setting("off", "joint limits inside the search: off (iterates unconstrained, the documents' methods; "
+                   "the result is wrapped into the limits afterwards), clamp (every iterate, the start included, "
+                   "clamped into the limits), reflect (the start clamped; a joint a step takes past a limit is "
+                   "mirrored at it, then clamped: the search leaves the limit instead of stalling on it; "
+                   "Levenberg-Marquardt takes a mirrored step even when it does not lower the error)",
                    choices=SEARCH_LIMITS, quiet=True)
 
 

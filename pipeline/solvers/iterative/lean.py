@@ -30,9 +30,7 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.pose as _jit
-from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, LIM_ACTIVE, LIM_OFF, LIM_REFLECT, LIM_WEIGHTED,
-                                          NEVER,
-                                          dh_joint,
+from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, LIM_OFF, LIM_REFLECT, NEVER, dh_joint,
                                           jacobian_at, now_ns, quat_from_rot, quat_relative,
                                           relative_translation_norm, rodrigues)
 from pipeline.solvers.kernels.loop import error_row, iterate
@@ -201,85 +199,6 @@ def _step(method, J, e, lam2, A, y, dq):
 
 
 @numba.njit(cache=True, inline="always")
-def _update(method, J, e, lam2, A, y, dq, ip, fp):
-    """The method's joint update into ``dq`` (n,): the Cholesky fast path, else the reference step."""
-    if method == 3 or not _step(method, J, e, lam2, A, y, dq):
-        ref = _jit.step(method, J, e, ip, fp)
-        for j in range(dq.shape[0]):
-            dq[j] = ref[j]
-
-
-@numba.njit(cache=True)
-def _active_set_step(method, J, e, lam2, A, y, dq, q, ip, fp, hold):
-    """``search_limits = active_set``: the update into ``dq`` (n,) with every joint it would take past a
-    limit held at that limit (``dq[j] = limit - q[j]``), its column of ``J`` (6, n) zeroed and its motion
-    taken off the error ``e`` (6,), and the update solved again for the joints left free; at most n passes
-    (a joint once held stays held). ``J`` and ``e`` are overwritten (the loop recomputes both); ``hold``
-    (n,) scratch: NaN for a free joint, else its held step. Limits are read from ``fp`` (see
-    :data:`pipeline.solvers.kernels.pose.I_LIMITS`)."""
-    n = q.shape[0]
-    lo0 = _jit.N_FP
-    hi0 = _jit.N_FP + n
-    for j in range(n):
-        hold[j] = np.nan
-    for _ in range(n):
-        _update(method, J, e, lam2, A, y, dq, ip, fp)
-        held = False
-        for j in range(n):
-            if hold[j] == hold[j]:
-                continue
-            x = q[j] + dq[j]
-            lo, hi = fp[lo0 + j], fp[hi0 + j]
-            if x < lo or x > hi:
-                d = (lo if x < lo else hi) - q[j]
-                hold[j] = d
-                for r in range(6):
-                    e[r] -= J[r, j] * d
-                    J[r, j] = 0.0
-                held = True
-        for j in range(n):
-            if hold[j] == hold[j]:
-                dq[j] = hold[j]
-        if not held:
-            break
-
-
-@numba.njit(cache=True)
-def limit_gradient(q, lo, hi):
-    """``|dH/dq|`` of Chan & Dubey's joint-limit cost ``H = sum (hi - lo)^2 / (4 (hi - q)(q - lo))`` for one
-    joint at ``q`` with limits ``lo``, ``hi`` [rad | length unit]: 0 at the middle, inf on a limit, 0 for a
-    joint without finite limits."""
-    r = hi - lo
-    if not (r < np.inf):
-        return 0.0
-    a = hi - q
-    b = q - lo
-    if not (a > 0.0 and b > 0.0):
-        return np.inf
-    return r * r * abs(2.0 * q - hi - lo) / (4.0 * a * a * b * b)
-
-
-@numba.njit(cache=True)
-def _weighted_step(method, J, e, lam2, A, y, dq, q, ip, fp, prev, wt):
-    """``search_limits = weighted``: the weighted least-norm update (Chan & Dubey 1995) into ``dq`` (n,):
-    ``dq = W^-1/2 step(J W^-1/2)`` with ``W_jj = 1 + |dH/dq_j|`` (:func:`limit_gradient`) while that gradient
-    grows (the joint moves towards a limit), else 1. ``prev`` (n,) holds each joint's gradient of the last
-    iterate (set by the start), ``wt`` (n,) scratch; ``J`` (6, n) is overwritten."""
-    n = q.shape[0]
-    for j in range(n):
-        g = limit_gradient(q[j], fp[_jit.N_FP + j], fp[_jit.N_FP + n + j])
-        w = 1.0 + g if g > prev[j] else 1.0
-        prev[j] = g
-        s = 1.0 / math.sqrt(w)
-        wt[j] = s
-        for r in range(6):
-            J[r, j] *= s
-    _update(method, J, e, lam2, A, y, dq, ip, fp)
-    for j in range(n):
-        dq[j] *= wt[j]
-
-
-@numba.njit(cache=True, inline="always")
 def _into_box(q, fp):
     """Clamp ``q`` (n,) into the joint box held in ``fp`` (:data:`pipeline.solvers.kernels.pose.I_LIMITS`)."""
     n = q.shape[0]
@@ -289,8 +208,8 @@ def _into_box(q, fp):
 
 @numba.njit(cache=True, inline="always")
 def _reflect_into_box(q, fp):
-    """``search_limits = reflect``: a joint past a limit is mirrored at it (``2 hi - q`` or ``2 lo - q``),
-    then clamped into the box (held in ``fp``, :data:`pipeline.solvers.kernels.pose.I_LIMITS`)."""
+    """``search_limits = reflect``: a joint past a limit is mirrored at it (``2 hi - q`` or ``2 lo - q``: the
+    search moves on instead of stalling on the limit as a clamp does), then clamped into the box (held in ``fp``, :data:`pipeline.solvers.kernels.pose.I_LIMITS`)."""
     n = q.shape[0]
     for j in range(n):
         lo, hi = fp[_jit.N_FP + j], fp[_jit.N_FP + n + j]
@@ -314,9 +233,9 @@ def _met(crit, err, dp, ang, fp):
 def _start(problem, q):
     """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``: the scratch, the first FK and error.
 
-    State: ``(axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk, hold, wt)`` with ``qg`` the
-    goal's quaternion (once per solve), ``qt``/``qp`` this and the previous iterate's, ``m`` = (error, |dp|),
-    ``hold`` the active-set scratch or the weighted mode's last limit gradients, ``wt`` its weights. With ``search_limits`` on, the start is clamped into the joint box.
+    State: ``(axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk)`` with ``qg`` the goal's
+    quaternion (once per solve), ``qt``/``qp`` this and the previous iterate's, ``m`` = (error, |dp|). With
+    ``search_limits`` on, the start is first clamped into the joint box.
     """
     form, a, ca, sa, d, offs, prism, base, tool, Tg, ip, fp = problem
     n = q.shape[0]
@@ -339,25 +258,20 @@ def _start(problem, q):
     qp = np.empty(4)
     m = np.empty(2)
     clk = np.zeros(2, np.int64)
-    hold = np.empty(n)
-    wt = np.empty(n)
-    if ip[_jit.I_LIMITS] == LIM_WEIGHTED:
-        for j in range(n):
-            hold[j] = limit_gradient(q[j], fp[_jit.N_FP + j], fp[_jit.N_FP + n + j])
     quat_from_rot(Tg, qg)
     fk(form, a, ca, sa, d, offs, prism, base, tool, q, axes, origins, T, C)
     err, dp, ang = _jit.pose_error_q(Tg, T, qg, qt, ip, fp, e)
     m[0], m[1] = err, dp
     ok = _met(ip[_jit.I_CRITERION], err, dp, ang, fp)
-    return (axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk, hold, wt), err, ok, False
+    return (axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk), err, ok, False
 
 
 @numba.njit(cache=True, inline="always")
 def _advance(problem, state, q, it):
-    """``step``: the method's update (Cholesky fast path, else the reference step; with ``search_limits``
-    the active-set update, or the iterate clamped into the joint box), FK, error and stall test."""
+    """``step``: the method's update (Cholesky fast path, else the reference step; with ``search_limits`` the
+    iterate clamped or reflected into the joint box), FK, error and stall test."""
     form, a, ca, sa, d, offs, prism, base, tool, Tg, ip, fp = problem
-    axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk, hold, wt = state
+    axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk = state
     n = q.shape[0]
     method = ip[_jit.I_METHOD]
     crit = ip[_jit.I_CRITERION]  # pipeline.solvers.kernels.kin.CRITERION_CODE
@@ -366,12 +280,10 @@ def _advance(problem, state, q, it):
     _jacobian(prism, axes, origins, T, J)
     lim = ip[_jit.I_LIMITS]
     t0 = now_ns(clk) if time_ik else 0
-    if lim == LIM_ACTIVE:
-        _active_set_step(method, J, e, lam * lam, A, y, dq, q, ip, fp, hold)
-    elif lim == LIM_WEIGHTED:
-        _weighted_step(method, J, e, lam * lam, A, y, dq, q, ip, fp, hold, wt)
-    else:
-        _update(method, J, e, lam * lam, A, y, dq, ip, fp)
+    if method == 3 or not _step(method, J, e, lam * lam, A, y, dq):
+        ref = _jit.step(method, J, e, ip, fp)
+        for j in range(n):
+            dq[j] = ref[j]
     t_ik = now_ns(clk) - t0 if time_ik else 0
     for j in range(n):
         q[j] += dq[j]

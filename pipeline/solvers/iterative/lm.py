@@ -34,7 +34,7 @@ import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import LIM_ACTIVE, LIM_OFF, LIM_REFLECT, NEVER, SEARCH_LIMITS
+from pipeline.solvers.kernels.kin import LIM_OFF, LIM_REFLECT, NEVER, SEARCH_LIMITS
 from pipeline.solvers.kernels.loop import iterate, pose_row
 from pipeline.solvers.core import POSITION_CRITERIA, Prepared, Raw, Settings, search_limits_setting, setting
 from pipeline.solvers.core.driver import run_loop
@@ -196,43 +196,15 @@ def _into_box(q, lo, hi):
 
 
 @numba.njit(cache=True)
-def _bounded_step(A, g, q, lo, hi, lim, h):
-    """``search_limits``: the damped step ``h`` (n,) = -A^-1 g (``A`` = J^T J + lambda I (n, n), ``g`` (n,)) kept in
-    the joint box ``[lo, hi]`` around ``q`` (n,). active_set: a joint the step takes past a limit is held at it
-    (``h_j = limit - q_j``) and the system solved again for the free joints, ``A_FF h_F = -(g_F + A_FB h_B)``, at
-    most n passes; reflect: a joint past a limit is mirrored at it; then (every mode) ``q + h`` is clamped into
-    the box. Returns ``(h, mirrored)``: the kept step (n,) and whether a joint was mirrored. The caller judges
-    the kept step by :func:`_predicted` (MRPT's ``h^T (lambda h - g)`` for the unconstrained step) and takes a
-    mirrored step even when it does not decrease the error (with the damping unchanged): a mirrored step
-    leaves the limit rather than stalling on it, which is what makes reflection work."""
-    n = q.shape[0]
-    held = np.zeros(n, np.bool_)
-    if lim == LIM_ACTIVE:
-        for _ in range(n):
-            new = False
-            for j in range(n):
-                x = q[j] + h[j]
-                if not held[j] and (x < lo[j] or x > hi[j]):
-                    held[j] = True
-                    h[j] = (lo[j] if x < lo[j] else hi[j]) - q[j]
-                    new = True
-            if not new:
-                break
-            Ar = A.copy()
-            r = -g
-            for j in range(n):
-                if held[j]:
-                    for i in range(n):
-                        r[i] -= A[i, j] * h[j]
-                        Ar[i, j] = 0.0
-                        Ar[j, i] = 0.0
-            for j in range(n):
-                if held[j]:
-                    Ar[j, j] = 1.0
-                    r[j] = h[j]
-            h[:] = np.linalg.solve(Ar, r)
+def _bounded_step(q, lo, hi, lim, h):
+    """``search_limits``: the damped step ``h`` (n,) kept in the joint box ``[lo, hi]`` (n,) around ``q`` (n,):
+    reflect mirrors a joint the step takes past a limit at that limit; then (both modes) ``q + h`` is clamped
+    into the box. Returns ``(h, mirrored)``: the kept step (n,) and whether a joint was mirrored. The caller
+    judges the kept step by :func:`_predicted` (MRPT's ``h^T (lambda h - g)`` for the unconstrained step) and
+    takes a mirrored step even when it does not lower the error (the damping unchanged): a mirrored step leaves
+    the limit instead of stalling on it, which is what makes reflection work."""
     mirrored = False
-    for j in range(n):
+    for j in range(q.shape[0]):
         x = q[j] + h[j]
         if lim == LIM_REFLECT and (x > hi[j] or x < lo[j]):  # mirrored at the limit it passed
             x = 2.0 * hi[j] - x if x > hi[j] else 2.0 * lo[j] - x
@@ -266,7 +238,7 @@ def _step(problem, state, q, it):
     try:
         h = -np.linalg.solve(A, g)
         if lim != LIM_OFF:
-            h, mirrored = _bounded_step(A, g, q, problem[22], problem[23], lim, h)
+            h, mirrored = _bounded_step(q, problem[22], problem[23], lim, h)
     except Exception:  # singular damped system (lambda = 0 and J^T J singular)
         return np.nan, False, False, 0
     found = False

@@ -45,12 +45,11 @@ CRITERIA = ("pos_orient", "position", "dq_norm", "dq_norm_body")
 CRITERION_CODE = {c: i for i, c in enumerate(CRITERIA)}
 CRIT_POS_ORIENT, CRIT_POSITION, CRIT_DQ_NORM, CRIT_DQ_BODY = (CRITERION_CODE[c] for c in CRITERIA)
 # Joint limits inside a Jacobian-family search (the ``search_limits`` setting): off (the unconstrained
-# iterates of the documents), clamp (each iterate clamped to the box), active_set (a joint the step
-# would take past a limit is held at it and the step re-solved for the others), weighted (Chan & Dubey's
-# weighted least norm: a joint moving towards a limit is slowed by its limit gradient; then clamped),
-# reflect (a joint past a limit is mirrored at it, then clamped)
-SEARCH_LIMITS = ("off", "clamp", "active_set", "weighted", "reflect")
-LIM_OFF, LIM_CLAMP, LIM_ACTIVE, LIM_WEIGHTED, LIM_REFLECT = range(5)
+# iterates of the documents), clamp (each iterate clamped to the box), reflect (a joint past a limit is
+# mirrored at it, then clamped). An active set and Chan & Dubey's weighted least norm were measured and
+# dropped (benchmarks/results/limits_aware.md)
+SEARCH_LIMITS = ("off", "clamp", "reflect")
+LIM_OFF, LIM_CLAMP, LIM_REFLECT = range(3)
 # Trace rows: TRACE_COLS columns (pipeline.io.layout.TRACE_COLUMNS), the last one |dp|
 TRACE_DP = TRACE_COLS - 1
 NEVER = 1 << 62  # a grow limit or iteration cap that is never reached
