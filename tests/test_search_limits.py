@@ -103,3 +103,11 @@ def test_off_is_left_out_of_the_settings_record(method):
     on = make_settings(method, {"search_limits": "reflect"})
     assert on.as_dict()["search_limits"] == "reflect"
     assert make_settings(method, on.as_dict()) == on
+
+
+def test_the_answer_names_the_setting_in_words():
+    from pipeline.studies.arm_answer import in_words
+
+    assert in_words("dls", {"search_limits": "reflect", "restarts": 20}, 7, "local") == \
+        "damped least squares, kept within the limits (reflected), 20 random restarts"
+    assert in_words("dls", {}, 7, "local") == "damped least squares, one search"
