@@ -28,8 +28,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import subprocess
 import sys
+import tempfile
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -89,32 +92,87 @@ def binom_p_at_least(k: int, n: int, p: float) -> float:
     return float(sum(math.comb(n, i) * p ** i * (1 - p) ** (n - i) for i in range(k, n + 1)))
 
 
-def run(robot: str, goals: int, rows, seed: int = 0) -> dict:
-    """Every row on every goal, interleaved; returns per row the success flags and call times."""
+def ikpy_call(robot: str, model, tmp: str):
+    """ikpy's documented call on the arm (exported to URDF by the ``export_urdf`` verb, fixed links inactive):
+    ``chain.inverse_kinematics_frame(T_goal, initial_position=..., orientation_mode="all")`` (scipy's bounded
+    ``least_squares``, its defaults), as ``call(T_goal, q_start) -> q``; None when ikpy is not installed."""
+    try:
+        from ikpy.chain import Chain
+    except ImportError:
+        return None
+    urdf = Path(tmp) / f"{robot}.urdf"
+    subprocess.run([sys.executable, "-m", "pipeline", "export_urdf", str(ROOT / "data" / "robots" / f"{robot}.yaml"),
+                    "--out", str(urdf), "--force"], check=True, cwd=ROOT, capture_output=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        links = Chain.from_urdf_file(str(urdf), base_elements=["base_link"]).links
+        mask = [link.joint_type != "fixed" for link in links]
+        chain = Chain.from_urdf_file(str(urdf), base_elements=["base_link"], active_links_mask=mask)
+    active = np.flatnonzero(mask)
+    assert len(active) == model.n, (robot, len(active))
+
+    def call(T_goal, q_start):
+        full = np.zeros(len(mask))
+        full[active] = q_start
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return chain.inverse_kinematics_frame(T_goal, initial_position=full, orientation_mode="all")[active]
+
+    return call
+
+
+def peer_success(model, T_goal, q) -> bool:
+    """The benchmark's success test on a peer's answer: an independent FK within 0.1 mm and 1e-3 rad of the
+    goal, and the angles within the limits up to ``LIMIT_TOL`` (ikpy keeps its search within the bounds)."""
+    from pipeline.kinematics import fk_htm
+    from pipeline.solvers.core import LIMIT_TOL
+
+    F = fk_htm(model.chain, q)
+    c = (np.trace(F[:3, :3].T @ T_goal[:3, :3]) - 1.0) / 2.0
+    return bool(np.linalg.norm(F[:3, 3] - T_goal[:3, 3]) <= 1e-4 and np.arccos(np.clip(c, -1.0, 1.0)) <= 1e-3
+                and np.all(q >= model.limits[:, 0] - LIMIT_TOL) and np.all(q <= model.limits[:, 1] + LIMIT_TOL))
+
+
+def run(robot: str, goals: int, rows, with_ikpy: bool, seed: int = 0) -> dict:
+    """Every row on every goal, interleaved (ikpy's call among them when asked and installed); returns per row
+    the success flags and call times."""
     print(f"{robot}: {len(rows)} rows x {goals} goals", file=sys.stderr, flush=True)
     from pipeline import solvers
 
     model, ps = cold_goals(robot, goals)
     prep = solvers.Prepared(model)
     G = ps.goal_transforms()
-    bound = []
+    calls = []
     for name, search, mode, s in rows:
         b = solvers.bind(name, prep, solvers.make_settings(name, s))
         b.solve(G[0], ps.q_start[0])  # compile or load the kernels before any timed call
-        bound.append(b)
-    ok = np.zeros((len(rows), len(G)), bool)
-    t = np.zeros((len(rows), len(G)))
-    inside = np.ones((len(rows), len(G)), bool)
+
+        def ours(i, b=b):
+            res = b.solve(G[i], ps.q_start[i])
+            if res.success:  # the limits once more, outside the driver
+                assert np.all(res.q >= prep.limits[:, 0] - 1e-6) and np.all(res.q <= prep.limits[:, 1] + 1e-6)
+            return res.success, res.call_time_s
+
+        calls.append(ours)
+    with tempfile.TemporaryDirectory() as tmp:
+        peer = ikpy_call(robot, model, tmp) if with_ikpy else None
+    if peer is not None:
+        def theirs(i):
+            t0 = time.perf_counter()
+            q = peer(G[i], ps.q_start[i])
+            dt = time.perf_counter() - t0
+            return peer_success(model, G[i], q), dt
+
+        calls.append(theirs)
+    ok = np.zeros((len(calls), len(G)), bool)
+    t = np.zeros((len(calls), len(G)))
     rng = np.random.default_rng(seed)
     for i in range(len(G)):
         if i % 50 == 0:
             print(f"  goal {i}", file=sys.stderr, flush=True)
-        for r in rng.permutation(len(rows)):
-            res = bound[r].solve(G[i], ps.q_start[i])
-            ok[r, i], t[r, i] = res.success, res.call_time_s
-            if res.success:  # the FK check and the limits, once more, outside the driver
-                inside[r, i] = bool(np.all(res.q >= prep.limits[:, 0] - 1e-6) and np.all(res.q <= prep.limits[:, 1] + 1e-6))
-    return {"ok": ok, "t": t, "inside": inside}
+        for r in rng.permutation(len(calls)):
+            ok[r, i], t[r, i] = calls[r](i)
+    return {"ok": ok, "t": t, "ikpy": peer is not None}
 
 
 def table(robot: str, rows, out: dict) -> list[str]:
@@ -123,6 +181,7 @@ def table(robot: str, rows, out: dict) -> list[str]:
 
     ok, t = out["ok"], out["t"]
     n = ok.shape[1]
+    peer_row = len(rows) if out["ikpy"] else None
     ref = {(name, search): i for i, (name, search, mode, _) in enumerate(rows) if mode == "off"}
     lines = [f"\n### {robot} ({n} cold goals)\n",
              "| method | search | search_limits | success [%] (95 % CI) | call p50 [µs] | call p95 [µs] | "
@@ -138,12 +197,18 @@ def table(robot: str, rows, out: dict) -> list[str]:
             b, c = int((ok[j] & ~ok[i]).sum()), int((ok[i] & ~ok[j]).sum())
             disc, p = f"{b} / {c}", f"{mcnemar_two_sided(b, c):.2g}"
         peer, rate = PEER_SINGLE[robot] if search == "single" else PEER_RESTARTS
-        vs = f"{peer} {rate} %: P(≥{k} \\| {rate} %) = {binom_p_at_least(k, n, rate / 100):.2g}"
+        if search == "single" and peer_row is not None:  # paired, on these goals
+            b, c = int((ok[peer_row] & ~ok[i]).sum()), int((ok[i] & ~ok[peer_row]).sum())
+            vs = f"ikpy here: only ikpy / only this {b} / {c}, McNemar p = {mcnemar_two_sided(b, c):.2g}"
+        else:
+            vs = f"{peer} {rate} % (issue 43): P(≥{k} \\| {rate} %) = {binom_p_at_least(k, n, rate / 100):.2g}"
         lines.append(f"| {name} | {search} | {mode} | {100 * k / n:.1f} ({100 * lo:.1f}-{100 * hi:.1f}) | "
                      f"{np.median(t[i]) * 1e6:.0f} | {np.percentile(t[i], 95) * 1e6:.0f} | {disc} | {p} | {vs} |")
-    if not out["inside"].all():
-        lines.append("\n**a success outside the limits** (must not happen): rows "
-                     + ", ".join(str(i) for i in np.flatnonzero(~out["inside"].all(axis=1))))
+    if peer_row is not None:
+        k = int(ok[peer_row].sum())
+        lo, hi = wilson(k, n)
+        lines.append(f"| ikpy (its documented call) | single | its bounds | {100 * k / n:.1f} ({100 * lo:.1f}-{100 * hi:.1f}) | "
+                     f"{np.median(t[peer_row]) * 1e6:.0f} | {np.percentile(t[peer_row], 95) * 1e6:.0f} |  |  |  |")
     return lines
 
 
@@ -154,6 +219,7 @@ def main() -> None:
     ap.add_argument("--methods", default="dls,sdls,pseudoinverse,levenberg_marquardt")
     ap.add_argument("--modes", default="off,clamp,reflect")
     ap.add_argument("--restart-modes", default="off,clamp,reflect", help="modes run with restarts")
+    ap.add_argument("--ikpy", action="store_true", help="run ikpy's call on the same goals, interleaved (paired test)")
     ap.add_argument("--out", help="write the tables (markdown) here as well as printing them")
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT))  # this checkout's package, whatever is installed
@@ -161,7 +227,7 @@ def main() -> None:
     text = []
     for robot in args.robots.split(","):
         t0 = time.process_time()
-        out = run(robot, args.goals, rows)
+        out = run(robot, args.goals, rows, args.ikpy)
         lines = table(robot, rows, out)
         lines.append(f"\n({time.process_time() - t0:.0f} s CPU for this arm)")
         print("\n".join(lines), flush=True)
