@@ -189,6 +189,9 @@ def in_words(method: str, settings: dict, dof: int, kind: str) -> str:
     r = int(settings.get("restarts", 0) or 0)
     if method == "trac_ik":
         return f"{words}, {1e3 * float(settings.get('timeout', 0.005)):.0f} ms budget"
+    limits = settings.get("search_limits", "off")
+    if limits != "off":
+        words += ", kept within the limits" + (" (reflected)" if limits == "reflect" else " (clamped)")
     return words + (f", {r} random restarts" if r else ", one search")
 
 

@@ -11,7 +11,7 @@ from pipeline.io.layout import STOP_REASONS, TRACE_COLS, StopReason
 from pipeline.solvers.kernels.kin import CRITERIA, CRITERION_CODE, LIMIT_TOL
 from pipeline.solvers.core.settings import (MAX_LIBRARY_TIMEOUT_S, MAX_SETTING_FLOAT, MAX_TIME_BUDGET_S, MAX_WORK,
                                             POSITION_CRITERIA, NotApplicableError, Settings, SettingsError,
-                                            check_data_path, setting)
+                                            check_data_path, search_limits_setting, setting)
 from pipeline.solvers.core.prepared import Prepared, inv_rigid
 from pipeline.solvers.core.results import BatchRaw, BatchResult, IKResult, InfoRows, Raw
 from pipeline.solvers.core.rule import (check, check_fields, check_pack, finish, finish_args, finish_batch,
@@ -22,5 +22,5 @@ __all__ = ["CRITERIA", "CRITERION_CODE", "LIMIT_TOL", "MAX_LIBRARY_TIMEOUT_S", "
            "MAX_WORK", "POSITION_CRITERIA", "STOP_REASONS", "TRACE_COLS", "BatchRaw", "BatchResult", "IKResult",
            "InfoRows", "NotApplicableError", "Prepared", "Raw", "Settings", "SettingsError", "StopReason", "check",
            "check_data_path", "check_fields", "check_pack", "finish", "finish_args", "finish_batch", "finish_packed",
-           "fused_inputs", "inv_rigid", "meets", "nearest_of", "nearest_rep", "pose_errors", "setting", "unpack_check",
+           "fused_inputs", "inv_rigid", "meets", "nearest_of", "nearest_rep", "pose_errors", "search_limits_setting", "setting", "unpack_check",
            "verify", "within_limits", "wrap_into_limits"]

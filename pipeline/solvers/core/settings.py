@@ -8,7 +8,7 @@ import math
 from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 
 from pipeline.robots import LENGTH_UNITS
-from pipeline.solvers.kernels.kin import CRITERIA
+from pipeline.solvers.kernels.kin import CRITERIA, SEARCH_LIMITS
 
 
 class SettingsError(ValueError):
@@ -57,7 +57,7 @@ POSITION_CRITERIA = ("position", "dq_norm_body")  # success tests that ignore th
 
 
 def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, above=None, maximum=None,
-            length: bool = False, file: bool = False):
+            length: bool = False, file: bool = False, quiet: bool = False):
     """A settings field with its documentation and checks (read by ``from_dict`` and ``json_schema``).
 
     Parameters
@@ -73,10 +73,24 @@ def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, ab
     file : bool
         The value names a file (``''`` = none): a path from the project root that must resolve inside
         its data folder (:func:`check_data_path`).
+    quiet : bool
+        :meth:`Settings.as_dict` leaves the field out while it holds its default: a setting added after
+        archives were written, whose settings records and job hashes then stay as they were.
     """
     meta = {"doc": doc, "unit": unit, "choices": tuple(choices) if choices is not None else None,
-            "minimum": minimum, "above": above, "maximum": maximum, "length": length, "file": file}
+            "minimum": minimum, "above": above, "maximum": maximum, "length": length, "file": file,
+            "quiet": quiet}
     return field(default=default, metadata=meta)
+
+
+def search_limits_setting():
+    """The ``search_limits`` field of the Jacobian-family methods (issue 43): joint limits inside the search."""
+    return setting("off", "joint limits inside the search: off (iterates unconstrained, the documents' methods; "
+                   "the result is wrapped into the limits afterwards), clamp (every iterate, the start included, "
+                   "clamped into the limits), reflect (the start clamped; a joint a step takes past a limit is "
+                   "mirrored at it, then clamped: the search leaves the limit instead of stalling on it; "
+                   "Levenberg-Marquardt takes a mirrored step even when it does not lower the error)",
+                   choices=SEARCH_LIMITS, quiet=True)
 
 
 _PY_TYPES = {"int": int, "float": float, "bool": bool, "str": str}
@@ -166,7 +180,12 @@ class Settings:
         :class:`SettingsError`. ``check_inputs`` calls it for every (robot, solver) job of a study."""
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        """Every field's value, but a ``quiet`` field (:func:`setting`) only when it is not its default."""
+        out = asdict(self)
+        for f in fields(self):
+            if f.metadata.get("quiet") and out[f.name] == f.default:
+                del out[f.name]
+        return out
 
     def converted(self) -> "Settings":
         """A copy whose length-valued fields are in ``length_unit`` instead of metres."""

@@ -16,8 +16,8 @@ import numpy as np
 
 import pipeline.solvers.kernels.pose as _jit
 import pipeline.solvers.iterative.lean as _lean
-from pipeline.solvers.kernels.kin import TRACE_COLS
-from pipeline.solvers.core import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, setting
+from pipeline.solvers.kernels.kin import SEARCH_LIMITS, TRACE_COLS
+from pipeline.solvers.core import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, search_limits_setting, setting
 from pipeline.solvers.core.driver import run_of
 from pipeline.solvers.core.registry import Solver, register
 
@@ -43,6 +43,7 @@ class JacobianSettings(Settings):
     time_ik_block: bool = setting(False, "read the clock around every update step to record ik_time_s (two clock "
                                   "reads per iteration, about 40 ns of a ~550 ns iteration); off (default): "
                                   "ik_time_s = 0. cerbaro2019 turns it on for its IK-block times (Figure 21)")
+    search_limits: str = search_limits_setting()
 
 
 @dataclass(frozen=True)
@@ -70,10 +71,30 @@ class SDLSSettings(NewtonSettings):
                                choices=(1, 2))
 
 
-def packed(method: str, s: JacobianSettings) -> tuple[np.ndarray, np.ndarray]:
-    """The kernel's integer and float parameter vectors (settings already in the working unit)."""
+def packed(method: str, s: JacobianSettings, limits: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The kernel's integer and float parameter vectors (settings already in the working unit).
+
+    Parameters
+    ----------
+    method : str
+        One of :data:`pipeline.solvers.kernels.pose.METHODS`.
+    s : JacobianSettings
+        Settings in the working unit.
+    limits : ndarray, shape (n, 2) [rad | working length unit], optional
+        The joint limits (+-inf where none); needed when ``s.search_limits`` is not ``off``, and then
+        appended to the float vector.
+
+    Returns
+    -------
+    ip : ndarray, shape (N_IP,) of int64
+    fp : ndarray, shape (N_FP,) or (N_FP + 2 n,)
+    """
     ip = np.zeros(_jit.N_IP, np.int64)
-    fp = np.zeros(_jit.N_FP)
+    lim = SEARCH_LIMITS.index(getattr(s, "search_limits", "off"))
+    ip[_jit.I_LIMITS] = lim
+    fp = np.zeros(_jit.N_FP if lim == 0 else _jit.N_FP + 2 * len(limits))
+    if lim:
+        fp[_jit.N_FP:] = np.concatenate([limits[:, 0], limits[:, 1]])
     ip[_jit.I_METHOD] = _jit.METHODS[method]
     ip[_jit.I_MAX_ITER] = s.max_iterations
     ip[_jit.I_CRITERION] = CRITERION_CODE[s.criterion]  # position: pos_orient's tests, tol_rot = inf
@@ -98,7 +119,7 @@ def packed(method: str, s: JacobianSettings) -> tuple[np.ndarray, np.ndarray]:
 
 def _bind(method: str):
     def bind(prep: Prepared, s: JacobianSettings):
-        ip, fp = packed(method, s)
+        ip, fp = packed(method, s, prep.limits)
         chain = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
         rows = s.max_iterations + 1
         kernel = _lean.solve
@@ -121,7 +142,7 @@ TRACE_BUDGET = 64 * 2**20  # [bytes] per chunk of a batch's trace buffer (N x (m
 
 def _batch(method: str):
     def batch(prep: Prepared, s: JacobianSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
-        ip, fp = packed(method, s)
+        ip, fp = packed(method, s, prep.limits)
         chain = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
         N, n = starts.shape
         rows = s.max_iterations + 1 if keep_traces else 1

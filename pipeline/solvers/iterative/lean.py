@@ -30,8 +30,9 @@ import numba
 import numpy as np
 
 import pipeline.solvers.kernels.pose as _jit
-from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, NEVER, dh_joint, jacobian_at, now_ns,
-                                          quat_from_rot, quat_relative, relative_translation_norm, rodrigues)
+from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, LIM_OFF, LIM_REFLECT, NEVER, dh_joint,
+                                          jacobian_at, now_ns, quat_from_rot, quat_relative,
+                                          relative_translation_norm, rodrigues)
 from pipeline.solvers.kernels.loop import error_row, iterate
 
 
@@ -198,6 +199,29 @@ def _step(method, J, e, lam2, A, y, dq):
 
 
 @numba.njit(cache=True, inline="always")
+def _into_box(q, fp):
+    """Clamp ``q`` (n,) into the joint box held in ``fp`` (:data:`pipeline.solvers.kernels.pose.I_LIMITS`)."""
+    n = q.shape[0]
+    for j in range(n):
+        q[j] = min(max(q[j], fp[_jit.N_FP + j]), fp[_jit.N_FP + n + j])
+
+
+@numba.njit(cache=True, inline="always")
+def _reflect_into_box(q, fp):
+    """``search_limits = reflect``: a joint past a limit is mirrored at it (``2 hi - q`` or ``2 lo - q``: the
+    search moves on instead of stalling on the limit as a clamp does), then clamped into the box (held in ``fp``, :data:`pipeline.solvers.kernels.pose.I_LIMITS`)."""
+    n = q.shape[0]
+    for j in range(n):
+        lo, hi = fp[_jit.N_FP + j], fp[_jit.N_FP + n + j]
+        x = q[j]
+        if x > hi:
+            x = 2.0 * hi - x
+        elif x < lo:
+            x = 2.0 * lo - x
+        q[j] = min(max(x, lo), hi)
+
+
+@numba.njit(cache=True, inline="always")
 def _met(crit, err, dp, ang, fp):
     """The success test: ``err <= tol_dq`` (dq_norm criteria) or ``|dp| <= tol_pos`` and ``angle <= tol_rot``."""
     if crit == CRIT_DQ_NORM or crit == CRIT_DQ_BODY:
@@ -210,10 +234,13 @@ def _start(problem, q):
     """:func:`pipeline.solvers.kernels.loop.iterate`'s ``start``: the scratch, the first FK and error.
 
     State: ``(axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk)`` with ``qg`` the goal's
-    quaternion (once per solve), ``qt``/``qp`` this and the previous iterate's, ``m`` = (error, |dp|).
+    quaternion (once per solve), ``qt``/``qp`` this and the previous iterate's, ``m`` = (error, |dp|). With
+    ``search_limits`` on, the start is first clamped into the joint box.
     """
     form, a, ca, sa, d, offs, prism, base, tool, Tg, ip, fp = problem
     n = q.shape[0]
+    if ip[_jit.I_LIMITS] != LIM_OFF:
+        _into_box(q, fp)
     axes = np.empty((n, 3))
     origins = np.empty((n, 3))
     T = np.zeros((4, 4))
@@ -241,7 +268,8 @@ def _start(problem, q):
 
 @numba.njit(cache=True, inline="always")
 def _advance(problem, state, q, it):
-    """``step``: the method's update (Cholesky fast path, else the reference step), FK, error and stall test."""
+    """``step``: the method's update (Cholesky fast path, else the reference step; with ``search_limits`` the
+    iterate clamped or reflected into the joint box), FK, error and stall test."""
     form, a, ca, sa, d, offs, prism, base, tool, Tg, ip, fp = problem
     axes, origins, T, Tprev, C, J, e, A, y, dq, qg, qt, qp, m, clk = state
     n = q.shape[0]
@@ -250,6 +278,7 @@ def _advance(problem, state, q, it):
     time_ik = ip[_jit.I_TIME_IK] != 0
     lam = fp[_jit.F_LAMBDA] if method == 2 else 0.0
     _jacobian(prism, axes, origins, T, J)
+    lim = ip[_jit.I_LIMITS]
     t0 = now_ns(clk) if time_ik else 0
     if method == 3 or not _step(method, J, e, lam * lam, A, y, dq):
         ref = _jit.step(method, J, e, ip, fp)
@@ -258,6 +287,10 @@ def _advance(problem, state, q, it):
     t_ik = now_ns(clk) - t0 if time_ik else 0
     for j in range(n):
         q[j] += dq[j]
+    if lim == LIM_REFLECT:
+        _reflect_into_box(q, fp)
+    elif lim != LIM_OFF:
+        _into_box(q, fp)
     for r in range(3):
         for c in range(4):
             Tprev[r, c] = T[r, c]

@@ -34,9 +34,9 @@ import numpy as np
 
 from pipeline.robots import LENGTH_UNITS
 import pipeline.solvers.kernels.kin as _kin
-from pipeline.solvers.kernels.kin import NEVER
+from pipeline.solvers.kernels.kin import LIM_OFF, LIM_REFLECT, NEVER, SEARCH_LIMITS
 from pipeline.solvers.kernels.loop import iterate, pose_row
-from pipeline.solvers.core import POSITION_CRITERIA, Prepared, Raw, Settings, setting
+from pipeline.solvers.core import POSITION_CRITERIA, Prepared, Raw, Settings, search_limits_setting, setting
 from pipeline.solvers.core.driver import run_loop
 from pipeline.solvers.core.registry import Solver, register
 
@@ -65,6 +65,7 @@ class LMSettings(Settings):
                                        "position error (full pose goals)", unit="m", above=0.0, length=True)
     max_iterations: int = setting(200, "MRPT maxIter (iterations counted as MRPT does)", minimum=2,
                                   maximum=10_000_000)
+    search_limits: str = search_limits_setting()
 
     def pose(self) -> bool:
         return self.criterion not in POSITION_CRITERIA
@@ -150,6 +151,8 @@ def _start(problem, q):
     a, alpha, d, offs, prism, modified, base, tool, Tg, kind, pose, scale, incr = problem[:13]
     tau, e1 = problem[14], problem[15]
     n = q.shape[0]
+    if problem[21] != LIM_OFF:  # search_limits: the start clamped into the joint box
+        _into_box(q, problem[22], problem[23])
     m = 1 if kind == RES_SCALAR else (6 if pose else 3)
     state = (np.empty((4, 4)), np.empty((4, 4)), np.empty(4), np.empty(4), np.empty(3), np.empty(m), np.empty(m),
              np.empty(m), np.empty(m), np.empty(n), np.empty(n), np.empty((m, n)), np.empty((n, n)), np.empty(n),
@@ -185,6 +188,37 @@ def _claim(problem, state, found):
     return within, not within
 
 
+@numba.njit(cache=True, inline="always")
+def _into_box(q, lo, hi):
+    """Clamp ``q`` (n,) into ``[lo, hi]`` (n,) in place."""
+    for j in range(q.shape[0]):
+        q[j] = min(max(q[j], lo[j]), hi[j])
+
+
+@numba.njit(cache=True)
+def _bounded_step(q, lo, hi, lim, h):
+    """``search_limits``: the damped step ``h`` (n,) kept in the joint box ``[lo, hi]`` (n,) around ``q`` (n,):
+    reflect mirrors a joint the step takes past a limit at that limit; then (both modes) ``q + h`` is clamped
+    into the box. Returns ``(h, mirrored)``: the kept step (n,) and whether a joint was mirrored. The caller
+    judges the kept step by :func:`_predicted` (MRPT's ``h^T (lambda h - g)`` for the unconstrained step) and
+    takes a mirrored step even when it does not lower the error (the damping unchanged): a mirrored step leaves
+    the limit instead of stalling on it, which is what makes reflection work."""
+    mirrored = False
+    for j in range(q.shape[0]):
+        x = q[j] + h[j]
+        if lim == LIM_REFLECT and (x > hi[j] or x < lo[j]):  # mirrored at the limit it passed
+            x = 2.0 * hi[j] - x if x > hi[j] else 2.0 * lo[j] - x
+            mirrored = True
+        h[j] = min(max(x, lo[j]), hi[j]) - q[j]
+    return h, mirrored
+
+
+@numba.njit(cache=True)
+def _predicted(H, g, h):
+    """Predicted decrease of ``|f|^2`` for the step ``h`` (n,) under the linear model: ``-(2 g.h + h.H.h)``."""
+    return -(2.0 * np.dot(g, h) + np.dot(h, H @ h))
+
+
 @numba.njit(cache=True)
 def _step(problem, state, q, it):
     """``step``: MRPT's iteration (the damped system, the gain ratio, Nielsen's update); no step at the cap
@@ -199,8 +233,12 @@ def _step(problem, state, q, it):
     A = H.copy()
     for i in range(n):
         A[i, i] += lam
+    lim = problem[21]
+    mirrored = False
     try:
         h = -np.linalg.solve(A, g)
+        if lim != LIM_OFF:
+            h, mirrored = _bounded_step(q, problem[22], problem[23], lim, h)
     except Exception:  # singular damped system (lambda = 0 and J^T J singular)
         return np.nan, False, False, 0
     found = False
@@ -209,14 +247,22 @@ def _step(problem, state, q, it):
     else:
         for i in range(n):
             xnew[i] = q[i] + h[i]
+        if lim != LIM_OFF:  # q + (limit - q) can miss the limit by a rounding
+            _into_box(xnew, problem[22], problem[23])
         _residual(a, alpha, d, offs, prism, modified, base, tool, Tg, xnew, kind, pose, scale, fnew, T, qa, qb, rv)
         Fnew = 0.0
         for i in range(fnew.shape[0]):
             Fnew += fnew[i] * fnew[i]
         denom = 0.0
-        for i in range(n):
-            denom += h[i] * (lam * h[i] - g[i])
-        rho = (Fx - Fnew) / denom
+        if lim == LIM_OFF:
+            for i in range(n):
+                denom += h[i] * (lam * h[i] - g[i])
+            rho = (Fx - Fnew) / denom
+        else:  # a kept step whose model predicts no decrease is rejected (damping grows)
+            denom = _predicted(H, g, h)
+            rho = (Fx - Fnew) / denom if denom > 0.0 else -1.0
+            if mirrored and not rho > 0.0:  # a mirrored step is taken (it leaves the limit), damping unchanged
+                rho = 0.5
         if rho > 0:
             q[:] = xnew
             f[:] = fnew
@@ -241,23 +287,31 @@ def _record(problem, state, trace, row):
 
 @numba.njit(cache=True)
 def lm_solve(a, alpha, d, offs, prism, modified, base, tool, Tg, q0, kind, pose, scale, incr, max_iter, tau, e1, e2,
-             min_shrink, tol_change, tol_pos, tol_rot, q, trace, times):
+             min_shrink, tol_change, tol_pos, tol_rot, lim, lo, hi, q, trace, times):
     """Levenberg-Marquardt loop (:func:`pipeline.solvers.kernels.loop.iterate` with this module's step).
-    Returns (code, iterations); ``times`` = (wall ns, 0, thread CPU ns)."""
+    ``lim`` the ``search_limits`` code (:data:`pipeline.solvers.kernels.kin.SEARCH_LIMITS`), ``lo``, ``hi`` (n,)
+    the joint box. Returns (code, iterations); ``times`` = (wall ns, 0, thread CPU ns)."""
     problem = (a, alpha, d, offs, prism, modified, base, tool, Tg, kind, pose, scale, incr, max_iter, tau, e1, e2,
-               min_shrink, tol_change, tol_pos, tol_rot)
+               min_shrink, tol_change, tol_pos, tol_rot, lim, lo, hi)
     code, it, _ = iterate(_start, _step, _record, problem, q0, q, trace, times, NEVER, max_iter)
     return code, it
 
 
 # ---- registry entry -------------------------------------------------------------------------
+def _box(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
+    """The joint limits' lower and upper columns (n,) each, C-contiguous (once per prepared robot)."""
+    return prep.memo("limit_columns", lambda: (np.ascontiguousarray(prep.limits[:, 0]),
+                                               np.ascontiguousarray(prep.limits[:, 1])))
+
+
 def run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: LMSettings, seed: int) -> Raw:
     e1 = s.gradient_tol / LENGTH_UNITS[prep.unit] ** 2
     q, trace, times, (code, it) = run_loop(
         lm_solve, (*prep.args, T_goal, q_start, RES_SCALAR if s.residual == "scalar" else RES_VECTOR, s.pose(),
                    float(s.orientation_scale), float(s.increment), int(s.max_iterations), float(s.tau), float(e1),
                    float(s.step_tol), float(s.min_shrink), float(s.error_change_stop), float(s.tol_pos),
-                   float(s.tol_rot)), q_start, s.max_iterations, clocks=3)
+                   float(s.tol_rot), SEARCH_LIMITS.index(s.search_limits), *_box(prep)), q_start, s.max_iterations,
+        clocks=3)
     return Raw(q=q, code=int(code), iterations=int(it), solve_ns=int(times[0]), trace=trace,
                info={"cpu_time_s": int(times[2]) * 1e-9})
 

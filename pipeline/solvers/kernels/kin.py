@@ -44,6 +44,12 @@ SUCCESS, STALLED, DIVERGING, ITERATION_CAP, NON_FINITE, FK_CHECK_FAILED, NO_SOLU
 CRITERIA = ("pos_orient", "position", "dq_norm", "dq_norm_body")
 CRITERION_CODE = {c: i for i, c in enumerate(CRITERIA)}
 CRIT_POS_ORIENT, CRIT_POSITION, CRIT_DQ_NORM, CRIT_DQ_BODY = (CRITERION_CODE[c] for c in CRITERIA)
+# Joint limits inside a Jacobian-family search (the ``search_limits`` setting): off (the unconstrained
+# iterates of the documents), clamp (each iterate clamped to the box), reflect (a joint past a limit is
+# mirrored at it, then clamped). An active set and Chan & Dubey's weighted least norm were measured and
+# dropped (benchmarks/results/limits_aware.md)
+SEARCH_LIMITS = ("off", "clamp", "reflect")
+LIM_OFF, LIM_CLAMP, LIM_REFLECT = range(3)
 # Trace rows: TRACE_COLS columns (pipeline.io.layout.TRACE_COLUMNS), the last one |dp|
 TRACE_DP = TRACE_COLS - 1
 NEVER = 1 << 62  # a grow limit or iteration cap that is never reached

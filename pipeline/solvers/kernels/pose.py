@@ -18,7 +18,9 @@ from pipeline.solvers.kernels.kin import CRIT_DQ_BODY, CRIT_DQ_NORM  # success t
 # integer parameter slots -------------------------------------------------------------------
 I_METHOD, I_MAX_ITER, I_CRITERION, I_ORIENT, I_GROW_LIMIT, I_SDLS_NORM, I_SDLS_BLOCKS, I_NO_STALL, I_NO_GROW = range(9)
 I_TIME_IK = 9  # read by the lean loop (pipeline.solvers.iterative.lean) only
-N_IP = 10
+I_LIMITS = 10  # search_limits code (pipeline.solvers.kernels.kin.LIM_*; the lean loop only); with it on, the
+#                float vector holds the lower limits at N_FP..N_FP+n-1 and the upper ones at N_FP+n..N_FP+2n-1
+N_IP = 11
 # float parameter slots
 F_LAMBDA, F_GAMMA_MAX, F_TOL_DQ, F_STALL_DQ, F_TOL_POS, F_TOL_ROT, F_STALL_POS, F_STALL_ROT, F_ORIENT_GAIN = range(9)
 N_FP = 9
