@@ -116,7 +116,10 @@ SOURCE_UR = "ur_analytic_ik (https://github.com/Victorlouisdg/ur-analytic-ik), c
 # import name -> how to install it
 INSTALL = {"roboticstoolbox": "pip install roboticstoolbox-python==1.5.0", "pytracik": "pip install pytracik",
            "pinocchio": "pip install pin", "ur_analytic_ik": "pip install ur-analytic-ik",
-           "eaik": "pip install eaik==1.2.2", "ik_geo": "pip install ik-geo==1.0.3"}
+           "eaik": "pip install eaik==1.2.2", "ik_geo": "pip install ik-geo==1.0.3",
+           "pybullet": "pip install pybullet==3.2.7", "ikpy": "pip install ikpy==4.2.1",
+           "pink": "pip install pin-pink==4.4.0 daqp", "qpsolvers": "pip install qpsolvers daqp",
+           "mink": "pip install mink==1.3.0", "mujoco": "pip install mujoco", "placo": "pip install placo==0.10.2"}
 UR_MATCH_TOL = 1e-9  # [m, 1] a robot file matches a built-in UR model when FK agrees to this
 URDF_MATCH_TOL = 1e-9  # [m, 1] the URDF TRAC-IK reads must reproduce our FK to this
 TIME = "time = the whole library call incl. its Python binding overhead"
@@ -590,3 +593,16 @@ def _ur_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: URAnalyt
 register(Solver("ur_analytic_ik", f"ur_analytic_ik closed form of UR arms (built-in vendor models), all solutions, "
                 f"nearest to the start (peer baseline; {TIME})", "analytic", URAnalyticIKSettings, _ur_run,
                 applies_to=_ur_applies, source=SOURCE_UR, library="ur-analytic-ik"))
+
+
+# ---- shared with the other peer modules (python_ik, qp_ik) ---------------------------------
+def pin_model(prep: Prepared):
+    """The Pinocchio model of the CLIK peer, built once per ``prep``: (pin, model, data, last joint id,
+    tool SE3, tool-inverse action (6, 6)), metres, no joint limits set."""
+    return prep.memo(("peers", "pin"), lambda: _pin_model(prep))
+
+
+start_end_trace = _trace  # rows [|e|, e (6), |dp|] at the start and the returned angles
+returned_angles = _returned  # the returned angles, wrapped into the limits under require_limits
+model_applies = _model_applies  # a peer applies when its library imports and its model builds (memoised)
+peer_code = _peer_code  # SUCCESS when the peer claims success, else ``fail``
