@@ -94,6 +94,7 @@ import importlib
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from pipeline.kinematics import fk_htm
@@ -153,23 +154,37 @@ def _returned(prep: Prepared, q: np.ndarray, s: Settings) -> np.ndarray:
     return wrap_into_limits(q, prep.limits, prep.prismatic) if s.require_limits else q
 
 
-def _trace(prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Rows [|e|, e (6), |dp|] at the start and the returned angles (working unit; compiled FK)."""
-    out = np.full((2, TRACE_COLS), np.nan)
+@numba.njit(cache=True)
+def _trace_rows(a, alpha, d, offs, prism, form, base, tool, Tg, q0, q, out):
+    """The two trace rows of :func:`_trace` into ``out`` (2, TRACE_COLS), NaN rows for non-finite angles."""
     T = np.empty((4, 4))
     qa, qb, rv = np.empty(4), np.empty(4), np.empty(3)
-    Tg = np.ascontiguousarray(T_goal, dtype=float)
-    for k, qq in enumerate((q0, q)):
-        qq = np.ascontiguousarray(qq, dtype=float)
-        if not np.all(np.isfinite(qq)):
+    for k in range(2):
+        qq = q0 if k == 0 else q
+        finite = True
+        for j in range(qq.shape[0]):
+            if not math.isfinite(qq[j]):
+                finite = False
+        if not finite:
             continue
-        _kin.forward_pose(*prep.args, qq, T)
+        _kin.forward_pose(a, alpha, d, offs, prism, form, base, tool, qq, T)
         _kin.rotation_vector(Tg, T, qa, qb, rv)
-        dp = Tg[:3, 3] - T[:3, 3]
-        out[k, 1:4] = dp
-        out[k, 4:7] = rv
-        out[k, 0] = math.sqrt(float(dp @ dp + rv @ rv))
-        out[k, TRACE_DP] = math.sqrt(float(dp @ dp))
+        s_p = s_r = 0.0
+        for r in range(3):
+            dp = Tg[r, 3] - T[r, 3]
+            out[k, 1 + r] = dp
+            out[k, 4 + r] = rv[r]
+            s_p += dp * dp
+            s_r += rv[r] * rv[r]
+        out[k, 0] = math.sqrt(s_p + s_r)
+        out[k, TRACE_DP] = math.sqrt(s_p)
+
+
+def _trace(prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Rows [|e|, e (6), |dp|] at the start and the returned angles (working unit; compiled FK, one call)."""
+    out = np.full((2, TRACE_COLS), np.nan)
+    _trace_rows(*prep.args, np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q0, dtype=float),
+                np.ascontiguousarray(q, dtype=float), out)
     return out
 
 
@@ -412,7 +427,6 @@ def _tracik_applies(prep: Prepared) -> str | None:
 
 def _tracik_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: TracIKSettings, seed: int) -> Raw:
     pytracik = importlib.import_module("pytracik")
-    from pipeline.kinematics import quat_from_matrix
 
     m = metric(prep)
     t, corr = prep.memo(("peers", "tracik", s.timeout, s.eps, s.solve_type),
@@ -420,7 +434,9 @@ def _tracik_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Trac
     Tm = m.goal(T_goal)
     if corr is not None:
         Tm = corr @ Tm
-    w, x, y, z = (float(v) for v in quat_from_matrix(Tm))
+    wxyz = np.empty(4)
+    _kin.quat_from_rot(Tm, wxyz)  # compiled (numpy's quat_from_matrix cost ~60 µs a call)
+    w, x, y, z = wxyz.tolist()
     px, py, pz = (float(v) for v in Tm[:3, 3])
     q0 = m.q_in(q_start)
     t0 = clock_ns()

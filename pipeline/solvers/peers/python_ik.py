@@ -8,8 +8,8 @@ every other solver runs; importing :mod:`pipeline.solvers` never imports a peer 
 Both read the chain from :func:`pipeline.urdf.to_urdf` (links ``base_link`` ... ``tool0``, metres),
 written to a temporary file once per :class:`~pipeline.solvers.core.Prepared` (the libraries read
 files only), loaded, and checked once against our FK (``FK_MATCH_TOL``). Everything per job (the
-loaded body or chain, the list of link values) is built then; per call only the start and goal are
-converted, outside the timed region, and ``solve_time_s`` is the library's one call.
+loaded body or chain, the call's keyword arguments) is built then (``bind``); per call only the start and
+goal are converted, outside the timed region, and ``solve_time_s`` is the library's one call.
 
 ``pybullet_ik``
     pybullet's ``calculateInverseKinematics`` (Coumans & Bai, PyBullet, https://pybullet.org; the
@@ -52,7 +52,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.kinematics import fk_htm, quat_from_matrix
+from pipeline.kinematics import fk_htm
+from pipeline.solvers.kernels.kin import quat_from_rot
 from pipeline.solvers.core import Prepared, Raw, Settings, StopReason, setting
 from pipeline.solvers.core.models import metric
 from pipeline.solvers.core.registry import Solver, register
@@ -64,6 +65,7 @@ SOURCE_PYBULLET = ("Coumans & Bai (2016-2025), PyBullet, https://pybullet.org; p
 SOURCE_IKPY = "Manceron, ikpy (https://github.com/Phylliade/ikpy); ikpy 4.2.1 Chain.inverse_kinematics (SciPy)"
 
 FK_MATCH_TOL = 1e-9  # [m, 1] ikpy's chain must reproduce our FK to this (NumPy, double)
+SUCCESS, NON_FINITE = int(StopReason.SUCCESS), int(StopReason.NON_FINITE)
 PYBULLET_FK_TOL = 1e-6  # [m, 1] pybullet's: its link state comes back rounded (5e-8 m seen on the Panda)
 _QS = np.random.default_rng(43).uniform(-1.0, 1.0, (3, 64))  # the models' check configurations (cut to n)
 
@@ -180,26 +182,36 @@ def pybullet_arguments(s: PybulletSettings, n: int) -> dict:
     return kw
 
 
-def _pybullet_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: PybulletSettings, seed: int) -> Raw:
+def _pybullet_bind(prep: Prepared, s: PybulletSettings):
+    """run1(T_goal, q_start, seed) -> Raw with everything per job made once (model, arguments, scratch)."""
     pb, cid, body, ee = prep.memo(("peers", "pybullet"), lambda: _pybullet_model(prep))
     m = metric(prep)
-    kw = prep.memo(("peers", "pybullet_kw", s), lambda: pybullet_arguments(s, m.n))
-    Tm = m.goal(T_goal)
-    w, x, y, z = (float(v) for v in quat_from_matrix(Tm))
-    pos, orn = [float(v) for v in Tm[:3, 3]], [x, y, z, w]
-    q0 = m.q_in(q_start).tolist()
-    t0 = clock_ns()
-    out = pb.calculateInverseKinematics(body, ee, pos, orn, currentPositions=q0, physicsClientId=cid, **kw)
-    ns = clock_ns() - t0
-    q = returned_angles(prep, m.q_out(out), s)
-    code = int(StopReason.SUCCESS) if np.all(np.isfinite(q)) else int(StopReason.NON_FINITE)
-    return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), trace=start_end_trace(prep, T_goal, q_start, q))
+    kw = pybullet_arguments(s, m.n)
+    calc, wxyz = pb.calculateInverseKinematics, np.empty(4)
+
+    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        Tm = m.goal(T_goal)
+        quat_from_rot(Tm, wxyz)  # compiled: numpy's quat_from_matrix cost ~60 µs a call here
+        w, x, y, z = wxyz.tolist()
+        pos, orn = Tm[:3, 3].tolist(), [x, y, z, w]
+        q0 = m.q_in(q_start).tolist()
+        t0 = clock_ns()
+        out = calc(body, ee, pos, orn, currentPositions=q0, physicsClientId=cid, **kw)
+        ns = clock_ns() - t0
+        q = returned_angles(prep, m.q_out(out), s)
+        code = SUCCESS if np.isfinite(q).all() else NON_FINITE
+        return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), trace=start_end_trace(prep, T_goal, q_start, q))
+    return run1
+
+
+def _pybullet_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: PybulletSettings, seed: int) -> Raw:
+    return _pybullet_bind(prep, s)(T_goal, q_start, seed)
 
 
 register(Solver("pybullet_ik", "pybullet calculateInverseKinematics (Bullet's damped least squares, C++), one call "
                 f"from the start; its documented default call unless settings say otherwise (peer baseline; {TIME})",
                 "local", PybulletSettings, _pybullet_run, applies_to=_pybullet_applies, source=SOURCE_PYBULLET,
-                library="pybullet"))
+                bind=_pybullet_bind, library="pybullet"))
 
 
 # ---- ikpy -------------------------------------------------------------------------------------
@@ -242,22 +254,32 @@ def _ikpy_applies(prep: Prepared) -> str | None:
     return model_applies(prep, "ikpy.chain", "ikpy", _ikpy_model, "ikpy could not load the exported URDF")
 
 
-def _ikpy_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: IkpySettings, seed: int) -> Raw:
+def _ikpy_bind(prep: Prepared, s: IkpySettings):
+    """run1(T_goal, q_start, seed) -> Raw with the chain and the link vector made once."""
     chain, act, n_links, lim = prep.memo(("peers", "ikpy"), lambda: _ikpy_model(prep))
     m = metric(prep)
-    Tm = m.goal(T_goal)
-    init = np.zeros(n_links)
-    init[act] = np.clip(m.q_in(q_start), lim[:, 0], lim[:, 1])  # SciPy refuses a start outside its bounds
-    pos, rot = Tm[:3, 3].copy(), Tm[:3, :3].copy()
     kw = {"max_iter": int(s.max_iter)} if s.max_iter else {}
-    t0 = clock_ns()
-    out = chain.inverse_kinematics(pos, rot, orientation_mode="all", initial_position=init, **kw)
-    ns = clock_ns() - t0
-    q = returned_angles(prep, m.q_out(np.asarray(out, dtype=float)[act]), s)
-    code = int(StopReason.SUCCESS) if np.all(np.isfinite(q)) else int(StopReason.NON_FINITE)
-    return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), trace=start_end_trace(prep, T_goal, q_start, q))
+    ik = chain.inverse_kinematics
+    lo, hi = lim[:, 0].copy(), lim[:, 1].copy()  # NaN-free: unbounded joints are ±inf
+
+    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        Tm = m.goal(T_goal)
+        init = np.zeros(n_links)
+        init[act] = np.minimum(np.maximum(m.q_in(q_start), lo), hi)  # SciPy refuses a start outside its bounds
+        pos, rot = Tm[:3, 3].copy(), Tm[:3, :3].copy()
+        t0 = clock_ns()
+        out = ik(pos, rot, orientation_mode="all", initial_position=init, **kw)
+        ns = clock_ns() - t0
+        q = returned_angles(prep, m.q_out(np.asarray(out, dtype=float)[act]), s)
+        code = SUCCESS if np.isfinite(q).all() else NON_FINITE
+        return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), trace=start_end_trace(prep, T_goal, q_start, q))
+    return run1
+
+
+def _ikpy_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: IkpySettings, seed: int) -> Raw:
+    return _ikpy_bind(prep, s)(T_goal, q_start, seed)
 
 
 register(Solver("ikpy", "ikpy Chain.inverse_kinematics (SciPy least squares on the full pose within the URDF's "
                 f"joint bounds), one search from the start (peer baseline; {TIME})", "local", IkpySettings,
-                _ikpy_run, applies_to=_ikpy_applies, source=SOURCE_IKPY, library="ikpy"))
+                _ikpy_run, applies_to=_ikpy_applies, source=SOURCE_IKPY, bind=_ikpy_bind, library="ikpy"))
