@@ -77,10 +77,10 @@ import numpy as np
 
 from pipeline.kinematics import fk_htm
 from pipeline.kinematics.fkcheck import check_one
-from pipeline.solvers.core import CRITERION_CODE, Prepared, Raw, Settings, StopReason
+from pipeline.solvers.core import CRITERION_CODE, Prepared, Raw, Settings
 from pipeline.solvers.core.models import POE, metric, poe, revolute_only, six_revolute
 from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS
-from pipeline.solvers.peers.libraries import TIME, library, z_to
+from pipeline.solvers.peers.libraries import TIME, library, wrap_angle, z_to
 from pipeline.solvers.core.registry import Solver, register
 from pipeline.solvers.core.timing import clock_ns
 
@@ -112,13 +112,6 @@ LIMIT_SLACK = 1e-9  # [rad | length] a representative this far outside a limit s
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _wrap(x):
-    """x wrapped to (−π, π] (as :func:`pipeline.solvers.core.models.wrap_angles`)."""
-    y = (x + math.pi) % (2 * math.pi) - math.pi
-    return y + 2 * math.pi if y <= -math.pi else y
-
-
-@numba.njit(cache=True, error_model="numpy")
 def _select(K, axis, offset, prism, S, ls, has_ls, q0, Tg, crit, tol_pos, tol_rot, tol_dq, limits, require, q_out,
             listed):
     """The all-solutions rule in one compiled call (see the module docstring): FK-check every row of ``S``
@@ -145,7 +138,7 @@ def _select(K, axis, offset, prism, S, ls, has_ls, q0, Tg, crit, tol_pos, tol_ro
         i = valid[k]
         inside = True
         for j in range(n):
-            v = q0[j] + _wrap(S[i, j] - q0[j])
+            v = q0[j] + wrap_angle(S[i, j] - q0[j])
             if require:
                 hit = False
                 for step in _TWO_PI_STEPS:
@@ -159,7 +152,7 @@ def _select(K, axis, offset, prism, S, ls, has_ls, q0, Tg, crit, tol_pos, tol_ro
             continue
         d = 0.0
         for j in range(n):
-            listed[n_listed, j] = y[j] if require else _wrap(S[i, j])
+            listed[n_listed, j] = y[j] if require else wrap_angle(S[i, j])
             d += (y[j] - q0[j]) ** 2
         if d < best_d:
             best_d, best = d, n_listed
@@ -174,7 +167,7 @@ def _select(K, axis, offset, prism, S, ls, has_ls, q0, Tg, crit, tol_pos, tol_ro
     for k in range(n_valid):
         d = 0.0
         for j in range(n):
-            y[j] = q0[j] + _wrap(S[valid[k], j] - q0[j])
+            y[j] = q0[j] + wrap_angle(S[valid[k], j] - q0[j])
             d += (y[j] - q0[j]) ** 2
         if d < best_d:
             best_d = d

@@ -103,7 +103,7 @@ import pipeline.solvers.kernels.kin as _kin
 from pipeline.solvers.kernels.kin import TRACE_COLS, TRACE_DP
 from pipeline.solvers.core import (MAX_LIBRARY_TIMEOUT_S, Prepared, Raw, Settings, StopReason, inv_rigid, setting,
                                    wrap_into_limits)
-from pipeline.solvers.core.models import Metric, metric, wrap_angles
+from pipeline.solvers.core.models import Metric, metric
 from pipeline.solvers.core.registry import Solver, register
 from pipeline.solvers.core.timing import clock_ns
 
@@ -169,22 +169,22 @@ def _trace_rows(a, alpha, d, offs, prism, form, base, tool, Tg, q0, q, out):
             continue
         _kin.forward_pose(a, alpha, d, offs, prism, form, base, tool, qq, T)
         _kin.rotation_vector(Tg, T, qa, qb, rv)
-        s_p = s_r = 0.0
         for r in range(3):
-            dp = Tg[r, 3] - T[r, 3]
-            out[k, 1 + r] = dp
+            out[k, 1 + r] = Tg[r, 3] - T[r, 3]
             out[k, 4 + r] = rv[r]
-            s_p += dp * dp
-            s_r += rv[r] * rv[r]
-        out[k, 0] = math.sqrt(s_p + s_r)
-        out[k, TRACE_DP] = math.sqrt(s_p)
 
 
 def _trace(prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Rows [|e|, e (6), |dp|] at the start and the returned angles (working unit; compiled FK, one call)."""
+    """Rows [|e|, e (6), |dp|] at the start and the returned angles (working unit; compiled FK and errors in
+    one call, the norms by numpy's dot as before, so the rows keep their bits)."""
     out = np.full((2, TRACE_COLS), np.nan)
     _trace_rows(*prep.args, np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q0, dtype=float),
                 np.ascontiguousarray(q, dtype=float), out)
+    for k in range(2):
+        dp, rv = out[k, 1:4], out[k, 4:7]
+        if dp[0] == dp[0]:  # not NaN: the row was computed
+            out[k, 0] = math.sqrt(float(dp @ dp + rv @ rv))
+            out[k, TRACE_DP] = math.sqrt(float(dp @ dp))
     return out
 
 
@@ -584,31 +584,68 @@ def _ur_applies(prep: Prepared) -> str | None:
     return r if isinstance(r, str) else None
 
 
-def _ur_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: URAnalyticIKSettings, seed: int) -> Raw:
+@numba.njit(cache=True, error_model="numpy")
+def wrap_angle(x):
+    """One angle wrapped to (−π, π] [rad] (compiled; as :func:`pipeline.solvers.core.models.wrap_angles`)."""
+    y = (x + math.pi) % (2 * math.pi) - math.pi
+    return y + 2 * math.pi if y <= -math.pi else y
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _ur_pick(S, offs, q0, q_out, listed):
+    """The finite rows of ``S`` minus the offsets, wrapped, into ``listed``; the one nearest ``q0`` (wrapped
+    joint distance) unwrapped to within π of ``q0`` into ``q_out``. Returns (rows listed, chosen row or -1)."""
+    m, n = S.shape
+    k, best, best_d = 0, -1, math.inf
+    for i in range(m):
+        finite = True
+        for j in range(n):
+            if not math.isfinite(S[i, j]):
+                finite = False
+        if not finite:
+            continue
+        d = 0.0
+        for j in range(n):
+            listed[k, j] = wrap_angle(S[i, j] - offs[j])
+            d += wrap_angle(listed[k, j] - q0[j]) ** 2
+        if d < best_d:
+            best_d, best = d, k
+        k += 1
+    for j in range(n):
+        q_out[j] = q0[j] + wrap_angle(listed[best, j] - q0[j]) if best >= 0 else q0[j]
+    return k, best
+
+
+def _ur_bind(prep: Prepared, s: URAnalyticIKSettings):
+    """run1(T_goal, q_start, seed) -> Raw with the model, base and tool inverses made once per job."""
     lib = importlib.import_module("ur_analytic_ik")
     name, offs = prep.memo(("peers", "ur_match"), lambda: _ur_match(prep))
-    mod = getattr(lib, name)
+    ik = getattr(lib, name).inverse_kinematics
     m = metric(prep)
-    Tb = np.ascontiguousarray(inv_rigid(m.base) @ m.goal(T_goal) @ inv_rigid(np.array(m.model.chain.tool, dtype=float)))
-    t0 = clock_ns()
-    sols = mod.inverse_kinematics(Tb)
-    ns = clock_ns() - t0
-    S = np.array([np.asarray(x, dtype=float) for x in sols], dtype=float).reshape(-1, 6)
-    S = S[np.all(np.isfinite(S), axis=1)]
-    S = wrap_angles(S - offs)
-    q0 = np.asarray(q_start, dtype=float)
-    if len(S):
-        best = int(np.argmin((wrap_angles(S - q0) ** 2).sum(axis=1)))
-        q, code = q0 + wrap_angles(S[best] - q0), int(StopReason.SUCCESS)
-    else:
-        best, q, code = -1, q0.copy(), int(StopReason.NO_SOLUTION)
-    return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), solutions=S.copy(),
-               info={"model": name, "n_solutions": int(len(S)), "chosen": best})
+    B, Ti = inv_rigid(m.base), inv_rigid(np.array(m.model.chain.tool, dtype=float))
+    offs = np.ascontiguousarray(offs, dtype=float)
+
+    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        Tb = np.ascontiguousarray(B @ m.goal(T_goal) @ Ti)
+        t0 = clock_ns()
+        sols = ik(Tb)
+        ns = clock_ns() - t0
+        S = np.array(sols, dtype=float).reshape(-1, 6)
+        q, listed = np.empty(6), np.empty_like(S)
+        k, best = _ur_pick(S, offs, np.ascontiguousarray(q_start, dtype=float), q, listed)
+        code = int(StopReason.SUCCESS) if k else int(StopReason.NO_SOLUTION)
+        return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), solutions=listed[:k].copy(),
+                   info={"model": name, "n_solutions": int(k), "chosen": int(best)})
+    return run1
+
+
+def _ur_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: URAnalyticIKSettings, seed: int) -> Raw:
+    return _ur_bind(prep, s)(T_goal, q_start, seed)
 
 
 register(Solver("ur_analytic_ik", f"ur_analytic_ik closed form of UR arms (built-in vendor models), all solutions, "
                 f"nearest to the start (peer baseline; {TIME})", "analytic", URAnalyticIKSettings, _ur_run,
-                applies_to=_ur_applies, source=SOURCE_UR, library="ur-analytic-ik"))
+                applies_to=_ur_applies, source=SOURCE_UR, bind=_ur_bind, library="ur-analytic-ik"))
 
 
 # ---- shared with the other peer modules (python_ik, qp_ik) ---------------------------------
