@@ -119,3 +119,10 @@ def test_refusals_are_one_line_and_write_nothing(tmp_path, capsys, text, tip, ex
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"error: MJCFImportError: {src}: ") and "\n" not in err
     assert not out.exists()
+
+
+def test_import_urdf_points_an_mjcf_file_to_import_mjcf(tmp_path, capsys):
+    out = tmp_path / "robots" / "arm.yaml"
+    assert main(["import-urdf", str(ARM), "--base", "world", "--tip", TIP, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "not a URDF (root element <mujoco>" in err and "use import-mjcf" in err and "\n" not in err
