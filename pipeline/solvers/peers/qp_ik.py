@@ -59,7 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.kinematics import fk_htm
-from pipeline.solvers.core import Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.core import Prepared, Raw, Settings, SettingsError, StopReason, setting
 from pipeline.solvers.core.models import metric
 from pipeline.solvers.core.registry import Solver, register
 from pipeline.solvers.core.timing import clock_ns
@@ -94,6 +94,15 @@ class QPLoopSettings(Settings):
     limits: bool = setting(True, "enforce the configuration limit (the libraries' default)")
     qp_solver: str = setting("daqp", "the QP solver (qpsolvers name; daqp is the one the lock installs)",
                              choices=("daqp", "quadprog", "proxqp"))
+
+
+def _qp_solver(s: QPLoopSettings) -> str:
+    """The settings' QP solver, refused in one line when qpsolvers does not find it installed."""
+    have = importlib.import_module("qpsolvers").available_solvers
+    if s.qp_solver not in have:
+        raise SettingsError(f"field 'qp_solver': {s.qp_solver!r} is not installed (installed: {', '.join(have) or 'none'}; "
+                            f"the lock installs daqp)")
+    return str(s.qp_solver)
 
 
 def _bounds(lim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -167,7 +176,7 @@ def _pink_bind(prep: Prepared, s: QPLoopSettings):
     pink, pin, conf, task = prep.memo(("peers", "pink"), lambda: _pink_model(prep))
     m = metric(prep)
     limits = None if s.limits else []
-    dt, solver, damping = float(s.dt), str(s.qp_solver), float(s.damping)
+    dt, solver, damping = float(s.dt), _qp_solver(s), float(s.damping)
     it_max, pos_tol, ori_tol = int(s.max_iterations), float(s.pos_threshold), float(s.ori_threshold)
     bounds = _bounds(m.limits)
     failed = importlib.import_module("pink.exceptions").NoSolutionFound
@@ -280,7 +289,7 @@ def _mink_bind(prep: Prepared, s: QPLoopSettings):
     mink, conf, task, climit = prep.memo(("peers", "mink"), lambda: _mink_model(prep))
     m = metric(prep)
     limits = [climit] if s.limits else []
-    dt, solver, damping = float(s.dt), str(s.qp_solver), float(s.damping)
+    dt, solver, damping = float(s.dt), _qp_solver(s), float(s.damping)
     it_max, pos_tol, ori_tol = int(s.max_iterations), float(s.pos_threshold), float(s.ori_threshold)
     bounds = _bounds(m.limits)
     failed = importlib.import_module("mink.exceptions").NoSolutionFound
