@@ -20,9 +20,11 @@ goal are converted, outside the timed region, and ``solve_time_s`` is the librar
     touched). The documented default call passes only body, link, target position and target
     orientation (quaternion x, y, z, w): pybullet 3.2.7 then iterates at most 20 times down to a
     position residual of 1e-4 m (its C defaults) and its step is the plain DLS step without joint
-    damping. In our measurements that call stops millimetres to centimetres short of a 7R arm's
-    goal (the FK check then fails nearly every goal): that is pybullet's documented behaviour, kept
-    as the ``pybullet_ik`` default row. The settings ``max_num_iterations``,
+    damping. Measured on 100 goals each (Panda, iiwa 14, UR5): from starts within 0.3 rad it stops a
+    median 6-8 mm short (orientation 1.2e-3 rad off), from uniform starts 9-12 cm short, and solves
+    none; with ``{max_num_iterations: 100, residual_threshold: 1.0e-6, joint_damping: 0.01}`` it
+    solves 84-91 % of those warm goals and 76-92 % of the cold ones (joint limits not enforced). That
+    is pybullet's documented behaviour, kept as the ``pybullet_ik`` default row. The settings ``max_num_iterations``,
     ``residual_threshold`` and ``joint_damping`` (0 = not passed, pybullet's default) make the
     tuned row, written out in the study, e.g. ``{max_num_iterations: 100, residual_threshold:
     1.0e-6, joint_damping: 0.01}``. pybullet's ``IK_SDLS`` mode is not offered (it crashed the
