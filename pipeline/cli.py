@@ -19,6 +19,7 @@ reproduce         re-run an archive's solves, report bit-identical and differing
 verify            recompute every table from the archives, check archives, their inputs, report and manifest
 manifest          write results/MANIFEST.sha256: the SHA-256 of every file the build produced (its last step)
 import_urdf       write a robot file (general joint form) from a URDF or xacro chain (also: import-urdf)
+import_mjcf       write a robot file (general joint form) from an MJCF chain, MuJoCo's parser (also: import-mjcf)
 benchmark_arm     benchmark one arm alone (arm_benchmark on that robot only) and its report (also: benchmark-arm)
 export_urdf       write a robot file as a URDF, base_link ... tool0, metres (also: export-urdf)
 compile           warm the numba cache: build or load kernels ahead of their first call (rule: compile_kernels)
@@ -152,6 +153,12 @@ def cmd_import_urdf(args) -> None:
         xargs[key] = value
     print(import_urdf(args.urdf, args.base, args.tip, args.out, name=args.name, length_unit=args.length_unit,
                       xacro_args=xargs, xacro_paths=args.xacro_path or []))
+
+
+def cmd_import_mjcf(args) -> None:
+    from pipeline.jobs.robot_files import import_mjcf
+
+    print(import_mjcf(args.mjcf, args.base, args.tip, args.out, name=args.name, length_unit=args.length_unit))
 
 
 def cmd_benchmark_arm(args) -> None:
@@ -438,6 +445,16 @@ def _robot_verbs(sub) -> None:
     p.add_argument("--name", help="robot name (default and required: the --out file stem)")
     p.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m", help="the robot file's length unit")
     p.set_defaults(func=cmd_import_urdf)
+
+    p = sub.add_parser("import_mjcf", aliases=["import-mjcf"],
+                       help="write a robot file (general joint form) from an MJCF chain (MuJoCo's own parser)")
+    p.add_argument("mjcf", help="the MJCF file (root element <mujoco>, e.g. a MuJoCo Menagerie arm)")
+    p.add_argument("--base", default="world", help="base body of the chain (default: world)")
+    p.add_argument("--tip", required=True, help="tip body or site of the chain (below --base; a site's frame is the tool)")
+    p.add_argument("--out", required=True, help="robot file to write, data/robots/<name>.yaml")
+    p.add_argument("--name", help="robot name (default and required: the --out file stem)")
+    p.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m", help="the robot file's length unit")
+    p.set_defaults(func=cmd_import_mjcf)
 
     p = sub.add_parser("benchmark_arm", aliases=["benchmark-arm"],
                        help="benchmark one arm alone: study arm_benchmark on that robot file only, and its report")

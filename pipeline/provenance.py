@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent  # the checkout (for git_commit)
 # and the peer libraries the benchmark runs as baselines
 LIBRARIES = ("numpy", "numba", "scipy", "pandas", "matplotlib", "mcap", "zstandard", "snakemake", "pyyaml",
              "jsonschema", "jinja2", "yourdfpy", "roboticstoolbox-python", "spatialmath-python", "pytracik", "pin",
-             "ur-analytic-ik")
+             "ur-analytic-ik", "eaik", "ik-geo", "pybullet", "ikpy", "pin-pink", "mink", "mujoco", "daqp", "placo")
 
 
 def library_versions(names=LIBRARIES) -> dict[str, str]:

@@ -199,7 +199,8 @@ def _model(root, shown, source, **load_kw):
     import yourdfpy
 
     if root.tag != "robot":
-        raise _fail(shown, f"not a URDF (root element <{root.tag}>, expected <robot>)")
+        hint = "; an MJCF file: use import-mjcf" if root.tag == "mujoco" else ""
+        raise _fail(shown, f"not a URDF (root element <{root.tag}>, expected <robot>{hint})")
     _check_elements(root, shown)
     try:
         urdf = yourdfpy.URDF.load(source, build_scene_graph=False, build_collision_scene_graph=False,

@@ -16,7 +16,7 @@ PKG = Path(__file__).resolve().parent.parent / "pipeline"
 LAYERS = [
     (0, ["pipeline", "pipeline.provenance", "pipeline.yamlio", "pipeline.errors", "pipeline.names", "pipeline.catalogue",
          "pipeline.kinematics"]),
-    (1, ["pipeline.robots", "pipeline.urdf", "pipeline.problems"]),
+    (1, ["pipeline.robots", "pipeline.urdf", "pipeline.mjcf", "pipeline.problems"]),
     (2, ["pipeline.io"]),
     (3, ["pipeline.solvers", "pipeline.settings", "pipeline.runner"]),
     (4, ["pipeline.studies", "pipeline.report"]),

@@ -30,10 +30,28 @@ def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, leng
                 xacro_args: dict | None = None, xacro_paths=()) -> str:
     """Write ``out`` (a robot file, general joint form) from the URDF chain ``base`` ... ``tip``; returns what to print.
     ``xacro_args``/``xacro_paths``: a xacro file's arguments and the folders besides its own it may read."""
+    from pipeline.urdf import imported_yaml
+
+    return _import_chain(urdf, base, tip, out, name, "URDFImportError", "links",
+                         lambda n: imported_yaml(urdf, base, tip, name=n, length_unit=length_unit,
+                                                 xacro_args=xacro_args, xacro_paths=xacro_paths))
+
+
+def import_mjcf(mjcf, base: str, tip: str, out, *, name: str | None = None, length_unit: str = "m") -> str:
+    """Write ``out`` (a robot file, general joint form) from the MJCF chain ``base`` ... ``tip`` (bodies, or a
+    site as the tip), read with MuJoCo's own parser; the same checks and one-line errors as :func:`import_urdf`."""
+    from pipeline.mjcf import imported_mjcf_yaml
+
+    return _import_chain(mjcf, base, tip, out, name, "MJCFImportError", "bodies",
+                         lambda n: imported_mjcf_yaml(mjcf, base, tip, name=n, length_unit=length_unit))
+
+
+def _import_chain(src, base: str, tip: str, out, name, error: str, what: str, make_text) -> str:
+    """Write the robot file ``make_text(name)`` to ``out`` once it loads; errors in one line (``error``: prefix)."""
     import re
 
     from pipeline.robots import RobotFileError, load_robot
-    from pipeline.urdf import URDFImportError, imported_yaml
+    from pipeline.urdf import URDFImportError
     from pipeline.yamlio import load_yaml
 
     out = Path(out)
@@ -43,27 +61,26 @@ def import_urdf(urdf, base: str, tip: str, out, *, name: str | None = None, leng
         raise UsageError(f"--name {name!r}: a robot file's name must equal its file name; use --out "
                        f"{out.with_name(name + (out.suffix or '.yaml'))}")
     try:
-        text = imported_yaml(urdf, base, tip, name=name, length_unit=length_unit, xacro_args=xacro_args,
-                             xacro_paths=xacro_paths)
-    except URDFImportError as exc:
-        raise UsageError(f"URDFImportError: {exc}") from None
+        text = make_text(name)
+    except URDFImportError as exc:  # MJCFImportError is one
+        raise UsageError(f"{error}: {exc}") from None
 
     def check(tmp: Path) -> None:
-        """The robot file's own checks (joint count, sane maxima), reported against the URDF and its joint."""
+        """The robot file's own checks (joint count, sane maxima), reported against the source file and its joint."""
         try:
             load_robot(tmp)
         except RobotFileError as exc:
-            what = str(exc).removeprefix(f"{tmp}: ")
+            why = str(exc).removeprefix(f"{tmp}: ")
             names = [j.get("name") for j in load_yaml(tmp, "imported robot file").get("joints", [])]
-            i = re.match(r"joint (\d+): ", what)
+            i = re.match(r"joint (\d+): ", why)
             joint = f" (joint {names[int(i.group(1)) - 1]!r})" if i and int(i.group(1)) <= len(names) else ""
-            raise UsageError(f"URDFImportError: {urdf}: the imported chain breaks a robot-file limit: "
-                             f"{what}{joint}") from None
+            raise UsageError(f"{error}: {src}: the imported chain breaks a robot-file limit: "
+                             f"{why}{joint}") from None
 
     _write_checked(out, text, check)
     model = load_robot(out)
     return (f"wrote {out}: {model.n} joints ({''.join('P' if p else 'R' for p in model.chain.prismatic)}), "
-            f"links {base} -> {tip}, lengths in {model.length_unit}")
+            f"{what} {base} -> {tip}, lengths in {model.length_unit}")
 
 
 

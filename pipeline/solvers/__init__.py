@@ -24,7 +24,8 @@ Layout (bottom to top; ``tests/test_layers.py`` checks the order and that no met
                   transcriptions (``analytic_ur`` 004, ``analytic_puma`` 001, ``analytic_4dof`` 003);
                   every solution of any other 6R arm (``general6r``, ``general6r_model``, ``eigen``)
 ``peers/``        peer libraries as registered solvers (``libraries``: Robotics Toolbox, TRAC-IK,
-                  Pinocchio, ur_analytic_ik; ``geo``: EAIK, IK-Geo)
+                  Pinocchio, ur_analytic_ik; ``geo``: EAIK, IK-Geo; ``python_ik``: pybullet, ikpy; ``qp_ik``:
+                  pink, mink, placo)
 
 Importing this package registers every method, in the order ``python -m pipeline solvers`` lists
 them (kernels compile lazily, on first use).
@@ -52,7 +53,7 @@ from pipeline.solvers.iterative import fd_jacobian, lm, pso, optimizers  # noqa:
 from pipeline.solvers.closed_form import analytic_ur  # noqa: F401,E402
 from pipeline.solvers.iterative import zero_position, newton_raphson, geometric  # noqa: F401,E402
 from pipeline.solvers.closed_form import analytic_puma, analytic_4dof, analytic  # noqa: F401,E402
-from pipeline.solvers.peers import libraries, geo  # noqa: F401,E402
+from pipeline.solvers.peers import libraries, geo, python_ik, qp_ik  # noqa: F401,E402
 from pipeline.solvers.closed_form import general6r  # noqa: F401,E402
 
 __all__ = ["STOP_REASONS", "BatchResult", "Bound", "IKResult", "NotApplicableError", "Prepared", "Raw", "Settings", "SettingsError",

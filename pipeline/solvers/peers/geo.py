@@ -72,13 +72,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from pipeline.kinematics import fk_htm
 from pipeline.kinematics.fkcheck import check_one
-from pipeline.solvers.core import CRITERION_CODE, Prepared, Raw, Settings, StopReason
-from pipeline.solvers.core.models import POE, metric, poe, revolute_only, six_revolute, wrap_angles
-from pipeline.solvers.peers.libraries import TIME, library, z_to
+from pipeline.solvers.core import CRITERION_CODE, Prepared, Raw, Settings
+from pipeline.solvers.core.models import POE, metric, poe, revolute_only, six_revolute
+from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS
+from pipeline.solvers.peers.libraries import TIME, library, wrap_angle, z_to
 from pipeline.solvers.core.registry import Solver, register
 from pipeline.solvers.core.timing import clock_ns
 
@@ -105,22 +107,72 @@ def _fk_errors(T: np.ndarray, ours: np.ndarray) -> float:
     return float(np.abs(np.asarray(T, dtype=float) - ours).max())
 
 
-_TWO_PI_STEPS = 2 * math.pi * np.array([0.0, -1.0, 1.0, -2.0, 2.0])  # nearest the start first
+_TWO_PI_STEPS = (0.0, -2 * math.pi, 2 * math.pi, -4 * math.pi, 4 * math.pi)  # nearest the start first
+LIMIT_SLACK = 1e-9  # [rad | length] a representative this far outside a limit still counts as within it
 
 
-def _nearest_reps(V: np.ndarray, q0: np.ndarray, limits: np.ndarray | None):
-    """Solutions ``V`` (m, n) moved joint by joint by multiples of 2π to lie nearest ``q0`` (within π);
-    with ``limits``: the representatives within them nearest ``q0`` and a mask of the rows that have one
-    for every joint."""
-    Y = q0 + wrap_angles(V - q0)
-    if limits is None:
-        return Y, np.ones(len(Y), dtype=bool)
-    tol = 1e-9
-    C = Y[None, :, :] + _TWO_PI_STEPS[:, None, None]  # (5, m, n)
-    inside = (C >= limits[:, 0] - tol) & (C <= limits[:, 1] + tol)
-    first = np.argmax(inside, axis=0)  # the first step that lands within the limits
-    R = np.take_along_axis(C, first[None], axis=0)[0]
-    return R, inside.any(axis=0).all(axis=1)
+@numba.njit(cache=True, error_model="numpy")
+def _select(K, axis, offset, prism, S, ls, has_ls, q0, Tg, crit, tol_pos, tol_rot, tol_dq, limits, require, q_out,
+            listed):
+    """The all-solutions rule in one compiled call (see the module docstring): FK-check every row of ``S``
+    (m, n), keep the valid ones (within the limits after whole turns under ``require``) in ``listed``, write
+    the kept one nearest ``q0`` to ``q_out``; returns (code, chosen row of listed or -1, rows listed, FK-valid,
+    FK-valid and not least-squares)."""
+    m, n = S.shape
+    buf = np.empty(8)
+    valid = np.empty(m, np.int64)
+    n_valid = n_exact = 0
+    for i in range(m):
+        finite = True
+        for j in range(n):
+            if not math.isfinite(S[i, j]):
+                finite = False
+        if finite and check_one(K, axis, offset, prism, S[i], Tg, crit, tol_pos, tol_rot, tol_dq, buf)[0]:
+            valid[n_valid] = i
+            n_valid += 1
+            if not (has_ls and ls[i]):
+                n_exact += 1
+    y = np.empty(n)
+    n_listed, best, best_d = 0, -1, math.inf
+    for k in range(n_valid):
+        i = valid[k]
+        inside = True
+        for j in range(n):
+            v = q0[j] + wrap_angle(S[i, j] - q0[j])
+            if require:
+                hit = False
+                for step in _TWO_PI_STEPS:
+                    c = v + step
+                    if c >= limits[j, 0] - LIMIT_SLACK and c <= limits[j, 1] + LIMIT_SLACK:
+                        v, hit = c, True
+                        break
+                inside = inside and hit
+            y[j] = v
+        if not inside:
+            continue
+        d = 0.0
+        for j in range(n):
+            listed[n_listed, j] = y[j] if require else wrap_angle(S[i, j])
+            d += (y[j] - q0[j]) ** 2
+        if d < best_d:
+            best_d, best = d, n_listed
+            q_out[:] = y
+        n_listed += 1
+    if best >= 0:
+        return SUCCESS, best, n_listed, n_valid, n_exact
+    if n_valid == 0:
+        q_out[:] = q0
+        return NO_SOLUTION, -1, 0, 0, 0
+    # require_limits: FK-valid, none within the limits -> the nearest FK-valid one (the result says OUT_OF_LIMITS)
+    for k in range(n_valid):
+        d = 0.0
+        for j in range(n):
+            y[j] = q0[j] + wrap_angle(S[valid[k], j] - q0[j])
+            d += (y[j] - q0[j]) ** 2
+        if d < best_d:
+            best_d = d
+            q_out[:] = y
+    return SUCCESS, -1, 0, n_valid, n_exact
 
 
 def _result(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Settings, S, ls, ns: int,
@@ -128,38 +180,20 @@ def _result(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Settings
     """Raw of an all-solutions peer: the FK-valid solutions kept, the one nearest the start chosen."""
     n = prep.n
     S = np.ascontiguousarray(np.asarray(S, dtype=float).reshape(-1, n))  # EAIK's Q is column-major
-    ls = np.asarray(ls, dtype=bool).reshape(-1)
-    returned, n_ls = len(S), int(ls.sum()) if len(ls) == len(S) else 0
-    q0 = np.asarray(q_start, dtype=float)
-    # pipeline.solvers.core.finish (the compiled FK check every result gets), its per-call set-up hoisted
-    K, axis, offset, prism = prep.check
-    crit, buf = CRITERION_CODE[s.criterion], np.empty(8)
-    finite = np.isfinite(S).all(axis=1)
-    ok = np.array([bool(f) and check_one(K, axis, offset, prism, q, T_goal, crit, s.tol_pos, s.tol_rot, s.tol_dq,
-                                         buf)[0] for q, f in zip(S, finite)], dtype=bool)
-    V = S[ok] if returned else S
-    # FK-valid and not flagged least-squares by the library: an answer to a branch with no exact
-    # solution can still lie within a loose success tolerance (0.08-0.09 mm off, seen near a boundary)
-    n_exact = int((ok & ~ls).sum()) if len(ls) == len(S) else int(ok.sum())
-    best = -1
-    if s.require_limits:
-        reps, inside = _nearest_reps(V, q0, prep.limits)
-        listed = kept = reps[inside]
-    else:
-        kept, _ = _nearest_reps(V, q0, None)
-        listed = wrap_angles(V)
-    if len(kept):
-        best = int(np.argmin(((kept - q0) ** 2).sum(axis=1)))
-        q, code = kept[best].copy(), int(StopReason.SUCCESS)
-    elif len(V):  # require_limits: FK-valid, none within the limits -> the result says OUT_OF_LIMITS
-        Y, _ = _nearest_reps(V, q0, None)
-        q, code = Y[int(np.argmin(((Y - q0) ** 2).sum(axis=1)))].copy(), int(StopReason.SUCCESS)
-    else:
-        q, code = q0.copy(), int(StopReason.NO_SOLUTION)
-    sols = np.ascontiguousarray(listed, dtype=float).reshape(-1, n)
-    return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), solutions=sols,
-               info={**info, "n_solutions": int(len(sols)), "n_returned": int(returned), "n_least_squares": n_ls,
-                     "n_fk_valid": int(len(V)), "n_fk_valid_exact": n_exact, "chosen": best})
+    ls = np.asarray(ls, dtype=np.bool_).reshape(-1)
+    has_ls = len(ls) == len(S)
+    if not has_ls:
+        ls = np.zeros(len(S), dtype=np.bool_)
+    q0 = np.ascontiguousarray(q_start, dtype=float)
+    K, axis, offset, prism = prep.check  # pipeline.solvers.core.finish's compiled FK check, set up once per robot
+    q, listed = np.empty(n), np.empty_like(S)
+    code, best, n_listed, n_valid, n_exact = _select(
+        K, axis, offset, prism, S, ls, has_ls, q0, np.ascontiguousarray(T_goal, dtype=float),
+        CRITERION_CODE[s.criterion], s.tol_pos, s.tol_rot, s.tol_dq, prep.limits, bool(s.require_limits), q, listed)
+    return Raw(q=q, code=int(code), iterations=0, solve_ns=int(ns), solutions=listed[:n_listed].copy(),
+               info={**info, "n_solutions": int(n_listed), "n_returned": int(len(S)),
+                     "n_least_squares": int(ls.sum()) if has_ls else 0, "n_fk_valid": int(n_valid),
+                     "n_fk_valid_exact": int(n_exact), "chosen": int(best)})
 
 
 # ---- EAIK --------------------------------------------------------------------------------------

@@ -94,6 +94,7 @@ import importlib
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from pipeline.kinematics import fk_htm
@@ -102,7 +103,7 @@ import pipeline.solvers.kernels.kin as _kin
 from pipeline.solvers.kernels.kin import TRACE_COLS, TRACE_DP
 from pipeline.solvers.core import (MAX_LIBRARY_TIMEOUT_S, Prepared, Raw, Settings, StopReason, inv_rigid, setting,
                                    wrap_into_limits)
-from pipeline.solvers.core.models import Metric, metric, wrap_angles
+from pipeline.solvers.core.models import Metric, metric
 from pipeline.solvers.core.registry import Solver, register
 from pipeline.solvers.core.timing import clock_ns
 
@@ -116,7 +117,10 @@ SOURCE_UR = "ur_analytic_ik (https://github.com/Victorlouisdg/ur-analytic-ik), c
 # import name -> how to install it
 INSTALL = {"roboticstoolbox": "pip install roboticstoolbox-python==1.5.0", "pytracik": "pip install pytracik",
            "pinocchio": "pip install pin", "ur_analytic_ik": "pip install ur-analytic-ik",
-           "eaik": "pip install eaik==1.2.2", "ik_geo": "pip install ik-geo==1.0.3"}
+           "eaik": "pip install eaik==1.2.2", "ik_geo": "pip install ik-geo==1.0.3",
+           "pybullet": "pip install pybullet==3.2.7", "ikpy": "pip install ikpy==4.2.1",
+           "pink": "pip install pin-pink==4.4.0 daqp", "qpsolvers": "pip install qpsolvers daqp",
+           "mink": "pip install mink==1.3.0", "mujoco": "pip install mujoco", "placo": "pip install placo==0.10.2"}
 UR_MATCH_TOL = 1e-9  # [m, 1] a robot file matches a built-in UR model when FK agrees to this
 URDF_MATCH_TOL = 1e-9  # [m, 1] the URDF TRAC-IK reads must reproduce our FK to this
 TIME = "time = the whole library call incl. its Python binding overhead"
@@ -150,23 +154,37 @@ def _returned(prep: Prepared, q: np.ndarray, s: Settings) -> np.ndarray:
     return wrap_into_limits(q, prep.limits, prep.prismatic) if s.require_limits else q
 
 
-def _trace(prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Rows [|e|, e (6), |dp|] at the start and the returned angles (working unit; compiled FK)."""
-    out = np.full((2, TRACE_COLS), np.nan)
+@numba.njit(cache=True)
+def _trace_rows(a, alpha, d, offs, prism, form, base, tool, Tg, q0, q, out):
+    """The two trace rows of :func:`_trace` into ``out`` (2, TRACE_COLS), NaN rows for non-finite angles."""
     T = np.empty((4, 4))
     qa, qb, rv = np.empty(4), np.empty(4), np.empty(3)
-    Tg = np.ascontiguousarray(T_goal, dtype=float)
-    for k, qq in enumerate((q0, q)):
-        qq = np.ascontiguousarray(qq, dtype=float)
-        if not np.all(np.isfinite(qq)):
+    for k in range(2):
+        qq = q0 if k == 0 else q
+        finite = True
+        for j in range(qq.shape[0]):
+            if not math.isfinite(qq[j]):
+                finite = False
+        if not finite:
             continue
-        _kin.forward_pose(*prep.args, qq, T)
+        _kin.forward_pose(a, alpha, d, offs, prism, form, base, tool, qq, T)
         _kin.rotation_vector(Tg, T, qa, qb, rv)
-        dp = Tg[:3, 3] - T[:3, 3]
-        out[k, 1:4] = dp
-        out[k, 4:7] = rv
-        out[k, 0] = math.sqrt(float(dp @ dp + rv @ rv))
-        out[k, TRACE_DP] = math.sqrt(float(dp @ dp))
+        for r in range(3):
+            out[k, 1 + r] = Tg[r, 3] - T[r, 3]
+            out[k, 4 + r] = rv[r]
+
+
+def _trace(prep: Prepared, T_goal: np.ndarray, q0: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Rows [|e|, e (6), |dp|] at the start and the returned angles (working unit; compiled FK and errors in
+    one call, the norms by numpy's dot as before, so the rows keep their bits)."""
+    out = np.full((2, TRACE_COLS), np.nan)
+    _trace_rows(*prep.args, np.ascontiguousarray(T_goal, dtype=float), np.ascontiguousarray(q0, dtype=float),
+                np.ascontiguousarray(q, dtype=float), out)
+    for k in range(2):
+        dp, rv = out[k, 1:4], out[k, 4:7]
+        if dp[0] == dp[0]:  # not NaN: the row was computed
+            out[k, 0] = math.sqrt(float(dp @ dp + rv @ rv))
+            out[k, TRACE_DP] = math.sqrt(float(dp @ dp))
     return out
 
 
@@ -409,7 +427,6 @@ def _tracik_applies(prep: Prepared) -> str | None:
 
 def _tracik_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: TracIKSettings, seed: int) -> Raw:
     pytracik = importlib.import_module("pytracik")
-    from pipeline.kinematics import quat_from_matrix
 
     m = metric(prep)
     t, corr = prep.memo(("peers", "tracik", s.timeout, s.eps, s.solve_type),
@@ -417,7 +434,9 @@ def _tracik_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: Trac
     Tm = m.goal(T_goal)
     if corr is not None:
         Tm = corr @ Tm
-    w, x, y, z = (float(v) for v in quat_from_matrix(Tm))
+    wxyz = np.empty(4)
+    _kin.quat_from_rot(Tm, wxyz)  # compiled (numpy's quat_from_matrix cost ~60 µs a call)
+    w, x, y, z = wxyz.tolist()
     px, py, pz = (float(v) for v in Tm[:3, 3])
     q0 = m.q_in(q_start)
     t0 = clock_ns()
@@ -565,28 +584,78 @@ def _ur_applies(prep: Prepared) -> str | None:
     return r if isinstance(r, str) else None
 
 
-def _ur_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: URAnalyticIKSettings, seed: int) -> Raw:
+@numba.njit(cache=True, error_model="numpy")
+def wrap_angle(x):
+    """One angle wrapped to (−π, π] [rad] (compiled; as :func:`pipeline.solvers.core.models.wrap_angles`)."""
+    y = (x + math.pi) % (2 * math.pi) - math.pi
+    return y + 2 * math.pi if y <= -math.pi else y
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _ur_pick(S, offs, q0, q_out, listed):
+    """The finite rows of ``S`` minus the offsets, wrapped, into ``listed``; the one nearest ``q0`` (wrapped
+    joint distance) unwrapped to within π of ``q0`` into ``q_out``. Returns (rows listed, chosen row or -1)."""
+    m, n = S.shape
+    k, best, best_d = 0, -1, math.inf
+    for i in range(m):
+        finite = True
+        for j in range(n):
+            if not math.isfinite(S[i, j]):
+                finite = False
+        if not finite:
+            continue
+        d = 0.0
+        for j in range(n):
+            listed[k, j] = wrap_angle(S[i, j] - offs[j])
+            d += wrap_angle(listed[k, j] - q0[j]) ** 2
+        if d < best_d:
+            best_d, best = d, k
+        k += 1
+    for j in range(n):
+        q_out[j] = q0[j] + wrap_angle(listed[best, j] - q0[j]) if best >= 0 else q0[j]
+    return k, best
+
+
+def _ur_bind(prep: Prepared, s: URAnalyticIKSettings):
+    """run1(T_goal, q_start, seed) -> Raw with the model, base and tool inverses made once per job."""
     lib = importlib.import_module("ur_analytic_ik")
     name, offs = prep.memo(("peers", "ur_match"), lambda: _ur_match(prep))
-    mod = getattr(lib, name)
+    ik = getattr(lib, name).inverse_kinematics
     m = metric(prep)
-    Tb = np.ascontiguousarray(inv_rigid(m.base) @ m.goal(T_goal) @ inv_rigid(np.array(m.model.chain.tool, dtype=float)))
-    t0 = clock_ns()
-    sols = mod.inverse_kinematics(Tb)
-    ns = clock_ns() - t0
-    S = np.array([np.asarray(x, dtype=float) for x in sols], dtype=float).reshape(-1, 6)
-    S = S[np.all(np.isfinite(S), axis=1)]
-    S = wrap_angles(S - offs)
-    q0 = np.asarray(q_start, dtype=float)
-    if len(S):
-        best = int(np.argmin((wrap_angles(S - q0) ** 2).sum(axis=1)))
-        q, code = q0 + wrap_angles(S[best] - q0), int(StopReason.SUCCESS)
-    else:
-        best, q, code = -1, q0.copy(), int(StopReason.NO_SOLUTION)
-    return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), solutions=S.copy(),
-               info={"model": name, "n_solutions": int(len(S)), "chosen": best})
+    B, Ti = inv_rigid(m.base), inv_rigid(np.array(m.model.chain.tool, dtype=float))
+    offs = np.ascontiguousarray(offs, dtype=float)
+
+    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        Tb = np.ascontiguousarray(B @ m.goal(T_goal) @ Ti)
+        t0 = clock_ns()
+        sols = ik(Tb)
+        ns = clock_ns() - t0
+        S = np.array(sols, dtype=float).reshape(-1, 6)
+        q, listed = np.empty(6), np.empty_like(S)
+        k, best = _ur_pick(S, offs, np.ascontiguousarray(q_start, dtype=float), q, listed)
+        code = int(StopReason.SUCCESS) if k else int(StopReason.NO_SOLUTION)
+        return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), solutions=listed[:k].copy(),
+                   info={"model": name, "n_solutions": int(k), "chosen": int(best)})
+    return run1
+
+
+def _ur_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: URAnalyticIKSettings, seed: int) -> Raw:
+    return _ur_bind(prep, s)(T_goal, q_start, seed)
 
 
 register(Solver("ur_analytic_ik", f"ur_analytic_ik closed form of UR arms (built-in vendor models), all solutions, "
                 f"nearest to the start (peer baseline; {TIME})", "analytic", URAnalyticIKSettings, _ur_run,
-                applies_to=_ur_applies, source=SOURCE_UR, library="ur-analytic-ik"))
+                applies_to=_ur_applies, source=SOURCE_UR, bind=_ur_bind, library="ur-analytic-ik"))
+
+
+# ---- shared with the other peer modules (python_ik, qp_ik) ---------------------------------
+def pin_model(prep: Prepared):
+    """The Pinocchio model of the CLIK peer, built once per ``prep``: (pin, model, data, last joint id,
+    tool SE3, tool-inverse action (6, 6)), metres, no joint limits set."""
+    return prep.memo(("peers", "pin"), lambda: _pin_model(prep))
+
+
+start_end_trace = _trace  # rows [|e|, e (6), |dp|] at the start and the returned angles
+returned_angles = _returned  # the returned angles, wrapped into the limits under require_limits
+model_applies = _model_applies  # a peer applies when its library imports and its model builds (memoised)
+peer_code = _peer_code  # SUCCESS when the peer claims success, else ``fail``
