@@ -50,6 +50,7 @@ from pipeline.kinematics import geometry
 from pipeline.solvers.closed_form import lanes
 from pipeline.solvers.closed_form import subproblems as sp
 from pipeline.solvers.closed_form.analytic_kernels import kernels, scratch
+from pipeline.solvers.closed_form.family_gen3r import FAM_3PO, FAM_SPH3R
 from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS, TRACE_COLS
 from pipeline.solvers.core import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, SettingsError, check_pack,
                                    fused_inputs, setting)
@@ -188,7 +189,8 @@ def _bind_call_general(prep: Prepared, s: AnalyticSettings):
     return call
 
 
-FAMILY_CODE = {"spherical_wrist": sp.FAM_SPH, "three_parallel": sp.FAM_3P, "two_intersecting_search": sp.FAM_SEARCH}
+FAMILY_CODE = {"spherical_wrist": sp.FAM_SPH, "three_parallel": sp.FAM_3P, "two_intersecting_search": sp.FAM_SEARCH,
+               "spherical_wrist_3r": FAM_SPH3R, "three_parallel_offset": FAM_3PO}
 
 
 @dataclass(frozen=True)
