@@ -49,7 +49,7 @@ from pipeline.solvers.closed_form.subproblems import (ONE, about, any_perp, cis,
 FAM_SPH3R, FAM_3PO = 4, 5
 REAL_TOL = 1e-6  # a root t of the quartic whose imaginary part is below this × (1 + |t|) is taken as real
                  # (a double root splits by ~sqrt(eps)); every candidate is FK-checked afterwards
-NEWTON = 4       # Newton steps polishing each root θ1 on the trigonometric polynomial itself
+NEWTON = 2       # Newton steps polishing each real root on the real quartic (after two on the complex one)
 
 
 # ---- the quartic ---------------------------------------------------------------------------------------
@@ -106,62 +106,62 @@ def quartic_roots(c4, c3, c2, c1, c0, out):
         out[i] = t
 
 
+# the 8 shifts φ tried by trig2_roots: (cos φ, sin φ), φ = −π + j π/4
+_SHIFTS = tuple((math.cos(-math.pi + j * math.pi / 4.0), math.sin(-math.pi + j * math.pi / 4.0)) for j in range(8))
+
+
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def _trig2(k, x):
-    """f(x) = k0 + k1 cos x + k2 sin x + k3 cos 2x + k4 sin 2x and f'(x)."""
-    c, s = math.cos(x), math.sin(x)
+def _rotated(k, c, s):
+    """The coefficients of x ↦ f(φ + x) for cos φ = c, sin φ = s (f as in :func:`trig2_roots`)."""
     c2, s2 = c * c - s * s, 2.0 * s * c
-    return (k[0] + k[1] * c + k[2] * s + k[3] * c2 + k[4] * s2,
-            -k[1] * s + k[2] * c - 2.0 * k[3] * s2 + 2.0 * k[4] * c2)
+    return k[0], k[1] * c + k[2] * s, -k[1] * s + k[2] * c, k[3] * c2 + k[4] * s2, -k[3] * s2 + k[4] * c2
 
 
 @numba.njit(cache=True, error_model="numpy")
 def trig2_roots(k, pref, X):
-    """Every real root x of f(x) = k0 + k1 cos x + k2 sin x + k3 cos 2x + k4 sin 2x into ``X`` (4,);
-    their count. With t = tan((x − φ)/2), (1 + t²)² f is a quartic whose leading coefficient is
-    f(φ + π): φ is the one of 8 angles where |f(φ + π)| is largest, so no root is lost at t = ∞.
-    Each root polished by Newton steps on f; a root found twice kept once. When f vanishes
-    identically (a continuum), ``pref`` is the one root returned."""
+    """Every real root x of f(x) = k0 + k1 cos x + k2 sin x + k3 cos 2x + k4 sin 2x, as e^{ix} into ``X``
+    (complex (4,)); their count. With t = tan((x − φ)/2), (1 + t²)² f is a quartic whose leading
+    coefficient is f(φ + π): φ is the one of 8 angles where |f(φ + π)| is largest, so no root is lost at
+    t = ∞. A root's real part polished by Newton steps on the real quartic; e^{ix} from t without a
+    sine or cosine; a root found twice kept once. When f vanishes identically (a continuum), e^{i pref}
+    is the one root returned."""
     scale = abs(k[0]) + abs(k[1]) + abs(k[2]) + abs(k[3]) + abs(k[4])
     if scale == 0.0 or not math.isfinite(scale):
-        X[0] = pref
+        X[0] = cis(pref)
         return 1 if scale == 0.0 else 0
-    best, phi = -1.0, 0.0
-    for j in range(8):
-        ph = -math.pi + j * math.pi / 4.0
-        v = abs(_trig2(k, ph + math.pi)[0])
+    best, jb = -1.0, 0
+    for j in range(8):  # f(φ + π) = k0 − k1' + k3' of the rotated coefficients
+        r = _rotated(k, _SHIFTS[j][0], _SHIFTS[j][1])
+        v = abs(r[0] - r[1] + r[3])
         if v > best:
-            best, phi = v, ph
-    if best <= 1e-13 * scale:  # f ≈ 0 at 8 points: (a polynomial of degree 2 has at most 4 roots) a continuum
-        X[0] = pref
+            best, jb = v, j
+    if best <= 1e-13 * scale:  # f ≈ 0 at 8 points (a polynomial of degree 2 has at most 4 roots): a continuum
+        X[0] = cis(pref)
         return 1
-    c, s = math.cos(phi), math.sin(phi)
-    c2, s2 = c * c - s * s, 2.0 * s * c
-    k0, k1, k2 = k[0], k[1] * c + k[2] * s, -k[1] * s + k[2] * c
-    k3, k4 = k[3] * c2 + k[4] * s2, -k[3] * s2 + k[4] * c2
+    cp, sp_ = _SHIFTS[jb][0], _SHIFTS[jb][1]
+    k0, k1, k2, k3, k4 = _rotated(k, cp, sp_)
+    c4, c3, c2, c1, c0 = k0 - k1 + k3, 2.0 * k2 - 4.0 * k4, 2.0 * k0 - 6.0 * k3, 2.0 * k2 + 4.0 * k4, k0 + k1 + k3
     T = np.empty(4, np.complex128)
-    quartic_roots(k0 - k1 + k3, 2.0 * k2 - 4.0 * k4, 2.0 * k0 - 6.0 * k3, 2.0 * k2 + 4.0 * k4, k0 + k1 + k3, T)
+    quartic_roots(c4, c3, c2, c1, c0, T)
     n = 0
     for i in range(4):
         t = T[i]
         if abs(t.imag) > REAL_TOL * (1.0 + abs(t)):
             continue
-        x = phi + 2.0 * math.atan(t.real)
+        x = t.real
         for _ in range(NEWTON):
-            f, df = _trig2(k, x)
+            f = (((c4 * x + c3) * x + c2) * x + c1) * x + c0
+            df = ((4.0 * c4 * x + 3.0 * c3) * x + 2.0 * c2) * x + c1
             if df == 0.0 or f == 0.0:
                 break
-            step = f / df
-            if abs(step) > 0.1:  # far from a simple root (a near-double one): stop rather than jump
-                break
-            x -= step
-        x = math.atan2(math.sin(x), math.cos(x))
+            x -= f / df
+        d = 1.0 + x * x
+        z = complex(cp, sp_) * complex((1.0 - x * x) / d, 2.0 * x / d)
         dup = False
         for j in range(n):
-            dd = abs(x - X[j])
-            dup |= min(dd, 2.0 * math.pi - dd) < 1e-10
+            dup |= abs(z - X[j]) < 1e-10
         if not dup:
-            X[n] = x
+            X[n] = z
             n += 1
     return n
 
@@ -254,11 +254,11 @@ def solve_sph3r(H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
     fx = fx3[0]
     w, gh6, ge6 = sph_goal(fx, t9(Rg), (pg[0], pg[1], pg[2]))
     U, u0, k = sph3r_position(fx3, w)
-    X = np.empty(4)
+    X = np.empty(4, np.complex128)
     nr = trig2_roots(k, pref[0], X)
     n = 0
     for i in range(nr):
-        t1 = cis(X[i])
+        t1 = X[i]
         t2, t3, free = sph3r_joints23(fx3, w, U, u0, t1, ONE)
         if free:
             t2, t3, free = sph3r_joints23(fx3, w, U, u0, t1, cis(pref[1]))
@@ -343,11 +343,11 @@ def solve_3po(H, P, RM, pM, Rg, pg, clip, pref, Q):
     fx = p3o_fixed(H, P, RM, pM)
     g, pgt = t9(Rg), (pg[0], pg[1], pg[2])
     U, u0, k = p3o_position(fx, g, pgt)
-    X = np.empty(4)
+    X = np.empty(4, np.complex128)
     nr = trig2_roots(k, pref[0], X)
     n = 0
     for i in range(nr):
-        t1 = cis(X[i])
+        t1 = X[i]
         r = p3o_wrist(fx, g, pgt, U, u0, t1, ONE)
         if r[2]:
             r = p3o_wrist(fx, g, pgt, U, u0, t1, cis(pref[5]))
