@@ -108,7 +108,13 @@ def random_lines(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, np.nd
 
 def arm(kind: str, rng: np.random.Generator) -> RobotModel:
     """A random 6R robot of family ``kind`` in the general form, random base and tool frame, no limits."""
-    h, p, tool = random_lines(kind, rng)
+    return arm_from_lines(*random_lines(kind, rng), rng, kind)
+
+
+def arm_from_lines(h: np.ndarray, p: np.ndarray, tool: np.ndarray, rng: np.random.Generator,
+                   kind: str = "lines") -> RobotModel:
+    """The robot whose joint lines at q = 0 are (h (6, 3), p (6, 3)) in the world frame [m], tool point
+    ``tool`` (3,), written in the general form behind a random base, with a random tool rotation."""
     base = _transform(rng, 0.3)
     Bi = np.linalg.inv(base)
     hb, pb, tb = h @ Bi[:3, :3].T, p @ Bi[:3, :3].T + Bi[:3, 3], Bi[:3, :3] @ tool + Bi[:3, 3]

@@ -101,3 +101,16 @@ def test_trig2_roots_every_real_root_and_a_continuum():
             assert abs(k[0] + k[1] * math.cos(r) + k[2] * math.sin(r) + k[3] * math.cos(2 * r)
                        + k[4] * math.sin(2 * r)) < 1e-12 * np.abs(k).sum()
     assert trig2_roots(np.zeros(5), 0.7, X) == 1 and abs(np.angle(X[0]) - 0.7) < 1e-15
+
+
+def test_four_parallel_axes_refused_with_the_reason():
+    """Four consecutive parallel axes leave the arm 5 independent motions: no goal has a finite solution set,
+    and the refusal says so in its one line."""
+    from pipeline.solvers import NotApplicableError
+
+    rng = np.random.default_rng(9)
+    h, p, tool = fa.random_lines("general", rng)
+    h[1:4] = h[0]
+    model = fa.arm_from_lines(h, p, tool, rng)
+    with pytest.raises(NotApplicableError, match="axes 1 to 4 are parallel: the arm has at most 5 independent"):
+        solve("analytic", model, np.eye(4), np.zeros(6), {})

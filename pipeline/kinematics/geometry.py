@@ -359,6 +359,10 @@ def _refusal6(lines: Lines, tol: float, unit: str) -> str:
     wrist = ("axes 4, 5 and 6 meet" if ok else
              f"axes 4, 5 and 6 do not meet in one point (the farthest is {_fmt_len(worst, unit)} from their nearest "
              f"common point)")
+    for i in range(3):
+        if all(pr[(k, k + 1)].parallel for k in range(i, i + 3)):
+            return (f"axes {i + 1} to {i + 4} are parallel: the arm has at most 5 independent motions (the twists of "
+                    "four parallel axes span 3 dimensions), so no goal has a finite set of solutions")
     return (f"no closed-form family fits: {wrist}; {_pair_text(pr[(3, 4)], unit)}; {_pair_text(pr[(4, 5)], unit)}; "
             f"{_pair_text(pr[(0, 1)], unit)}; {_pair_text(pr[(1, 2)], unit)}; axes 2, 3, 4 are "
             f"{'' if pr[(1, 2)].parallel and pr[(2, 3)].parallel else 'not '}all parallel (nor does any family "
