@@ -113,23 +113,24 @@ def arm(kind: str, rng: np.random.Generator) -> RobotModel:
 
 def arm_from_lines(h: np.ndarray, p: np.ndarray, tool: np.ndarray, rng: np.random.Generator,
                    kind: str = "lines") -> RobotModel:
-    """The robot whose joint lines at q = 0 are (h (6, 3), p (6, 3)) in the world frame [m], tool point
+    """The robot whose joint lines at q = 0 are (h (n, 3), p (n, 3)) in the world frame [m], tool point
     ``tool`` (3,), written in the general form behind a random base, with a random tool rotation."""
     base = _transform(rng, 0.3)
     Bi = np.linalg.inv(base)
     hb, pb, tb = h @ Bi[:3, :3].T, p @ Bi[:3, :3].T + Bi[:3, 3], Bi[:3, :3] @ tool + Bi[:3, 3]
-    origins = np.tile(np.eye(4), (6, 1, 1))
+    n = len(h)
+    origins = np.tile(np.eye(4), (n, 1, 1))
     prev = np.zeros(3)
-    for i in range(6):  # every joint frame keeps the base's orientation: its origin on the line
+    for i in range(n):  # every joint frame keeps the base's orientation: its origin on the line
         origins[i][:3, 3] = pb[i] - prev
         prev = pb[i]
     T_tool = np.eye(4)
     T_tool[:3, :3] = _rotation(rng)
-    T_tool[:3, 3] = tb - pb[5]
-    z = np.zeros(6)
-    chain = Chain(z, z, z, z, np.zeros(6, bool), "general", base, T_tool, origins, hb)
+    T_tool[:3, 3] = tb - pb[-1]
+    z = np.zeros(n)
+    chain = Chain(z, z, z, z, np.zeros(n, bool), "general", base, T_tool, origins, hb)
     return RobotModel(f"random {kind}", "tests/family_arms.py", "m", chain,
-                      np.tile([-np.inf, np.inf], (6, 1)))
+                      np.tile([-np.inf, np.inf], (n, 1)))
 
 
 def goals(model: RobotModel, rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -114,3 +114,38 @@ def test_four_parallel_axes_refused_with_the_reason():
     model = fa.arm_from_lines(h, p, tool, rng)
     with pytest.raises(NotApplicableError, match="axes 1 to 4 are parallel: the arm has at most 5 independent"):
         solve("analytic", model, np.eye(4), np.zeros(6), {})
+
+
+@pytest.mark.parametrize("kind", ["sph_general"])  # one family: each compiles its own batch kernel (CI time)
+def test_batch_equals_single_calls(kind):
+    from pipeline.solvers import solve_batch
+
+    rng = np.random.default_rng(_seed(kind, 7))
+    m = fa.arm(kind, rng)
+    _, Ts = fa.goals(m, rng, 12)
+    starts = rng.uniform(-math.pi, math.pi, (12, 6))
+    b = solve_batch("analytic", m, Ts, starts, {}, threads=1)
+    for i in range(12):
+        r = solve("analytic", m, Ts[i], starts[i], {})
+        assert b.success[i] and r.success
+        assert np.array_equal(b.q[i], r.q)
+        assert b.n_solutions[i] == len(r.solutions)
+        assert np.array_equal(b.solutions[i][: b.n_solutions[i]], r.solutions)
+
+
+def test_seven_joint_arm_whose_six_fit_a_quartic_family():
+    """A 7R arm that is a spherical wrist on a general positioner with joint 1 held: the sweep solves it,
+    each solution FK-exact."""
+    rng = np.random.default_rng(21)
+    h6, p6, tool = fa.random_lines("sph_general", rng)
+    # joint 0 in front: a new first axis, the six after it as generated
+    h = np.vstack([fa.unit(rng), h6])
+    p = np.vstack([p6[0] - rng.normal(size=3) * 0.2, p6])
+    model = fa.arm_from_lines(h, p, tool, rng)
+    d = geometry.classify(model.chain)
+    assert d.family == "spherical_wrist_3r" and d.free_joint is not None, d.reason
+    Q = rng.uniform(-math.pi, math.pi, (6, 7))
+    for q in Q:
+        T = fk_htm(model.chain, q)
+        r = solve("analytic", model, T, q + rng.normal(size=7) * 0.1, {})
+        _check(model, r, T)
