@@ -256,6 +256,7 @@ def solve_sph3r(H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
     U, u0, k = sph3r_position(fx3, w)
     X = np.empty(4, np.complex128)
     nr = trig2_roots(k, pref[0], X)
+    weak = min(weak_pair(H, P, RM, pM, 0, 1), weak_pair(H, P, RM, pM, 1, 2)) < POLISH_BELOW
     n = 0
     for i in range(nr):
         t1 = X[i]
@@ -276,6 +277,8 @@ def solve_sph3r(H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
             t4, t5, t6 = (v[0], v[1], v[2]) if sc == 0 else (v[3], v[4], v[5])
             if fits(t4, lim, 3) and fits(t5, lim, 4):
                 n = _store(Q, n, t1, t2, t3, t4, t5, t6)
+                if weak and n <= Q.shape[0]:
+                    _polish_row(H, P, RM, pM, Rg, pg, Q, n - 1)
     return n
 
 
@@ -345,6 +348,9 @@ def solve_3po(H, P, RM, pM, Rg, pg, clip, pref, Q):
     U, u0, k = p3o_position(fx, g, pgt)
     X = np.empty(4, np.complex128)
     nr = trig2_roots(k, pref[0], X)
+    h, h5 = (H[1, 0], H[1, 1], H[1, 2]), (H[4, 0], H[4, 1], H[4, 2])
+    c = cross(h, h5)
+    weak = min(weak_pair(H, P, RM, pM, 4, 5), math.sqrt(dot(c, c))) < POLISH_BELOW
     n = 0
     for i in range(nr):
         t1 = X[i]
@@ -361,6 +367,8 @@ def solve_3po(H, P, RM, pM, Rg, pg, clip, pref, Q):
                 d2 = cis(pref[1])
             if v[3]:
                 n = _store(Q, n, t1, v[0], v[1], v[2], t5, t6)
+                if weak and n <= Q.shape[0]:
+                    _polish_row(H, P, RM, pM, Rg, pg, Q, n - 1)
     return n
 
 
@@ -368,3 +376,106 @@ def solve_3po(H, P, RM, pM, Rg, pg, clip, pref, Q):
 def candidates_3po(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
     """:func:`solve_3po` behind the families' one signature."""
     return solve_3po(H, P, RM, pM, Rg, pg, clip, pref, Q)
+
+
+# ---- Newton polish where the pair's linear solve is ill-conditioned ------------------------------------
+POLISH_BELOW = 1e-2  # a skew pair whose closest distance / scale times its angle's sine is below this: polish
+POLISH_STEPS = 2     # Newton steps on the whole chain for each candidate of such an arm
+
+
+@numba.njit(cache=True, error_model="numpy")
+def weak_pair(H, P, RM, pM, i, j):
+    """Closest distance of lines i and j times the sine of their angle, over the arm's length scale
+    (its joint points and tool point in a row): small when the pair all but meets or is all but parallel,
+    where the linear solve of the pair amplifies rounding by about its inverse."""
+    hi, hj = (H[i, 0], H[i, 1], H[i, 2]), (H[j, 0], H[j, 1], H[j, 2])
+    c = cross(hi, hj)
+    s = math.sqrt(dot(c, c))
+    r = (P[j, 0] - P[i, 0], P[j, 1] - P[i, 1], P[j, 2] - P[i, 2])
+    dist = abs(dot(r, c)) / s if s > 0.0 else 0.0
+    scale = 0.0
+    for k in range(H.shape[0]):
+        nxt = (pM[0], pM[1], pM[2]) if k == H.shape[0] - 1 else (P[k + 1, 0], P[k + 1, 1], P[k + 1, 2])
+        d = sub(nxt, (P[k, 0], P[k, 1], P[k, 2]))
+        scale += math.sqrt(dot(d, d))
+    return dist * s / scale if scale > 0.0 else 0.0
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _solve6(J, e, x):
+    """x = J⁻¹ e by Gaussian elimination with partial pivoting (J (6, 6) and e (6,) overwritten); False
+    when a pivot vanishes."""
+    for c in range(6):
+        piv, best = c, abs(J[c, c])
+        for r in range(c + 1, 6):
+            if abs(J[r, c]) > best:
+                piv, best = r, abs(J[r, c])
+        if best < 1e-14:
+            return False
+        if piv != c:
+            for k in range(6):
+                J[c, k], J[piv, k] = J[piv, k], J[c, k]
+            e[c], e[piv] = e[piv], e[c]
+        for r in range(c + 1, 6):
+            f = J[r, c] / J[c, c]
+            for k in range(c, 6):
+                J[r, k] -= f * J[c, k]
+            e[r] -= f * e[c]
+    for c in range(5, -1, -1):
+        s = e[c]
+        for k in range(c + 1, 6):
+            s -= J[c, k] * x[k]
+        x[c] = s / J[c, c]
+    return True
+
+
+@numba.njit(cache=True, error_model="numpy")
+def polish(H, P, RM, pM, Rg, pg, Q, r, J, e, x):
+    """Newton steps on the whole chain for candidate row ``r`` of Q (e^{iθ} (16, 6)): the pose error
+    (position, and the rotation's small-angle vector) against the goal solved with the spatial Jacobian
+    of the joint lines. ``J`` (6, 6), ``e`` and ``x`` (6,): scratch."""
+    for _ in range(POLISH_STEPS):
+        Ra = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+        ta = (0.0, 0.0, 0.0)
+        for i in range(6):
+            w = (Ra[0] * H[i, 0] + Ra[1] * H[i, 1] + Ra[2] * H[i, 2], Ra[3] * H[i, 0] + Ra[4] * H[i, 1] + Ra[5] * H[i, 2],
+                 Ra[6] * H[i, 0] + Ra[7] * H[i, 1] + Ra[8] * H[i, 2])
+            q = (Ra[0] * P[i, 0] + Ra[1] * P[i, 1] + Ra[2] * P[i, 2] + ta[0],
+                 Ra[3] * P[i, 0] + Ra[4] * P[i, 1] + Ra[5] * P[i, 2] + ta[1],
+                 Ra[6] * P[i, 0] + Ra[7] * P[i, 1] + Ra[8] * P[i, 2] + ta[2])
+            J[0, i], J[1, i], J[2, i] = q[0], q[1], q[2]  # the joint's point for now, its lever arm below
+            J[3, i], J[4, i], J[5, i] = w[0], w[1], w[2]
+            # acc <- acc E_i: the columns of Ra turned about w through q
+            z = Q[r, i]
+            c0 = rotz(w, z, (Ra[0], Ra[3], Ra[6]))
+            c1 = rotz(w, z, (Ra[1], Ra[4], Ra[7]))
+            c2 = rotz(w, z, (Ra[2], Ra[5], Ra[8]))
+            ta = about(w, q, z, ta)
+            Ra = (c0[0], c1[0], c2[0], c0[1], c1[1], c2[1], c0[2], c1[2], c2[2])
+        pe = (Ra[0] * pM[0] + Ra[1] * pM[1] + Ra[2] * pM[2] + ta[0], Ra[3] * pM[0] + Ra[4] * pM[1] + Ra[5] * pM[2] + ta[1],
+              Ra[6] * pM[0] + Ra[7] * pM[1] + Ra[8] * pM[2] + ta[2])
+        for i in range(6):
+            lever = cross((J[3, i], J[4, i], J[5, i]), sub(pe, (J[0, i], J[1, i], J[2, i])))
+            J[0, i], J[1, i], J[2, i] = lever[0], lever[1], lever[2]
+        # R = Ra RM; rotation error: half the vee of Rg Rᵀ − R Rgᵀ
+        D = np.zeros((3, 3))
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for k in range(3):
+                    rak = Ra[3 * a] * RM[0, k] + Ra[3 * a + 1] * RM[1, k] + Ra[3 * a + 2] * RM[2, k]
+                    rbk = Ra[3 * b] * RM[0, k] + Ra[3 * b + 1] * RM[1, k] + Ra[3 * b + 2] * RM[2, k]
+                    s += Rg[a, k] * rbk - rak * Rg[b, k]
+                D[a, b] = s
+        e[0], e[1], e[2] = pg[0] - pe[0], pg[1] - pe[1], pg[2] - pe[2]
+        e[3], e[4], e[5] = 0.5 * (D[2, 1] - D[1, 2]) / 2.0, 0.5 * (D[0, 2] - D[2, 0]) / 2.0, 0.5 * (D[1, 0] - D[0, 1]) / 2.0
+        if not _solve6(J, e, x):
+            return
+        for i in range(6):
+            Q[r, i] = Q[r, i] * complex(math.cos(x[i]), math.sin(x[i]))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _polish_row(H, P, RM, pM, Rg, pg, Q, r):
+    """:func:`polish` of row r with its own scratch (an ill-conditioned arm only)."""
+    polish(H, P, RM, pM, Rg, pg, Q, r, np.empty((6, 6)), np.empty(6), np.empty(6))
