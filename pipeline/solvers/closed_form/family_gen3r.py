@@ -23,13 +23,16 @@
         a · h6 = (R_1 h) · (N h6),       a · d56 = h · (p1 − p5) + (R_1 h) · (p_goal − p1 − N (p_M − p6)),
 
     (``d56 = p6 − p5``): the same pair, θ5 on the left, θ1 on the right; singular only when axes 5
-    and 6 meet or are parallel or axis 5 is parallel to h. Then θ6 by sp1 (``R_6ᵀ a = R_Mᵀ... ``: the
-    vector ``N ᵀ R_1 h``), θ2 + θ3 + θ4 by sp1 and the planar 2R by sp3 and sp1
+    and 6 meet or are parallel or axis 5 is parallel to h. Then θ6 by sp1 (``R_6 (Nᵀ R_1 h) = a``),
+    θ2 + θ3 + θ4 by sp1 and the planar 2R by sp3 and sp1
     (:func:`~pipeline.solvers.closed_form.family_3p.p3_last`): up to 8 solutions (IK-Geo's three-parallel
     case).
 
 A goal on which the degree-2 polynomial vanishes identically has a continuum of solutions in θ1; the
-start's θ1 is taken as its representative.
+start's θ1 is taken as its representative. Where the family's skew pair all but meets or is all but
+parallel (:func:`weak_pair` below :data:`POLISH_BELOW`), the pair's linear solve amplifies rounding, and
+each candidate gets :data:`POLISH_STEPS` Newton steps on the whole chain (:func:`polish`) before the
+FK check.
 
 No lane pass (the batch solves these arms one goal at a time).
 """
