@@ -120,7 +120,8 @@ def table(rows: list, head: str) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['kind']} | {', '.join(r['families'])} | {r['arms']} | {r['ours_refused']} | "
-                     f"{r['ours_found']}/{r['ours_goals']} | {r['eaik_applies']} | {r['eaik_found']}/{r['eaik_goals']} | "
+                     f"{r['ours_found']}/{r['ours_goals']} | {r['eaik_applies']} | "
+                     f"{r['eaik_found']}/{r['eaik_goals']} | "
                      f"{r['ours_eq_dense']} / {r['eaik_eq_dense']} / {r['dense_n']} | {r['ours_p50']:.2f} | "
                      f"{r['eaik_p50']:.2f} | {r['ratio_p50']:.2f} |")
     return "\n".join(lines) + "\n"
