@@ -295,7 +295,8 @@ def candidates_sph3r(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, l
 # ---- three parallel axes, axes 5 and 6 skew ------------------------------------------------------------
 @numba.njit(cache=True, error_model="numpy")
 def p3o_fixed(H, P, RM, pM):
-    """What the solve needs of the arm alone: ((hs, ps, s3, s4) as :func:`~pipeline.solvers.closed_form.family_3p.p3_last`
+    """What the solve needs of the arm alone: ((hs, ps, s3, s4) as
+    :func:`~pipeline.solvers.closed_form.family_3p.p3_last`
     reads them, A, e, e2 ⟂ h, R_M, p_M): the θ5 side of the pair, ``A (cos θ5, sin θ5) + e =
     (a · h6, a · d56)``, a = R_5ᵀ h."""
     hs, ps = lines(H, P)
@@ -441,7 +442,8 @@ def polish(H, P, RM, pM, Rg, pg, Q, r, J, e, x):
         Ra = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         ta = (0.0, 0.0, 0.0)
         for i in range(6):
-            w = (Ra[0] * H[i, 0] + Ra[1] * H[i, 1] + Ra[2] * H[i, 2], Ra[3] * H[i, 0] + Ra[4] * H[i, 1] + Ra[5] * H[i, 2],
+            w = (Ra[0] * H[i, 0] + Ra[1] * H[i, 1] + Ra[2] * H[i, 2],
+                 Ra[3] * H[i, 0] + Ra[4] * H[i, 1] + Ra[5] * H[i, 2],
                  Ra[6] * H[i, 0] + Ra[7] * H[i, 1] + Ra[8] * H[i, 2])
             q = (Ra[0] * P[i, 0] + Ra[1] * P[i, 1] + Ra[2] * P[i, 2] + ta[0],
                  Ra[3] * P[i, 0] + Ra[4] * P[i, 1] + Ra[5] * P[i, 2] + ta[1],
@@ -455,7 +457,8 @@ def polish(H, P, RM, pM, Rg, pg, Q, r, J, e, x):
             c2 = rotz(w, z, (Ra[2], Ra[5], Ra[8]))
             ta = about(w, q, z, ta)
             Ra = (c0[0], c1[0], c2[0], c0[1], c1[1], c2[1], c0[2], c1[2], c2[2])
-        pe = (Ra[0] * pM[0] + Ra[1] * pM[1] + Ra[2] * pM[2] + ta[0], Ra[3] * pM[0] + Ra[4] * pM[1] + Ra[5] * pM[2] + ta[1],
+        pe = (Ra[0] * pM[0] + Ra[1] * pM[1] + Ra[2] * pM[2] + ta[0],
+              Ra[3] * pM[0] + Ra[4] * pM[1] + Ra[5] * pM[2] + ta[1],
               Ra[6] * pM[0] + Ra[7] * pM[1] + Ra[8] * pM[2] + ta[2])
         for i in range(6):
             lever = cross((J[3, i], J[4, i], J[5, i]), sub(pe, (J[0, i], J[1, i], J[2, i])))
@@ -471,7 +474,7 @@ def polish(H, P, RM, pM, Rg, pg, Q, r, J, e, x):
                     s += Rg[a, k] * rbk - rak * Rg[b, k]
                 D[a, b] = s
         e[0], e[1], e[2] = pg[0] - pe[0], pg[1] - pe[1], pg[2] - pe[2]
-        e[3], e[4], e[5] = 0.5 * (D[2, 1] - D[1, 2]) / 2.0, 0.5 * (D[0, 2] - D[2, 0]) / 2.0, 0.5 * (D[1, 0] - D[0, 1]) / 2.0
+        e[3], e[4], e[5] = 0.25 * (D[2, 1] - D[1, 2]), 0.25 * (D[0, 2] - D[2, 0]), 0.25 * (D[1, 0] - D[0, 1])
         if not _solve6(J, e, x):
             return
         for i in range(6):
