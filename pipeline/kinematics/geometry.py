@@ -20,6 +20,14 @@ Ostermeier, Külz & Althoff 2025). The families this project solves, for 6R arms
 ``three_parallel``
     axes 2, 3 and 4 are parallel and axes 5 and 6 meet (the UR family), or reversed (axes 3, 4,
     5 parallel and 1, 2 meet). Up to 8 solutions.
+``spherical_wrist_3r``
+    axes 4, 5 and 6 meet and joints 1-3 are a general positioner (axes 1-2 and 2-3 neither meet nor
+    are parallel): the wrist centre placed by a quartic in joint 1 (IK-Geo's subproblem 5 problem),
+    the wrist as above. Up to 8 solutions. Also reversed.
+``three_parallel_offset``
+    axes 2, 3 and 4 are parallel and axes 5 and 6 are skew: joints 1 and 5 by a quartic, then 6 and
+    the planar joints 2-4 by subproblems. Up to 8 solutions. Also reversed (axes 3, 4, 5 parallel,
+    1 and 2 skew).
 ``two_intersecting_search``
     axes 5 and 6 meet and the first three joints have a position case, but no closed form:
     a one-dimensional search over joint 4 whose residual is the wrist's orientation condition
@@ -45,7 +53,11 @@ import numpy as np
 from pipeline.kinematics.chain import Chain
 
 DEFAULT_TOL = 1e-9
-FAMILIES = ("spherical_wrist", "three_parallel", "two_intersecting_search")
+FAMILIES = ("spherical_wrist", "three_parallel", "spherical_wrist_3r", "three_parallel_offset",
+            "two_intersecting_search")
+# the quartic families (spherical_wrist_3r, three_parallel_offset) need their skew pairs clearly skew: the
+# linear solve inside them is conditioned by the pair's closest distance / reach and its angle [rad]
+SKEW_MIN = 1e-5
 POSITION_CASES = ("1-2 meet", "2-3 meet", "1-2 parallel", "2-3 parallel")  # codes 1..4 (0 = none)
 
 
@@ -241,6 +253,11 @@ def _fmt_len(x: float, unit: str) -> str:
     return f"{x:.4g} {unit}"
 
 
+def _skew(p: Pair, lines: Lines) -> bool:
+    """Two lines clearly neither meeting nor parallel (:data:`SKEW_MIN`)."""
+    return p.angle > SKEW_MIN and p.distance > SKEW_MIN * lines.reach
+
+
 def _classify6(lines: Lines, tol: float) -> tuple[str | None, bool, int, int]:
     """(family, reversed, position case, searched joint 4/6 or 0) of a 6R chain, or (None, ...)."""
     for rev in (False, True):
@@ -252,6 +269,14 @@ def _classify6(lines: Lines, tol: float) -> tuple[str | None, bool, int, int]:
         if (pr[(1, 2)].parallel and pr[(2, 3)].parallel and pr[(4, 5)].meet
                 and not pr[(0, 1)].parallel):
             return "three_parallel", rev, 0, 0
+    for rev in (False, True):  # the quartic families (pipeline.solvers.closed_form.family_gen3r)
+        L = reverse_lines(lines) if rev else lines
+        pr = pairs(L, tol)
+        if _meet3(L, (3, 4, 5), tol)[0] and _skew(pr[(0, 1)], L) and _skew(pr[(1, 2)], L):
+            return "spherical_wrist_3r", rev, 0, 0
+        if (pr[(1, 2)].parallel and pr[(2, 3)].parallel and _skew(pr[(4, 5)], L) and pr[(0, 1)].angle > SKEW_MIN
+                and pr[(1, 4)].angle > SKEW_MIN):
+            return "three_parallel_offset", rev, 0, 0
     # one-dimensional search: the best-conditioned variant first (a position case whose first
     # subproblem does not move the target: 1-2 meet, 2-3 parallel, 1-2 parallel; then 2-3 meet)
     found = []
@@ -334,6 +359,10 @@ def _refusal6(lines: Lines, tol: float, unit: str) -> str:
     wrist = ("axes 4, 5 and 6 meet" if ok else
              f"axes 4, 5 and 6 do not meet in one point (the farthest is {_fmt_len(worst, unit)} from their nearest "
              f"common point)")
+    for i in range(3):
+        if all(pr[(k, k + 1)].parallel for k in range(i, i + 3)):
+            return (f"axes {i + 1} to {i + 4} are parallel: the arm has at most 5 independent motions (the twists of "
+                    "four parallel axes span 3 dimensions), so no goal has a finite set of solutions")
     return (f"no closed-form family fits: {wrist}; {_pair_text(pr[(3, 4)], unit)}; {_pair_text(pr[(4, 5)], unit)}; "
             f"{_pair_text(pr[(0, 1)], unit)}; {_pair_text(pr[(1, 2)], unit)}; axes 2, 3, 4 are "
             f"{'' if pr[(1, 2)].parallel and pr[(2, 3)].parallel else 'not '}all parallel (nor does any family "
@@ -403,6 +432,13 @@ def _describe(fam: str, rev: bool, case: int, searched: int = 0, free: int | Non
         trip = f"axes {axes(4, 5, 6)} meet (spherical {'shoulder' if rev else 'wrist'})"
     elif fam == "three_parallel":
         trip = f"axes {axes(2, 3, 4)} parallel and axes {axes(5, 6)} meet"
+    elif fam == "spherical_wrist_3r":
+        return (f"{fam}: axes {axes(4, 5, 6)} meet (spherical {'shoulder' if rev else 'wrist'}); axes "
+                f"{axes(1, 2, 3)} a general positioner (neither meeting nor parallel pairwise), the point placed "
+                "by a quartic")
+    elif fam == "three_parallel_offset":
+        return (f"{fam}: axes {axes(2, 3, 4)} parallel; axes {axes(5, 6)} skew (joints "
+                f"{j(1)} and {j(5)} by a quartic)")
     else:
         a, b = (4, 5) if searched == 6 else (5, 6)
         trip = f"axes {axes(a, b)} meet; one-dimensional search over joint {j(searched)}"

@@ -9,6 +9,9 @@ evidence) and the family's module solves it, built on the subproblems of
   (:mod:`~pipeline.solvers.closed_form.family_sph`);
 - 6R, three parallel axes with the last two meeting (UR family, or reversed): up to 8
   (:mod:`~pipeline.solvers.closed_form.family_3p`);
+- 6R, spherical wrist (or shoulder) on a general 3R positioner, and three parallel axes with the other two
+  skew (or reversed): up to 8, joint 1 (or 6) from a quartic
+  (:mod:`~pipeline.solvers.closed_form.family_gen3r`);
 - 6R, axes 5 and 6 meeting (or 1 and 2) with a position case for the other end: a one-dimensional
   search (:mod:`~pipeline.solvers.closed_form.family_search`) over joint 4 (``search_samples`` grid
   points, sign changes of each branch's residual refined by regula falsi): up to 16 (the offset-wrist
@@ -50,6 +53,7 @@ from pipeline.kinematics import geometry
 from pipeline.solvers.closed_form import lanes
 from pipeline.solvers.closed_form import subproblems as sp
 from pipeline.solvers.closed_form.analytic_kernels import kernels, scratch
+from pipeline.solvers.closed_form.family_gen3r import FAM_3PO, FAM_SPH3R
 from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS, TRACE_COLS
 from pipeline.solvers.core import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, SettingsError, check_pack,
                                    fused_inputs, setting)
@@ -188,7 +192,8 @@ def _bind_call_general(prep: Prepared, s: AnalyticSettings):
     return call
 
 
-FAMILY_CODE = {"spherical_wrist": sp.FAM_SPH, "three_parallel": sp.FAM_3P, "two_intersecting_search": sp.FAM_SEARCH}
+FAMILY_CODE = {"spherical_wrist": sp.FAM_SPH, "three_parallel": sp.FAM_3P, "two_intersecting_search": sp.FAM_SEARCH,
+               "spherical_wrist_3r": FAM_SPH3R, "three_parallel_offset": FAM_3PO}
 
 
 @dataclass(frozen=True)

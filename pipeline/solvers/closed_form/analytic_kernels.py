@@ -18,7 +18,7 @@ import math
 import numba
 import numpy as np
 
-from pipeline.solvers.closed_form import family_3p, family_search, family_sph, lanes
+from pipeline.solvers.closed_form import family_3p, family_gen3r, family_search, family_sph, lanes
 from pipeline.solvers.closed_form import subproblems as sp
 from pipeline.solvers.closed_form.lines import (EYE_ACC, doc_row, fk_lines, fk_linesz, joint_line, poe_step,
                                                 pose_within, times_home, twelve, within_goal)
@@ -566,7 +566,12 @@ _CALL_SIGNATURE = (numba.types.int64[::1], numba.types.float64[::1], numba.types
                    numba.types.float64[:, ::1])
 
 
-FAMILY_NAMES = {sp.FAM_SPH: "spherical_wrist", sp.FAM_3P: "three_parallel", sp.FAM_SEARCH: "search"}
+FAMILY_NAMES = {sp.FAM_SPH: "spherical_wrist", sp.FAM_3P: "three_parallel", sp.FAM_SEARCH: "search",
+                family_gen3r.FAM_SPH3R: "spherical_wrist_3r", family_gen3r.FAM_3PO: "three_parallel_offset"}
+# each family's closed form behind the one signature of core6
+FAMILY_CANDIDATES = {sp.FAM_SPH: family_sph.candidates, sp.FAM_3P: family_3p.candidates,
+                     sp.FAM_SEARCH: family_search.candidates, family_gen3r.FAM_SPH3R: family_gen3r.candidates_sph3r,
+                     family_gen3r.FAM_3PO: family_gen3r.candidates_3po}
 _OPTIONS = {"cache": True, "error_model": "numpy"}
 
 
@@ -579,7 +584,7 @@ class Kernels:
         from pipeline.solvers.kernels.specialise import specialise
 
         tag = f"{FAMILY_NAMES[code]}_{n}r"
-        fam = {sp.FAM_SPH: family_sph, sp.FAM_3P: family_3p, sp.FAM_SEARCH: family_search}[code].candidates
+        fam = FAMILY_CANDIDATES[code]
         lanes8 = LANES8_OF.get(code, lanes.no_lanes)
         self.core6 = specialise(core6, FAMILY_NAMES[code], _OPTIONS, FAMILY=fam)
         self.solve_pose = specialise(solve_pose, tag, _OPTIONS, CORE6=self.core6, FAM=code, NJ=n)
