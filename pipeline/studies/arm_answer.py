@@ -177,6 +177,8 @@ WORDS = {
     "newton_raphson": "Newton-Raphson", "pso": "particle swarm", "rtb_ik_lm": "Levenberg-Marquardt (Robotics Toolbox)",
     "rtb_ik_nr": "Newton-Raphson (Robotics Toolbox)", "rtb_ik_gn": "Gauss-Newton (Robotics Toolbox)",
     "pinocchio_clik": "closed-loop IK (Pinocchio)", "trac_ik": "TRAC-IK",
+    "pybullet_ik": "damped least squares (pybullet)", "ikpy": "ikpy (SciPy least squares)",
+    "pink": "differential IK by QP (pink)", "mink": "differential IK by QP (mink)", "placo": "placo",
 }
 
 
