@@ -1,18 +1,18 @@
-"""``analytic`` against EAIK per geometry family, on random arms of each (tests/family_arms.py).
+"""``analytic`` against EAIK per geometry family, on random arms of each (tests/solvers/closed_form/family_arms.py).
 
 Usage::
 
     PYTHONPATH=$PWD python benchmarks/bench_families_eaik.py [--arms 200] [--goals 10] [--dense 50]
                                                              [--kinds sph_general,...] [--out FILE.md]
 
-For every family of :data:`tests.family_arms.FAMILIES`, ``--arms`` random arms (seeded: arm k of family f
+For every family of :data:`tests.solvers.closed_form.family_arms.FAMILIES`, ``--arms`` random arms (seeded: arm k of family f
 from ``default_rng(10_000 f + k)``) and ``--goals`` goals each (FK of random joint vectors):
 
 - completeness: whether our public call ``pipeline.solvers.solve('analytic', ...)`` returns the
   generating joint vector (within 1e-7 rad, mod 2π) and every solution FK-valid, whether it refuses the
   arm, and the same for EAIK where it applies; on the first ``--dense`` arms (one goal each) the
   solution count of each against a dense Levenberg-Marquardt search from 400 random starts
-  (:func:`tests.family_arms.dense_search`, a lower bound of the true count);
+  (:func:`tests.solvers.closed_form.family_arms.dense_search`, a lower bound of the true count);
 - speed, paired and interleaved: on each goal our whole public call (timed around ``solve``: the closed
   form, every candidate's FK check, the independent check of the chosen one, the result object) and
   EAIK's library call alone (``robot.IK(T)`` and reading its answers: the peer's ``solve_time_s``), in
@@ -39,7 +39,7 @@ sys.path.insert(0, str(ROOT))
 from pipeline.solvers import make_settings, solve  # noqa: E402
 from pipeline.solvers.core import NotApplicableError, Prepared  # noqa: E402
 from pipeline.solvers.core.registry import get  # noqa: E402
-from tests import family_arms as fa  # noqa: E402
+from tests.solvers.closed_form import family_arms as fa  # noqa: E402
 
 MATCH_TOL = 1e-7  # the generating joint vector is among the solutions [rad]
 
@@ -145,7 +145,7 @@ def main(argv=None) -> int:
               f"{r['eaik_found']}/{r['eaik_goals']} on {r['eaik_applies']} arms | dense = ours {r['ours_eq_dense']}"
               f"/{r['dense_n']} (fewer {r['ours_lt_dense']}), EAIK {r['eaik_eq_dense']} | ours {r['ours_p50']:.2f} us "
               f"EAIK {r['eaik_p50']:.2f} us ratio {r['ratio_p50']:.2f} | cpu {r['cpu_s']:.0f} s", flush=True)
-    head = (f"Random arms per family (tests/family_arms.py), {a.arms} arms x {a.goals} goals, dense-search sample "
+    head = (f"Random arms per family (tests/solvers/closed_form/family_arms.py), {a.arms} arms x {a.goals} goals, dense-search sample "
             f"{a.dense} arms x 1 goal; load average (1 min) {load0:.2f} at the start, {os.getloadavg()[0]:.2f} at "
             f"the end; {os.cpu_count()} cores.")
     text = table(rows, head)

@@ -16,7 +16,7 @@ import pytest
 
 from pipeline.kinematics import fk_htm, geometry
 from pipeline.solvers import solve
-from tests import family_arms as fa
+from tests.solvers.closed_form import family_arms as fa
 
 POS_TOL_M = 1e-8  # every returned solution reproduces the goal to this [m] ...
 ROT_TOL = 1e-8    # ... and this (Frobenius distance of the rotations)

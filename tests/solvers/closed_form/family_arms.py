@@ -19,7 +19,7 @@ elimination):
 ``two_meeting``          axes 5 and 6 meet, nothing else
 ``general``              no constraint
 
-Used by ``tests/test_families.py`` (a few arms each) and ``benchmarks/bench_families_eaik.py`` (200).
+Used by ``tests/solvers/closed_form/test_families.py`` (a few arms each) and ``benchmarks/bench_families_eaik.py`` (200).
 """
 
 from __future__ import annotations
@@ -129,7 +129,7 @@ def arm_from_lines(h: np.ndarray, p: np.ndarray, tool: np.ndarray, rng: np.rando
     T_tool[:3, 3] = tb - pb[-1]
     z = np.zeros(n)
     chain = Chain(z, z, z, z, np.zeros(n, bool), "general", base, T_tool, origins, hb)
-    return RobotModel(f"random {kind}", "tests/family_arms.py", "m", chain,
+    return RobotModel(f"random {kind}", "tests/solvers/closed_form/family_arms.py", "m", chain,
                       np.tile([-np.inf, np.inf], (n, 1)))
 
 

@@ -18,7 +18,7 @@ import pytest
 from pipeline.kinematics import fk_htm
 from pipeline.solvers import NotApplicableError, make_settings, names, prepare, solve
 from tests.conftest import ROOT
-from tests.test_peers import _general_model, _goals, _robot
+from tests.solvers.peers.test_peers import _general_model, _goals, _robot
 
 LIBRARY = {"pybullet_ik": "pybullet", "ikpy": "ikpy", "pink": "pink", "mink": "mink", "placo": "placo"}
 TUNED = {"max_num_iterations": 100, "residual_threshold": 1e-6, "joint_damping": 0.01}
