@@ -53,6 +53,7 @@ from pipeline.solvers.closed_form.analytic_kernels import kernels, scratch
 from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS, TRACE_COLS
 from pipeline.solvers.core import (BatchRaw, IKResult, InfoRows, Prepared, Raw, Settings, SettingsError, check_pack,
                                    fused_inputs, setting)
+from pipeline.solvers.core import fixed
 from pipeline.solvers.core.timing import clock_ns
 from pipeline.solvers.core.driver import run_of
 from pipeline.solvers.core.registry import Solver, register
@@ -82,6 +83,12 @@ class AnalyticSettings(Settings):
                                      length=True)
     verify_rotation: float = setting(1e-9, "FK check of each closed-form solution: rotation angle", unit="rad",
                                      above=0.0)
+    fixed_joints: tuple = fixed.fixed_joints_setting()
+
+    def check(self, where: str) -> None:
+        if self.fixed_joints and self.free_joint:
+            raise SettingsError(f"{where}: field 'free_joint': must be 0 when fixed_joints is given (the free joint "
+                                "of the arm left after folding the held joints is chosen from its geometry)")
 
 
 def decomposition(prep: Prepared, s: AnalyticSettings) -> geometry.Decomposition:
@@ -240,7 +247,10 @@ def _family(prep: Prepared, s: AnalyticSettings) -> str:
 
 
 def bind(prep: Prepared, s: AnalyticSettings):
-    """``run1(T_goal, q_start, seed) -> Raw`` with the geometry packed once."""
+    """``run1(T_goal, q_start, seed) -> Raw`` with the geometry packed once (with ``fixed_joints``, this
+    solver on the arm with those joints folded in: :mod:`pipeline.solvers.core.fixed`)."""
+    if s.fixed_joints:
+        return fixed.bind_held(prep, s, bind)
     if _general(prep, s):
         return _bind_general(prep, s)
     k = packed(prep, s)
@@ -264,7 +274,9 @@ def bind(prep: Prepared, s: AnalyticSettings):
 def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
     """N poses in one compiled call on every core (each pose writes only its own rows): the family's batch
     kernel (:func:`~pipeline.solvers.closed_form.analytic_kernels.kernels`), or for an arm that fits no family
-    the general elimination's (:func:`_batch_general`)."""
+    the general elimination's (:func:`_batch_general`); None with ``fixed_joints`` (one call per pose)."""
+    if s.fixed_joints:
+        return None
     if _general(prep, s):
         return _batch_general(prep, s, goals, starts, keep_traces)
     k = packed(prep, s)
@@ -293,7 +305,7 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
     record in one compiled call, the result built positionally; None under ``require_limits`` (the
     generic path then chooses among the solutions within the limits). Same values as ``bind`` +
     :func:`~pipeline.solvers.core.finish`, timings aside."""
-    if s.require_limits:
+    if s.require_limits or s.fixed_joints:
         return None
     if _general(prep, s):
         return _bind_call_general(prep, s)

@@ -18,6 +18,7 @@ import numpy as np
 
 from pipeline.robots import RobotModel
 from pipeline.solvers.core import BatchResult, IKResult, NotApplicableError, Prepared, Settings, SettingsError
+from pipeline.solvers.core import fixed
 from pipeline.solvers.core.driver import Bound
 from pipeline.solvers.core.timing import clock_ns
 
@@ -166,10 +167,14 @@ def make_settings(name: str, mapping: dict | Settings | None = None, where: str 
 
 
 def prepare(name: str, robot: RobotModel | Prepared, settings: Settings) -> Prepared:
-    """The robot prepared for ``settings.length_unit``; raises NotApplicableError if the solver does not fit."""
+    """The robot prepared for ``settings.length_unit``; raises NotApplicableError if the solver does not fit
+    (with ``fixed_joints``, the arm with those joints held: :mod:`pipeline.solvers.core.fixed`)."""
     spec = get(name)
     prep = robot if isinstance(robot, Prepared) and robot.unit == settings.length_unit else Prepared(robot, settings.length_unit)
-    why = spec.refusal(prep)
+    pairs = fixed.held(settings)
+    why = spec.refusal(fixed.folded(prep, pairs)[0] if pairs else prep)
+    if why and pairs:
+        why = f"with joints {', '.join(str(k) for k, _ in pairs)} held: {why}"
     if why:
         raise NotApplicableError(f"{prep.source.path or prep.source.name}: solver '{name}' does not apply: {why}")
     return prep
