@@ -47,7 +47,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.kinematics import geometry
-from pipeline.solvers.closed_form import lanes
+from pipeline.kinematics.nearfamily import NEAR_TOL
+from pipeline.solvers.closed_form import lanes, near
 from pipeline.solvers.closed_form import subproblems as sp
 from pipeline.solvers.closed_form.analytic_kernels import kernels, scratch
 from pipeline.solvers.kernels.kin import NO_SOLUTION, SUCCESS, TRACE_COLS
@@ -84,6 +85,11 @@ class AnalyticSettings(Settings):
     verify_rotation: float = setting(1e-9, "FK check of each closed-form solution: rotation angle", unit="rad",
                                      above=0.0)
     fixed_joints: tuple = fixed.fixed_joints_setting()
+    near_tol: float = setting(NEAR_TOL, "a 6R arm that fits a better family only within this tolerance (meet within "
+                              "near_tol x reach, parallel within near_tol rad; rounded angles or lengths in its file) "
+                              "is solved by that family's closed form on the nearest exact arm, each candidate "
+                              "polished by Newton steps on the real arm and FK-checked there; 0 = never",
+                              minimum=0.0, maximum=1e-2)
 
     def check(self, where: str) -> None:
         if self.fixed_joints and self.free_joint:
@@ -103,7 +109,7 @@ def applies_to(prep: Prepared) -> str | None:
     that fits no subproblem family is solved by the general elimination (:mod:`general6r`) where it
     applies."""
     d = decomposition(prep, AnalyticSettings())
-    if d.family:
+    if d.family or _near(prep, AnalyticSettings()) is not None:
         return None
     if prep.n != 6 or prep.prismatic.any():
         return d.reason
@@ -251,6 +257,9 @@ def bind(prep: Prepared, s: AnalyticSettings):
     solver on the arm with those joints folded in: :mod:`pipeline.solvers.core.fixed`)."""
     if s.fixed_joints:
         return fixed.bind_held(prep, s, _bind_folded)
+    sn = _near(prep, s)
+    if sn is not None:
+        return near.bind_near(prep, s, sn, bind, _info)
     if _general(prep, s):
         return _bind_general(prep, s)
     k = packed(prep, s)
@@ -269,6 +278,13 @@ def bind(prep: Prepared, s: AnalyticSettings):
                    solutions=S[:m], info=_info(m, tried, float(trace[1, 0]), fam))
 
     return run1
+
+
+def _near(prep: Prepared, s: AnalyticSettings):
+    """The nearest exact arm of a better family (:mod:`pipeline.solvers.closed_form.near`), or None."""
+    if s.near_tol <= 0.0 or prep.n != 6:
+        return None
+    return near.snapped(prep, s.geometry_tol, s.near_tol)
 
 
 def _bind_folded(prep: Prepared, s: AnalyticSettings):
@@ -293,7 +309,7 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     """N poses in one compiled call on every core (each pose writes only its own rows): the family's batch
     kernel (:func:`~pipeline.solvers.closed_form.analytic_kernels.kernels`), or for an arm that fits no family
     the general elimination's (:func:`_batch_general`); None with ``fixed_joints`` (one call per pose)."""
-    if s.fixed_joints:
+    if s.fixed_joints or _near(prep, s) is not None:
         return None
     if _general(prep, s):
         return _batch_general(prep, s, goals, starts, keep_traces)
@@ -323,7 +339,7 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
     record in one compiled call, the result built positionally; None under ``require_limits`` (the
     generic path then chooses among the solutions within the limits). Same values as ``bind`` +
     :func:`~pipeline.solvers.core.finish`, timings aside."""
-    if s.require_limits or s.fixed_joints:
+    if s.require_limits or s.fixed_joints or _near(prep, s) is not None:
         return None
     if _general(prep, s):
         return _bind_call_general(prep, s)
