@@ -140,3 +140,12 @@ def test_rounded_urdf_is_solved_as_its_family():
         for x in r.solutions:
             F = fk_htm(arm.chain, x)
             assert np.abs(F[:3, 3] - T[:3, 3]).max() < FK_TOL and np.abs(F[:3, :3] - T[:3, :3]).max() < FK_TOL
+
+
+@pytest.mark.parametrize("solver", ["dls", "pseudoinverse"])
+def test_iterative_solver_never_moves_a_held_joint(solver):
+    m = load_robot(ROOT / "data" / "robots" / "ur5.yaml")
+    b = bind(solver, m, {"fixed_joints": {2: -0.8}, "max_iterations": 200})
+    for q, T in goals(m, 4, 5, {2: -0.8}):
+        r = b.solve(T, q + 0.1)
+        assert r.success and r.q[1] == -0.8
