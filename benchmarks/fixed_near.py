@@ -18,9 +18,10 @@ Near-family arm
 ---------------
 ``tests/data/irb2400_rounded.urdf`` (the ABB IRB 2400 with every angle and length typed to four
 decimals) against ``data/robots/abb_irb2400.yaml`` (the exact arm): ``--near-goals`` goals from the
-rounded arm; the rounded arm's set must have the exact arm's count with each solution within 1e-2 rad
-of one of the exact arm's (two arms 0.3 µm apart: ~1e-6 rad, up to ~1e-3 next to a wrist singularity),
-and every solution FK-valid on the rounded arm (as above). The same with ``near_tol`` 0 (the strict
+rounded arm; the rounded arm's set must have the exact arm's count with each solution within 1e-3 rad (and, counted
+apart, 5e-2 rad) of one of the exact arm's (two arms 0.3 µm and 7e-6 rad apart: ~1e-6 rad, up to ~1e-2
+next to a singular configuration, where a joint moves by the offset over the distance to the
+singularity), and every solution FK-valid on the rounded arm (as above). The same with ``near_tol`` 0 (the strict
 classification, before this change) for comparison.
 """
 
@@ -42,7 +43,8 @@ from pipeline.urdf import import_urdf
 ROOT = Path(__file__).resolve().parents[1]
 FK_TOL = 1e-9
 GEN_TOL = 1e-6
-SAME = 1e-2
+SAME = (1e-3, 5e-2)  # [rad] two arms 0.3 um and 7e-6 rad apart: their solutions of one goal differ by ~1e-6 rad,
+#                      by up to ~1e-2 next to a singular configuration (a wrist or an elbow stretched out)
 
 
 def wrapped(a, b):
@@ -96,7 +98,7 @@ def near_rows(n_goals: int, seed: int) -> list[str]:
     for near_tol in (1e-3, 0.0):
         b = bind("analytic", arm, {"near_tol": near_tol})
         rng = np.random.default_rng([seed, 2400])
-        same = valid = gen = dist = 0
+        same = near = valid = gen = dist = 0
         found = want = 0
         for _ in range(n_goals):
             q = rng.uniform(arm.limits[:, 0], arm.limits[:, 1])
@@ -105,11 +107,13 @@ def near_rows(n_goals: int, seed: int) -> list[str]:
             A = r.solutions if r.solutions is not None else np.zeros((0, 6))
             B = e.solutions
             found, want = found + len(A), want + len(B)
-            same += len(A) == len(B) and all(wrapped(B, x).max(axis=1).min() <= SAME for x in A)
+            dev = max([wrapped(B, x).max(axis=1).min() for x in A], default=0.0) if len(B) else np.inf
+            same += len(A) == len(B) and dev <= SAME[0]
+            near += len(A) == len(B) and dev <= SAME[1]
             valid += bool(r.success) and fk_valid(arm.chain, A, T)
             gen += bool(len(A)) and wrapped(A, q).max(axis=1).min() < GEN_TOL
             dist += distinct(A)
-        rows.append(f"| {near_tol:g} | {r.info['family']} | {same}/{n_goals} | {valid}/{n_goals} | {gen}/{n_goals} | "
+        rows.append(f"| {near_tol:g} | {r.info['family']} | {same}/{n_goals} | {near}/{n_goals} | {valid}/{n_goals} | {gen}/{n_goals} | "
                     f"{dist}/{n_goals} | {found} / {want} |")
     return rows
 
@@ -133,8 +137,9 @@ def main(argv=None) -> None:
             out.append(held_row(name, j, a.goals, a.seed))
             print(out[-1], flush=True)
     out += ["", f"## Rounded IRB 2400 URDF against the exact arm, {a.near_goals} goals", "",
-            "| near_tol | family | same set as the exact arm | success and all FK-valid on the rounded arm "
-            "| generating solution returned | distinct | solutions found / exact arm's |", "|---|---|---|---|---|---|---|"]
+            "| near_tol | family | same set as the exact arm (1e-3 rad) | same set (5e-2 rad) | success and all "
+            "FK-valid on the rounded arm | generating solution returned | distinct | solutions found / exact arm's |",
+            "|---|---|---|---|---|---|---|---|"]
     out += near_rows(a.near_goals, a.seed)
     print("\n".join(out[-2:]))
     if a.out:

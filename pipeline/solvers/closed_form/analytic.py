@@ -21,9 +21,17 @@ evidence) and the family's module solves it, built on the subproblems of
   of their family. Solutions outside the joint limits are dropped (revolute joints moved by 2π
   into them where they fit).
 
+Joints held at given values (``fixed_joints``, numbered from 1) are folded into the neighbouring links
+first (:mod:`pipeline.solvers.core.fixed`): a 7R arm with one joint held is solved as the 6R arm it is,
+by every path above (one in the search family by the general elimination where that applies). A 6R arm
+that fits a better family only within ``near_tol`` (rounded angles in its file) is solved on the
+nearest exact arm of that family, each candidate polished and checked on the real arm
+(:mod:`pipeline.solvers.closed_form.near`). Both run one pose per call (no batch kernel, no fused call).
+
 Every candidate is checked by the forward kinematics of the joint lines (base and tool included)
-against ``verify_position`` / ``verify_rotation``; ``solutions`` holds the valid ones, nearest to the
-start first (wrapped joint distance, sum of squares); ``q`` is the first, unwrapped to lie within
+against ``verify_position`` / ``verify_rotation``; ``solutions`` holds the valid ones, each once (two
+within :data:`~pipeline.solvers.closed_form.analytic_kernels.DISTINCT_TOL` = 1e-6 rad in every joint,
+wrapped, are one), nearest to the start first (wrapped joint distance, sum of squares); ``q`` is the first, unwrapped to lie within
 π of ``q_start`` per joint for 6R arms (within the limits for 7R). At a singular wrist the free
 angle is the start's. No valid candidate: ``NO_SOLUTION`` with ``q = q_start``. The trace has two
 rows, the document's error ``[‖e‖, e, |Δp|]`` at ``q_start`` and at ``q``.
