@@ -113,8 +113,8 @@ def near_rows(n_goals: int, seed: int) -> list[str]:
             valid += bool(r.success) and fk_valid(arm.chain, A, T)
             gen += bool(len(A)) and wrapped(A, q).max(axis=1).min() < GEN_TOL
             dist += distinct(A)
-        rows.append(f"| {near_tol:g} | {r.info['family']} | {same}/{n_goals} | {near}/{n_goals} | {valid}/{n_goals} | {gen}/{n_goals} | "
-                    f"{dist}/{n_goals} | {found} / {want} |")
+        rows.append(f"| {near_tol:g} | {r.info['family']} | {same}/{n_goals} | {near}/{n_goals} | {valid}/{n_goals} | "
+                    f"{gen}/{n_goals} | {dist}/{n_goals} | {found} / {want} |")
     return rows
 
 

@@ -206,10 +206,12 @@ _BY_VALUE_MAX = 64
 def _bound_by_value(name: str, robot, settings) -> Bound:
     """:func:`bind` for ``solve(name, robot, T, q0, {...})``: the binding of a robot object and a settings
     mapping (or None) is kept, keyed by the robot's identity and the mapping's items, so the call a user
-    writes first costs what a bound call costs after its first use. A mapping with unhashable values
-    (lists) is bound afresh each call. Robot models are treated as immutable (they are frozen)."""
+    writes first costs what a bound call costs after its first use (a joint map such as ``fixed_joints``
+    keyed by its items). A mapping with other unhashable values (lists) is bound afresh each call. Robot
+    models are treated as immutable (they are frozen)."""
     try:
-        key = (name, id(robot), None if settings is None else tuple(sorted(settings.items())))
+        key = (name, id(robot), None if settings is None else tuple(sorted(
+            (k, tuple(sorted(v.items())) if isinstance(v, dict) else v) for k, v in settings.items())))
         hash(key)
     except TypeError:
         return bind(name, robot, settings)
