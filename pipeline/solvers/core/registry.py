@@ -174,7 +174,7 @@ def prepare(name: str, robot: RobotModel | Prepared, settings: Settings) -> Prep
     pairs = fixed.held(settings)
     why = spec.refusal(fixed.folded(prep, pairs)[0] if pairs else prep)
     if why and pairs:
-        why = f"with joints {', '.join(str(k) for k, _ in pairs)} held: {why}"
+        why = f"with joint{'s' if len(pairs) > 1 else ''} {', '.join(str(k) for k, _ in pairs)} held: {why}"
     if why:
         raise NotApplicableError(f"{prep.source.path or prep.source.name}: solver '{name}' does not apply: {why}")
     return prep
