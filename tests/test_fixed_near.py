@@ -149,3 +149,15 @@ def test_iterative_solver_never_moves_a_held_joint(solver):
     for q, T in goals(m, 4, 5, {2: -0.8}):
         r = b.solve(T, q + 0.1)
         assert r.success and r.q[1] == -0.8
+
+
+def test_robot_verb_says_near_family(tmp_path, capsys):
+    from pipeline.cli import main
+    from pipeline.urdf import imported_yaml
+
+    path = tmp_path / "irb2400_rounded.yaml"
+    path.write_text(imported_yaml(ROUNDED, "base_link", "tool0"))
+    main(["robot", str(path)])
+    out = capsys.readouterr().out
+    assert "near spherical_wrist: the joint lines moved by at most 0.00026 mm" in out
+    assert "polishes each candidate" in out
