@@ -266,6 +266,52 @@ def _collect7(Q, k, Wa, n, free, v, q_start, lim, Sc, dist, nc, cap):
     return nc, added
 
 
+# two solutions whose joints differ by at most this, each (wrapped by turns), are one [rad]: far above the
+# spread of one root computed along two branches (1e-12 .. 1e-9: the FK check passes at 1e-9), below any
+# two distinct solutions a closed form resolves (a subproblem's two roots closer than this sit at a
+# tangency whose discriminant is below 1e-12, i.e. within the rounding ``clip`` forgives)
+DISTINCT_TOL = 1e-6
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _same(a, b, n):
+    """Rows a and b (n angles [rad]) are one solution: every joint within DISTINCT_TOL, wrapped."""
+    for j in range(n):
+        if abs(sp.wrap(a[j] - b[j])) > DISTINCT_TOL:
+            return False
+    return True
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _repeats(S, m, row, n):
+    """``row`` is one of the m solutions in S already (:func:`_same`)."""
+    for i in range(m):
+        if _same(S[i], row, n):
+            return True
+    return False
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _distinct6(Sc, dist, nc):
+    """A 6R arm's checked candidates: a repeat of an earlier one (:func:`_same`) is dropped (its distance
+    set to inf, which :func:`_rank6` never takes)."""
+    for i in range(1, nc):
+        for j in range(i):
+            if dist[j] < math.inf and _same(Sc[i], Sc[j], 6):
+                dist[i] = math.inf
+                break
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _seen(vals, k, v):
+    """A 7R sweep's free-joint value ``v`` [rad] was tried already in this attempt (equal limits, or the
+    start's value on the grid): within 1e-12 rad, wrapped."""
+    for i in range(k):
+        if abs(sp.wrap(vals[i] - v)) <= 1e-12:
+            return True
+    return False
+
+
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _rank6(Sc, dist, qrow, nc, max_sol, S):
     """A 6R arm's checked candidates into ``S`` nearest first: each one's place among them by distance,
@@ -304,6 +350,8 @@ def _select7(H, P, RM, pM, Sc, dist, nc, max_sol, S, R, p, cs, Zf, Tg, tolp2, f_
         if best < 0:
             break
         dist[best] = math.inf
+        if _repeats(S, m, Sc[best], n):
+            continue
         fk_lines(H, P, RM, pM, Sc[best], R, p, cs, Zf)
         if pose_within(R, p, Tg, tolp2, f_max):
             for j in range(n):
@@ -407,10 +455,14 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
             H6, P6 = grid(Wf, 6, 3), grid(Wf[18:], 6, 3)
             RM6, pM6, pref = grid(Wf[36:], 3, 3), Wf[45:48], Wf[48:54]
             lo, hi = _sweep_range(q_start, free, lim, pref, n)
+            seen = np.empty(nfree + 1 + N_NEAR)  # the values tried in this attempt
+            ns_ = 0
             for it in range(nfree + 1 + N_NEAR):
                 v, use = _free_value(it, attempt, q_start, free, lim, lo, hi, nfree)
-                if not use:
+                if not use or _seen(seen, ns_, v):
                     continue
+                seen[ns_] = v
+                ns_ += 1
                 _fix(H, P, RM, pM, free, v, H6, P6, RM6, pM6)
                 k = min(CORE6(case, rev, mode, H6, P6, RM6, pM6, Rg, pg, clip, pref, samples, Q, lim6, Wr, Qr),
                         sp.MAX_SOL)
@@ -419,6 +471,7 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
                 inlim += added
     chosen = -1  # 6R: the row of Q the chosen solution came from
     if n == 6:  # every candidate is checked already
+        _distinct6(Sc, dist, nc)
         m, chosen = _rank6(Sc, dist, qrow, nc, max_sol, S)
     else:  # 7R: nearest first, select, FK-check, keep, until max_solutions pass
         m = _select7(H, P, RM, pM, Sc, dist, nc, max_sol, S, R, p, cs, Zf, Tg, tolp2, f_max, n)

@@ -18,6 +18,7 @@ import numpy as np
 
 from pipeline.robots import RobotModel
 from pipeline.solvers.core import BatchResult, IKResult, NotApplicableError, Prepared, Settings, SettingsError
+from pipeline.solvers.core import fixed
 from pipeline.solvers.core.driver import Bound
 from pipeline.solvers.core.timing import clock_ns
 
@@ -166,10 +167,14 @@ def make_settings(name: str, mapping: dict | Settings | None = None, where: str 
 
 
 def prepare(name: str, robot: RobotModel | Prepared, settings: Settings) -> Prepared:
-    """The robot prepared for ``settings.length_unit``; raises NotApplicableError if the solver does not fit."""
+    """The robot prepared for ``settings.length_unit``; raises NotApplicableError if the solver does not fit
+    (with ``fixed_joints``, the arm with those joints held: :mod:`pipeline.solvers.core.fixed`)."""
     spec = get(name)
     prep = robot if isinstance(robot, Prepared) and robot.unit == settings.length_unit else Prepared(robot, settings.length_unit)
-    why = spec.refusal(prep)
+    pairs = fixed.held(settings)
+    why = spec.refusal(fixed.folded(prep, pairs)[0] if pairs else prep)
+    if why and pairs:
+        why = f"with joint{'s' if len(pairs) > 1 else ''} {', '.join(str(k) for k, _ in pairs)} held: {why}"
     if why:
         raise NotApplicableError(f"{prep.source.path or prep.source.name}: solver '{name}' does not apply: {why}")
     return prep
@@ -201,10 +206,12 @@ _BY_VALUE_MAX = 64
 def _bound_by_value(name: str, robot, settings) -> Bound:
     """:func:`bind` for ``solve(name, robot, T, q0, {...})``: the binding of a robot object and a settings
     mapping (or None) is kept, keyed by the robot's identity and the mapping's items, so the call a user
-    writes first costs what a bound call costs after its first use. A mapping with unhashable values
-    (lists) is bound afresh each call. Robot models are treated as immutable (they are frozen)."""
+    writes first costs what a bound call costs after its first use (a joint map such as ``fixed_joints``
+    keyed by its items). A mapping with other unhashable values (lists) is bound afresh each call. Robot
+    models are treated as immutable (they are frozen)."""
     try:
-        key = (name, id(robot), None if settings is None else tuple(sorted(settings.items())))
+        key = (name, id(robot), None if settings is None else tuple(sorted(
+            (k, tuple(sorted(v.items())) if isinstance(v, dict) else v) for k, v in settings.items())))
         hash(key)
     except TypeError:
         return bind(name, robot, settings)

@@ -57,7 +57,7 @@ POSITION_CRITERIA = ("position", "dq_norm_body")  # success tests that ignore th
 
 
 def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, above=None, maximum=None,
-            length: bool = False, file: bool = False, quiet: bool = False):
+            length: bool = False, file: bool = False, quiet: bool = False, joints: bool = False):
     """A settings field with its documentation and checks (read by ``from_dict`` and ``json_schema``).
 
     Parameters
@@ -76,10 +76,14 @@ def setting(default, doc: str, *, unit: str = "", choices=None, minimum=None, ab
     quiet : bool
         :meth:`Settings.as_dict` leaves the field out while it holds its default: a setting added after
         archives were written, whose settings records and job hashes then stay as they were.
+    joints : bool
+        The value maps joint numbers (1-based) to joint values, ``{4: 0.5}``: written as a mapping (keys
+        integers or digit strings), kept as a sorted tuple of ``(joint, value)`` pairs (so that settings
+        stay hashable), written back as a mapping with string keys (:func:`joint_map`).
     """
     meta = {"doc": doc, "unit": unit, "choices": tuple(choices) if choices is not None else None,
             "minimum": minimum, "above": above, "maximum": maximum, "length": length, "file": file,
-            "quiet": quiet}
+            "quiet": quiet, "joints": joints}
     return field(default=default, metadata=meta)
 
 
@@ -126,6 +130,11 @@ class Settings:
     time_budget: float = setting(0.0, "wall-time budget of all restarts together, 0 = none (the search under way "
                                  "is finished; a budget makes results depend on the machine's speed)",
                                  unit="s", minimum=0.0, maximum=MAX_TIME_BUDGET_S)
+
+    def __post_init__(self) -> None:
+        for f in fields(self):  # a joint map given as a mapping (direct construction): kept as sorted pairs
+            if f.metadata.get("joints") and not isinstance(getattr(self, f.name), tuple):
+                object.__setattr__(self, f.name, joint_map(getattr(self, f.name), f.name, "solver settings"))
 
     # ---- construction and validation -------------------------------------------------------
     @classmethod
@@ -177,14 +186,21 @@ class Settings:
 
     def check_robot(self, n_joints: int, where: str) -> None:
         """Rules that need the robot (a list of one value per joint, say): override; raise
-        :class:`SettingsError`. ``check_inputs`` calls it for every (robot, solver) job of a study."""
+        :class:`SettingsError`. ``check_inputs`` calls it for every (robot, solver) job of a study. Here: a
+        joint map's joint numbers exist on the arm and leave at least one joint free."""
+        for f in fields(self):
+            if f.metadata.get("joints"):
+                check_joint_numbers(getattr(self, f.name), n_joints, f"{where}: field '{f.name}'")
 
     def as_dict(self) -> dict:
-        """Every field's value, but a ``quiet`` field (:func:`setting`) only when it is not its default."""
+        """Every field's value (a joint map as a mapping with string keys), but a ``quiet`` field
+        (:func:`setting`) only when it is not its default."""
         out = asdict(self)
         for f in fields(self):
             if f.metadata.get("quiet") and out[f.name] == f.default:
                 del out[f.name]
+            elif f.metadata.get("joints"):
+                out[f.name] = {str(k): v for k, v in getattr(self, f.name)}
         return out
 
     def converted(self) -> "Settings":
@@ -206,7 +222,10 @@ class Settings:
             for key, sym in (("minimum", ">="), ("above", ">"), ("maximum", "<=")):
                 if m.get(key) is not None:
                     rng.append(f"{sym} {m[key]}")
-            rows.append({"name": f.name, "type": f.type, "default": f.default if f.default is not MISSING else None,
+            if m.get("joints"):
+                rng.append("joint numbers 1..n (1-based) -> joint values")
+            rows.append({"name": f.name, "type": "mapping" if m.get("joints") else f.type,
+                         "default": ({} if m.get("joints") else f.default) if f.default is not MISSING else None,
                          "unit": m.get("unit", ""), "range": "; ".join(rng), "doc": m.get("doc", "")})
         return rows
 
@@ -226,12 +245,61 @@ class Settings:
                 p["exclusiveMinimum"] = m["above"]
             if m.get("maximum") is not None:
                 p["maximum"] = m["maximum"]
+            if m.get("joints"):
+                p = {"type": "object", "default": {}, "description": m.get("doc", ""), "additionalProperties": False,
+                     "patternProperties": {"^[1-9][0-9]*$": {"type": "number"}}}
             props[f.name] = p
         return {"type": "object", "additionalProperties": False, "properties": props}
 
 
+def joint_map(v, name: str, where: str) -> tuple:
+    """A joint-map setting (``setting(..., joints=True)``) as sorted ``(joint, value)`` pairs: joint numbers
+    1-based integers (or digit strings, as JSON writes keys), each once; values finite numbers
+    [rad | the robot file's length unit]. A mapping or a sequence of pairs is accepted.
+
+    Raises
+    ------
+    SettingsError
+        One line naming the field.
+    """
+    head = f"{where}: field '{name}'"
+    if isinstance(v, dict):
+        items = list(v.items())
+    elif isinstance(v, (tuple, list)) and all(isinstance(x, (tuple, list)) and len(x) == 2 for x in v):
+        items = [tuple(x) for x in v]
+    else:
+        raise SettingsError(f"{head}: expected a mapping of joint numbers (1-based) to values, e.g. {{4: 0.5}}, "
+                            f"got {str(v)[:60]!r}")
+    out = {}
+    for k, x in items:
+        if isinstance(k, str) and k.strip().isdigit():
+            k = int(k)
+        if isinstance(k, bool) or not isinstance(k, int) or k < 1:
+            raise SettingsError(f"{head}: joint {str(k)[:20]!r} is not a joint number (1-based: 1 is the first joint)")
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) \
+                or abs(x) > MAX_SETTING_FLOAT:
+            raise SettingsError(f"{head}: joint {k}: the value must be a finite number [rad | length], got "
+                                f"{str(x)[:30]!r}")
+        if k in out:
+            raise SettingsError(f"{head}: joint {k} is given twice")
+        out[k] = float(x)
+    return tuple(sorted(out.items()))
+
+
+def check_joint_numbers(pairs: tuple, n_joints: int, where: str) -> None:
+    """A joint map's (:func:`joint_map`) joints exist on an arm of ``n_joints`` and leave one free, else one line."""
+    for k, _ in pairs:
+        if k > n_joints:
+            raise SettingsError(f"{where}: joint {k} does not exist (the arm has {n_joints} joints, numbered 1 to "
+                                f"{n_joints})")
+    if pairs and len(pairs) >= n_joints:
+        raise SettingsError(f"{where}: every joint is held (at least one must move)")
+
+
 def _coerce(f, v, where: str):
-    """Type check of one field value (ints accepted where floats are expected)."""
+    """Type check of one field value (ints accepted where floats are expected; a joint map normalised)."""
+    if f.metadata.get("joints"):
+        return joint_map(v, f.name, where)
     want = _PY_TYPES.get(f.type)
     if want is None:
         return v

@@ -18,6 +18,7 @@ import pipeline.solvers.kernels.pose as _jit
 import pipeline.solvers.iterative.lean as _lean
 from pipeline.solvers.kernels.kin import SEARCH_LIMITS, TRACE_COLS
 from pipeline.solvers.core import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, search_limits_setting, setting
+from pipeline.solvers.core import fixed
 from pipeline.solvers.core.driver import run_of
 from pipeline.solvers.core.registry import Solver, register
 
@@ -44,6 +45,7 @@ class JacobianSettings(Settings):
                                   "reads per iteration, about 40 ns of a ~550 ns iteration); off (default): "
                                   "ik_time_s = 0. cerbaro2019 turns it on for its IK-block times (Figure 21)")
     search_limits: str = search_limits_setting()
+    fixed_joints: tuple = fixed.fixed_joints_setting()
 
 
 @dataclass(frozen=True)
@@ -119,6 +121,8 @@ def packed(method: str, s: JacobianSettings, limits: np.ndarray | None = None) -
 
 def _bind(method: str):
     def bind(prep: Prepared, s: JacobianSettings):
+        if s.fixed_joints:  # the held joints folded into the links: the loop never moves them
+            return fixed.bind_held(prep, s, bind)
         ip, fp = packed(method, s, prep.limits)
         chain = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
         rows = s.max_iterations + 1
@@ -142,6 +146,8 @@ TRACE_BUDGET = 64 * 2**20  # [bytes] per chunk of a batch's trace buffer (N x (m
 
 def _batch(method: str):
     def batch(prep: Prepared, s: JacobianSettings, goals: np.ndarray, starts: np.ndarray, seeds, keep_traces: bool):
+        if s.fixed_joints:  # one call per problem (:func:`_bind`)
+            return None
         ip, fp = packed(method, s, prep.limits)
         chain = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
         N, n = starts.shape

@@ -73,6 +73,13 @@ def cmd_robot(args) -> None:
 
             text += "\n" + report(model.chain, args.geometry_tol, model.length_unit)
             six_revolute = model.n == 6 and not np.any(model.chain.prismatic)
+            from pipeline.kinematics.nearfamily import NEAR_TOL, snap
+
+            sn = snap(model.chain, args.geometry_tol, NEAR_TOL) if six_revolute else None
+            if sn is not None:
+                text += (f"{sn.describe(model.length_unit)} (near_tol {NEAR_TOL:g}): `analytic` solves it by that "
+                         "family's closed form on the nearest exact arm, then polishes each candidate by Newton "
+                         "steps on this arm and checks it by this arm's forward kinematics\n")
             if six_revolute and classify(model.chain, args.geometry_tol).family is None:
                 from pipeline.solvers.closed_form import general6r
                 from pipeline.solvers.core import Prepared
