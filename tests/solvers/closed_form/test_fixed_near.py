@@ -20,7 +20,7 @@ from pipeline.solvers import NotApplicableError, SettingsError, bind
 from pipeline.solvers.closed_form.analytic import AnalyticSettings
 from pipeline.solvers.closed_form.analytic_kernels import DISTINCT_TOL
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 ROUNDED = ROOT / "tests" / "data" / "irb2400_rounded.urdf"
 SAME = 5e-2  # [rad] two arms 0.3 um and 7e-6 rad apart: their solutions of one goal differ by ~1e-6 rad, by up
 #              to ~1e-2 next to a singular configuration (benchmarks/fixed_near.py)
