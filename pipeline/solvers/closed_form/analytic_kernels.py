@@ -303,6 +303,15 @@ def _distinct6(Sc, dist, nc):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
+def _retry(inlim, refine, n, fam, samples, nfree):
+    """(whether a second attempt runs, its search samples, its free-joint values): only where nothing
+    was within the limits and the arm searches (6R search family) or sweeps (7R), ``refine`` times finer."""
+    if inlim > 0 or refine <= 1 or (n == 6 and fam != sp.FAM_SEARCH):
+        return False, samples, nfree
+    return True, samples * refine, nfree * refine
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _seen(vals, k, v):
     """A 7R sweep's free-joint value ``v`` [rad] was tried already in this attempt (equal limits, or the
     start's value on the grid): within 1e-12 rad, wrapped."""
@@ -428,16 +437,13 @@ def solve_pose(ints, G, Tg, q_start, Sc, W, Z, I, S, q, trace, start_row=True, g
     Q, Qr, qrow, Zf, R, p, dist, cs, Wf, Wr, Wa = _views(n, cap, W, Z, I)
     nc, tried, inlim, refine = 0, 0, 0, ints[9]  # candidates in Sc, tried, within the limits; refine factor
     nolim = grid(G[8 * n + 15:], 6, 2)  # ±inf: a 6R arm's closed form keeps every branch
-    lim6 = nolim
-    if n == 7:
-        lim6 = _limits6(lim, free)
+    lim6 = _limits6(lim, free) if n == 7 else nolim
     for attempt in range(2):
         if attempt == 1:
             # nothing within the limits: the search (6R) or the sweep (7R) once more on a finer grid
-            if inlim > 0 or refine <= 1 or (n == 6 and fam != sp.FAM_SEARCH):
+            go, samples, nfree = _retry(inlim, refine, n, fam, samples, nfree)
+            if not go:
                 break
-            samples *= refine
-            nfree *= refine
             nc = 0  # a 6R search finds its earlier candidates again; a 7R sweep kept none
         inlim = 0
         if n == 6:

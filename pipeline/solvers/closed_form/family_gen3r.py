@@ -45,9 +45,10 @@ import numba
 import numpy as np
 
 from pipeline.solvers.closed_form.family_3p import p3_last
-from pipeline.solvers.closed_form.family_sph import sph_fixed, sph_goal, sph_wrist
+from pipeline.solvers.closed_form.family_sph import keep_wrists, sph_fixed, sph_goal, sph_wrist_at
 from pipeline.solvers.closed_form.subproblems import (ONE, about, any_perp, cis, cross, dot, fits, gm9, lines, mtv9,
                                                       perp, rotz, sp1d, sub, t9, wrist9)
+from pipeline.solvers.kernels.kin import small_svd
 
 FAM_SPH3R, FAM_3PO = 4, 5
 REAL_TOL = 1e-6  # a root t of the quartic whose imaginary part is below this × (1 + |t|) is taken as real
@@ -207,7 +208,7 @@ def sph3r_fixed(H, P, RM, pM):
     θ3 side of the pair, ``A (cos θ3, sin θ3) + e = (h2 · (x − p2), |x − p2|²)``, x = E_3 c."""
     fx = sph_fixed(0, H, P, RM, pM)
     hs, ps, c = fx[0], fx[1], fx[2]
-    h2, p2, h3, p3 = hs[1], ps[1], hs[2], ps[2]
+    h2, h3, p3 = hs[1], hs[2], ps[2]
     d, g23 = sub(c, p3), sub(p3, ps[1])
     a0, ac, as_ = _sinusoid(h3, h2, d)
     b0, bc, bs = _sinusoid(h3, g23, d)
@@ -268,20 +269,14 @@ def solve_sph3r(H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
             t2, t3, free = sph3r_joints23(fx3, w, U, u0, t1, cis(pref[1]))
         if not (fits(t1, lim, 0) and fits(t2, lim, 1) and fits(t3, lim, 2)):
             continue
-        d4, d6 = ONE, ONE
-        for _ in range(2):
-            v = sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, d4, d6)
-            if not v[7]:
-                break
-            d4, d6 = cis(-pref[3]), cis(pref[5])
+        v = sph_wrist_at(fx, gh6, ge6, t1, t2, t3, clip, pref)
         if not v[6]:
             continue
-        for sc in range(2):
-            t4, t5, t6 = (v[0], v[1], v[2]) if sc == 0 else (v[3], v[4], v[5])
-            if fits(t4, lim, 3) and fits(t5, lim, 4):
-                n = _store(Q, n, t1, t2, t3, t4, t5, t6)
-                if weak and n <= Q.shape[0]:
-                    _polish_row(H, P, RM, pM, Rg, pg, Q, n - 1)
+        n0 = n
+        n = keep_wrists(Q, n, t1, t2, t3, v, lim)
+        if weak:
+            for r in range(n0, min(n, Q.shape[0])):
+                _polish_row(H, P, RM, pM, Rg, pg, Q, r)
     return n
 
 
@@ -407,29 +402,13 @@ def weak_pair(H, P, RM, pM, i, j):
 
 @numba.njit(cache=True, error_model="numpy")
 def _solve6(J, e, x):
-    """x = J⁻¹ e by Gaussian elimination with partial pivoting (J (6, 6) and e (6,) overwritten); False
-    when a pivot vanishes."""
-    for c in range(6):
-        piv, best = c, abs(J[c, c])
-        for r in range(c + 1, 6):
-            if abs(J[r, c]) > best:
-                piv, best = r, abs(J[r, c])
-        if best < 1e-14:
-            return False
-        if piv != c:
-            for k in range(6):
-                J[c, k], J[piv, k] = J[piv, k], J[c, k]
-            e[c], e[piv] = e[piv], e[c]
-        for r in range(c + 1, 6):
-            f = J[r, c] / J[c, c]
-            for k in range(c, 6):
-                J[r, k] -= f * J[c, k]
-            e[r] -= f * e[c]
-    for c in range(5, -1, -1):
-        s = e[c]
-        for k in range(c + 1, 6):
-            s -= J[c, k] * x[k]
-        x[c] = s / J[c, c]
+    """x = J⁻¹ e (J (6, 6), e and x (6,)) through the kernels' small SVD
+    (:func:`pipeline.solvers.kernels.kin.small_svd`): ``x = V S⁻¹ Uᵀ e``; False when J is singular
+    (its smallest singular value below 1e-14 of its largest)."""
+    U, S, Vt = small_svd(J)
+    if not S[5] > 1e-14 * S[0]:
+        return False
+    x[:] = np.dot(np.dot(e, U) / S, Vt)  # (Uᵀ e / S) · Vt = V S⁻¹ Uᵀ e
     return True
 
 

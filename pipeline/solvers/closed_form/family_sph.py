@@ -58,6 +58,32 @@ def sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, d4, d6):
     return a4, a5, a6, b4, b5, b6, ok, (f | fa | fb) & ok
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def sph_wrist_at(fx, gh6, ge6, t1, t2, t3, clip, pref):
+    """:func:`sph_wrist` for joints 1-3 at (t1, t2, t3): first with the free angles' defaults at zero,
+    once more with the start's θ4 and θ6 (``pref``, rad) where the wrist is singular and took them
+    (``v[7]``)."""
+    d4, d6 = ONE, ONE
+    v = sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, d4, d6)
+    if v[7]:
+        v = sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, cis(-pref[3]), cis(pref[5]))
+    return v
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def keep_wrists(Q, n, t1, t2, t3, v, lim):
+    """Append to ``Q`` (rows e^{iθ}, 6 columns) after its ``n`` rows the two wrist branches of ``v``
+    (:func:`sph_wrist`'s result) with joints 1-3 at (t1, t2, t3), each whose θ4 and θ5 fit ``lim``
+    (6, 2); the new count (rows past ``Q``'s counted, not stored)."""
+    for sc in range(2):
+        t4, t5, t6 = (v[0], v[1], v[2]) if sc == 0 else (v[3], v[4], v[5])
+        if fits(t4, lim, 3) and fits(t5, lim, 4):
+            if n < Q.shape[0]:
+                Q[n, 0], Q[n, 1], Q[n, 2], Q[n, 3], Q[n, 4], Q[n, 5] = t1, t2, t3, t4, t5, t6
+            n += 1
+    return n
+
+
 @numba.njit(cache=True, error_model="numpy")
 def solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
     """Spherical wrist: up to 8 candidate solutions into Q; returns their count. A branch whose
@@ -75,21 +101,9 @@ def solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
             t1, t2, t3, ok = (r[0], r[1], r[2], r[3]) if sb == 0 else (r[4], r[5], r[6], r[7])
             if not ok or not (fits(t1, lim, 0) and fits(t2, lim, 1) and fits(t3, lim, 2)):
                 continue
-            d4, d6 = ONE, ONE
-            for _ in range(2):
-                v = sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, d4, d6)
-                if not v[7]:
-                    break
-                d4, d6 = cis(-pref[3]), cis(pref[5])
-            if not v[6]:
-                continue
-            for sc in range(2):
-                t4, t5, t6 = (v[0], v[1], v[2]) if sc == 0 else (v[3], v[4], v[5])
-                if not (fits(t4, lim, 3) and fits(t5, lim, 4)):
-                    continue
-                if n < Q.shape[0]:
-                    Q[n, 0], Q[n, 1], Q[n, 2], Q[n, 3], Q[n, 4], Q[n, 5] = t1, t2, t3, t4, t5, t6
-                n += 1
+            v = sph_wrist_at(fx, gh6, ge6, t1, t2, t3, clip, pref)
+            if v[6]:
+                n = keep_wrists(Q, n, t1, t2, t3, v, lim)
     return n
 
 

@@ -57,6 +57,7 @@ import numpy as np
 from pipeline.kinematics import fk_htm
 from pipeline.solvers.kernels.kin import quat_from_rot
 from pipeline.solvers.core import Prepared, Raw, Settings, StopReason, setting
+from pipeline.solvers.core.driver import run_of
 from pipeline.solvers.core.models import metric
 from pipeline.solvers.core.registry import Solver, register
 from pipeline.solvers.core.timing import clock_ns
@@ -121,6 +122,13 @@ class PybulletSettings(Settings):
                                         "this, 0 = not passed (pybullet's default, 1e-4 m)", unit="m", minimum=0.0)
     joint_damping: float = setting(0.0, "jointDamping (the same for every joint), 0 = not passed (pybullet's "
                                    "default: none)", minimum=0.0)
+
+
+def one_call_raw(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, q: np.ndarray, ns: int) -> Raw:
+    """The Raw of a peer's one library call: joints ``q`` (n,) (NON_FINITE where any is not finite, else
+    SUCCESS, the FK check judging it), no iteration count, ``ns`` the call's time [ns], the two-row trace."""
+    code = SUCCESS if np.isfinite(q).all() else NON_FINITE
+    return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), trace=start_end_trace(prep, T_goal, q_start, q))
 
 
 def _pybullet_model(prep: Prepared):
@@ -200,19 +208,13 @@ def _pybullet_bind(prep: Prepared, s: PybulletSettings):
         t0 = clock_ns()
         out = calc(body, ee, pos, orn, currentPositions=q0, physicsClientId=cid, **kw)
         ns = clock_ns() - t0
-        q = returned_angles(prep, m.q_out(out), s)
-        code = SUCCESS if np.isfinite(q).all() else NON_FINITE
-        return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), trace=start_end_trace(prep, T_goal, q_start, q))
+        return one_call_raw(prep, T_goal, q_start, returned_angles(prep, m.q_out(out), s), ns)
     return run1
-
-
-def _pybullet_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: PybulletSettings, seed: int) -> Raw:
-    return _pybullet_bind(prep, s)(T_goal, q_start, seed)
 
 
 register(Solver("pybullet_ik", "pybullet calculateInverseKinematics (Bullet's damped least squares, C++), one call "
                 f"from the start; its documented default call unless settings say otherwise (peer baseline; {TIME})",
-                "local", PybulletSettings, _pybullet_run, applies_to=_pybullet_applies, source=SOURCE_PYBULLET,
+                "local", PybulletSettings, run_of(_pybullet_bind), applies_to=_pybullet_applies, source=SOURCE_PYBULLET,
                 bind=_pybullet_bind, library="pybullet"))
 
 
@@ -272,16 +274,11 @@ def _ikpy_bind(prep: Prepared, s: IkpySettings):
         t0 = clock_ns()
         out = ik(pos, rot, orientation_mode="all", initial_position=init, **kw)
         ns = clock_ns() - t0
-        q = returned_angles(prep, m.q_out(np.asarray(out, dtype=float)[act]), s)
-        code = SUCCESS if np.isfinite(q).all() else NON_FINITE
-        return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), trace=start_end_trace(prep, T_goal, q_start, q))
+        return one_call_raw(prep, T_goal, q_start, returned_angles(prep, m.q_out(np.asarray(out, dtype=float)[act]), s),
+                            ns)
     return run1
-
-
-def _ikpy_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: IkpySettings, seed: int) -> Raw:
-    return _ikpy_bind(prep, s)(T_goal, q_start, seed)
 
 
 register(Solver("ikpy", "ikpy Chain.inverse_kinematics (SciPy least squares on the full pose within the URDF's "
                 f"joint bounds), one search from the start (peer baseline; {TIME})", "local", IkpySettings,
-                _ikpy_run, applies_to=_ikpy_applies, source=SOURCE_IKPY, bind=_ikpy_bind, library="ikpy"))
+                run_of(_ikpy_bind), applies_to=_ikpy_applies, source=SOURCE_IKPY, bind=_ikpy_bind, library="ikpy"))

@@ -60,6 +60,7 @@ import numpy as np
 
 from pipeline.kinematics import fk_htm
 from pipeline.solvers.core import Prepared, Raw, Settings, SettingsError, StopReason, setting
+from pipeline.solvers.core.driver import run_of
 from pipeline.solvers.core.models import metric
 from pipeline.solvers.core.registry import Solver, register
 from pipeline.solvers.core.timing import clock_ns
@@ -134,6 +135,24 @@ def _loop(error, step, q0_update, it_max: int, pos_tol: float, ori_tol: float, q
         k += 1
 
 
+def _loop_run1(prep: Prepared, s: QPLoopSettings, conf, target, error, step, failed):
+    """run1(T_goal, q_start, seed) -> Raw of a fixed-step QP peer: the task's target set from the goal
+    (``target(T)`` with T (4, 4) in metres), the start moved into the limits, then :func:`_loop` timed
+    (its cap ``max_iterations``, its stop test ``pos_threshold`` / ``ori_threshold``)."""
+    m = metric(prep)
+    it_max, pos_tol, ori_tol = int(s.max_iterations), float(s.pos_threshold), float(s.ori_threshold)
+    bounds = _bounds(m.limits)
+
+    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
+        target(m.goal(T_goal))
+        q0 = _into_limits(m.q_in(q_start), bounds)
+        t0 = clock_ns()
+        out = _loop(lambda: error(conf), step, lambda: conf.update(q0), it_max, pos_tol, ori_tol, failed)
+        ns = clock_ns() - t0
+        return _raw(prep, T_goal, q_start, s, np.array(conf.q), out, ns)
+    return run1
+
+
 def _raw(prep, T_goal, q_start, s, qm, out, ns) -> Raw:
     ok, k, el, ea, qp_failed = out
     m = metric(prep)
@@ -174,11 +193,8 @@ def _pink_applies(prep: Prepared) -> str | None:
 def _pink_bind(prep: Prepared, s: QPLoopSettings):
     """run1(T_goal, q_start, seed) -> Raw with the configuration, task and loop made once per job."""
     pink, pin, conf, task = prep.memo(("peers", "pink"), lambda: _pink_model(prep))
-    m = metric(prep)
     limits = None if s.limits else []
     dt, solver, damping = float(s.dt), _qp_solver(s), float(s.damping)
-    it_max, pos_tol, ori_tol = int(s.max_iterations), float(s.pos_threshold), float(s.ori_threshold)
-    bounds = _bounds(m.limits)
     failed = importlib.import_module("pink.exceptions").NoSolutionFound
     solve_ik, error = pink.solve_ik, task.compute_error
 
@@ -186,23 +202,12 @@ def _pink_bind(prep: Prepared, s: QPLoopSettings):
         conf.integrate_inplace(solve_ik(conf, [task], dt, solver=solver, damping=damping, limits=limits,
                                         safety_break=False), dt)
 
-    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
-        task.set_target(pin.SE3(m.goal(T_goal)))
-        q0 = _into_limits(m.q_in(q_start), bounds)
-        t0 = clock_ns()
-        out = _loop(lambda: error(conf), step, lambda: conf.update(q0), it_max, pos_tol, ori_tol, failed)
-        ns = clock_ns() - t0
-        return _raw(prep, T_goal, q_start, s, np.array(conf.q), out, ns)
-    return run1
-
-
-def _pink_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: QPLoopSettings, seed: int) -> Raw:
-    return _pink_bind(prep, s)(T_goal, q_start, seed)
+    return _loop_run1(prep, s, conf, lambda G: task.set_target(pin.SE3(G)), error, step, failed)
 
 
 register(Solver("pink", "pink (Pinocchio differential IK: frame task, configuration limit, daqp QP) in a fixed-step "
                 f"loop from the start (peer baseline; {TIME}, Python loop included)", "local", QPLoopSettings,
-                _pink_run, applies_to=_pink_applies, source=SOURCE_PINK, bind=_pink_bind, library="pin-pink"))
+                run_of(_pink_bind), applies_to=_pink_applies, source=SOURCE_PINK, bind=_pink_bind, library="pin-pink"))
 
 
 # ---- mink -------------------------------------------------------------------------------------
@@ -287,34 +292,20 @@ def _mink_applies(prep: Prepared) -> str | None:
 def _mink_bind(prep: Prepared, s: QPLoopSettings):
     """run1(T_goal, q_start, seed) -> Raw with the configuration, task, limits and loop made once per job."""
     mink, conf, task, climit = prep.memo(("peers", "mink"), lambda: _mink_model(prep))
-    m = metric(prep)
     limits = [climit] if s.limits else []
     dt, solver, damping = float(s.dt), _qp_solver(s), float(s.damping)
-    it_max, pos_tol, ori_tol = int(s.max_iterations), float(s.pos_threshold), float(s.ori_threshold)
-    bounds = _bounds(m.limits)
     failed = importlib.import_module("mink.exceptions").NoSolutionFound
     solve_ik, error = mink.solve_ik, task.compute_error
 
     def step():
         conf.integrate_inplace(solve_ik(conf, [task], dt, solver, damping=damping, limits=limits), dt)
 
-    def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
-        task.set_target(mink.SE3.from_matrix(m.goal(T_goal)))
-        q0 = _into_limits(m.q_in(q_start), bounds)
-        t0 = clock_ns()
-        out = _loop(lambda: error(conf), step, lambda: conf.update(q0), it_max, pos_tol, ori_tol, failed)
-        ns = clock_ns() - t0
-        return _raw(prep, T_goal, q_start, s, np.array(conf.q), out, ns)
-    return run1
-
-
-def _mink_run(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, s: QPLoopSettings, seed: int) -> Raw:
-    return _mink_bind(prep, s)(T_goal, q_start, seed)
+    return _loop_run1(prep, s, conf, lambda G: task.set_target(mink.SE3.from_matrix(G)), error, step, failed)
 
 
 register(Solver("mink", "mink (MuJoCo differential IK: frame task, configuration limit, daqp QP) in a fixed-step loop "
-                f"from the start (peer baseline; {TIME}, Python loop included)", "local", QPLoopSettings, _mink_run,
-                applies_to=_mink_applies, source=SOURCE_MINK, bind=_mink_bind, library="mink"))
+                f"from the start (peer baseline; {TIME}, Python loop included)", "local", QPLoopSettings,
+                run_of(_mink_bind), applies_to=_mink_applies, source=SOURCE_MINK, bind=_mink_bind, library="mink"))
 
 
 # ---- placo ------------------------------------------------------------------------------------
