@@ -26,12 +26,13 @@ import numpy as np
 
 from pipeline.kinematics.chain import Chain
 from pipeline.kinematics.folding import lines_chain
-from pipeline.kinematics.geometry import (Decomposition, Lines, classify, common_point, joint_lines, line_relation,
-                                          reverse_lines)
+from pipeline.kinematics.geometry import (FAMILIES, Decomposition, Lines, classify, common_point, joint_lines,
+                                          line_relation, reverse_lines)
 
 NEAR_TOL = 1e-3  # default: a right angle typed 1.571 (2e-4 rad off) or 1.5708 (4e-6), a length rounded to
 #                   0.1 mm on a 1 m arm; far below any offset an arm is built with (a wrist offset of 1 % of the reach)
-RANK = {"spherical_wrist": 0, "three_parallel": 0, "two_intersecting_search": 1, None: 2}  # exact closed forms first
+# every closed form of up to 8 solutions first, then the one-dimensional search, then none
+RANK = {**{f: 1 if f == "two_intersecting_search" else 0 for f in FAMILIES}, None: 2}
 
 
 @dataclass(frozen=True)
@@ -93,11 +94,13 @@ def _exact(L: Lines, d: Decomposition) -> tuple[Lines, float, float]:
     """The lines of the (possibly reversed) 6R chain ``L`` moved onto family ``d``: (lines, moved, turned)."""
     h, p = L.h.copy(), L.p.copy()
     moved = turned = 0.0
-    if d.family == "spherical_wrist":
+    if d.family in ("spherical_wrist", "spherical_wrist_3r"):  # the wrist's three lines meet
         moved = _meet(L, (3, 4, 5), h, p)
     elif d.family == "three_parallel":
         turned = _parallel(L, (1, 2, 3), h)
         moved = _meet(L, (4, 5), h, p)
+    elif d.family == "three_parallel_offset":  # axes 2-4 parallel, the other end's pair skew
+        turned = _parallel(L, (1, 2, 3), h)
     elif d.family == "two_intersecting_search":
         moved = _meet(L, (3, 4) if d.searched == 6 else (4, 5), h, p)
     case = d.position_case
