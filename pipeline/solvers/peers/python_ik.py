@@ -50,6 +50,7 @@ import importlib
 import os
 import tempfile
 import warnings
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -131,17 +132,37 @@ def one_call_raw(prep: Prepared, T_goal: np.ndarray, q_start: np.ndarray, q: np.
     return Raw(q=q, code=code, iterations=0, solve_ns=int(ns), trace=start_end_trace(prep, T_goal, q_start, q))
 
 
+_PYBULLET_CLIENT: list = []  # this process's one DIRECT physics client (pybullet allocates ~30 MB a client)
+
+
+def _pybullet_client(pb) -> int:
+    """The process's DIRECT (no GUI) pybullet client, connected on first use; every robot is a body in it."""
+    if not _PYBULLET_CLIENT or not pb.isConnected(physicsClientId=_PYBULLET_CLIENT[0]):
+        with _quiet_stdout():
+            _PYBULLET_CLIENT[:] = [pb.connect(pb.DIRECT)]
+    return _PYBULLET_CLIENT[0]
+
+
+def _remove_body(pb, cid: int, body: int) -> None:
+    """Remove a robot's body from the shared client (when its prepared robot is collected)."""
+    if pb.isConnected(physicsClientId=cid):
+        pb.removeBody(body, physicsClientId=cid)
+
+
 def _pybullet_model(prep: Prepared):
     """(pybullet module, client id, body id, end-effector link index), the FK checked."""
     pb = importlib.import_module("pybullet")
     m = metric(prep)
     path = _urdf_file(prep)
     try:
+        cid = _pybullet_client(pb)
         with _quiet_stdout():
-            cid = pb.connect(pb.DIRECT)
             body = pb.loadURDF(path, useFixedBase=True, physicsClientId=cid)
     finally:
         os.unlink(path)
+    # the body goes with the prepared robot (a client per robot kept about 30 MB each: thousands of drawn
+    # arms in the contract tests filled the memory)
+    weakref.finalize(prep, _remove_body, pb, cid, body)
     names = [pb.getJointInfo(body, j, physicsClientId=cid)[12].decode() for j in range(pb.getNumJoints(body, physicsClientId=cid))]
     if "tool0" not in names:
         raise ValueError("pybullet's body has no link tool0")
