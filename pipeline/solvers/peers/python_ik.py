@@ -50,7 +50,6 @@ import importlib
 import os
 import tempfile
 import warnings
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -143,12 +142,6 @@ def _pybullet_client(pb) -> int:
     return _PYBULLET_CLIENT[0]
 
 
-def _remove_body(pb, cid: int, body: int) -> None:
-    """Remove a robot's body from the shared client (when its prepared robot is collected)."""
-    if pb.isConnected(physicsClientId=cid):
-        pb.removeBody(body, physicsClientId=cid)
-
-
 def _pybullet_model(prep: Prepared):
     """(pybullet module, client id, body id, end-effector link index), the FK checked."""
     pb = importlib.import_module("pybullet")
@@ -160,9 +153,9 @@ def _pybullet_model(prep: Prepared):
             body = pb.loadURDF(path, useFixedBase=True, physicsClientId=cid)
     finally:
         os.unlink(path)
-    # the body goes with the prepared robot (a client per robot kept about 30 MB each: thousands of drawn
-    # arms in the contract tests filled the memory)
-    weakref.finalize(prep, _remove_body, pb, cid, body)
+    # one client for every robot (a client per robot kept about 30 MB each: the contract tests' thousands of
+    # drawn arms filled the memory); a body stays in it while the process lives (a prepared robot's memo may
+    # be shared by another, so no body is removed)
     names = [pb.getJointInfo(body, j, physicsClientId=cid)[12].decode() for j in range(pb.getNumJoints(body, physicsClientId=cid))]
     if "tool0" not in names:
         raise ValueError("pybullet's body has no link tool0")
