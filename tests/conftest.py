@@ -99,3 +99,19 @@ def run_pipeline(*args, env=None, cwd=None):
 
     return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True,
                           env={**os.environ, **(env or {})}, cwd=cwd or ROOT)
+
+
+def mutated(good: dict, path, value):
+    """A deep copy of the robot document ``good`` with the field at ``path`` (keys and indices) set to
+    ``value``, or removed where ``value`` is ``KeyError``."""
+    import yaml
+
+    doc = yaml.safe_load(yaml.safe_dump(good))
+    node = doc
+    for k in path[:-1]:
+        node = node[k]
+    if value is KeyError:
+        del node[path[-1]]
+    else:
+        node[path[-1]] = value
+    return doc

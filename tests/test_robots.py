@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from pipeline.robots import RobotFileError, load_robot
-from tests.conftest import DATA
+from tests.conftest import DATA, mutated
 
 GOOD = {
     "name": "arm",
@@ -30,15 +30,7 @@ def _write(tmp_path, doc, name="arm"):
 
 
 def _mutate(path, value):
-    doc = yaml.safe_load(yaml.safe_dump(GOOD))
-    node = doc
-    for k in path[:-1]:
-        node = node[k]
-    if value is KeyError:
-        del node[path[-1]]
-    else:
-        node[path[-1]] = value
-    return doc
+    return mutated(GOOD, path, value)
 
 
 def test_good_file_loads(tmp_path):

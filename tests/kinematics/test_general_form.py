@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from pipeline.kinematics import Chain, dq_to_transform, fk_dq, fk_htm, geometric_jacobian
 from pipeline.kinematics.zero_position import pz_axes, pz_fk, pz_from_chain, pz_from_dh
 from pipeline.robots import RobotFileError, describe_general, load_robot, rpy_from_matrix, rpy_matrix
-from tests.conftest import DATA, random_chain, random_rotation, random_transform, homogeneous, rodrigues
+from tests.conftest import DATA, homogeneous, mutated, random_chain, random_rotation, random_transform, rodrigues
 
 ROBOTS = sorted((DATA / "robots").glob("*.yaml"))
 FD_STEP = 1e-6
@@ -127,15 +127,7 @@ def test_general_file_loads_and_matches_urdf_meaning(tmp_path):
 
 
 def _mutate(path, value):
-    doc = yaml.safe_load(yaml.safe_dump(GOOD))
-    node = doc
-    for k in path[:-1]:
-        node = node[k]
-    if value is KeyError:
-        del node[path[-1]]
-    else:
-        node[path[-1]] = value
-    return doc
+    return mutated(GOOD, path, value)
 
 
 @pytest.mark.parametrize(

@@ -57,6 +57,21 @@ def test_every_peer_is_registered():
     assert set(PEERS) <= set(names())
 
 
+
+def solved_goals(solver, prep, model, s, goals=GOALS):
+    """Each of ``goals`` warm goals (:func:`_goals`) solved through the public call, with what every peer
+    promises checked (finite joints of the arm's size, a solve time within the call time, an 8-column
+    trace): (results, goal poses T (goals, 4, 4))."""
+    Q, Q0, T = _goals(model, goals)
+    out = []
+    for i in range(goals):
+        res = solve(solver, prep, T[i], Q0[i], s, seed=i)
+        assert res.q.shape == (model.n,) and np.all(np.isfinite(res.q))
+        assert res.solve_time_s > 0 and res.call_time_s >= res.solve_time_s
+        assert res.trace.shape[1] == 8
+        out.append(res)
+    return out, T
+
 @pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("solver", PEERS)
 def test_warm_start_success(solver, robot):
@@ -68,12 +83,9 @@ def test_warm_start_success(solver, robot):
             prepare(solver, model, s)
         return
     prep = prepare(solver, model, s)
-    Q, Q0, T = _goals(model, GOALS)
+    results, T = solved_goals(solver, prep, model, s)
     ok = 0
-    for i in range(GOALS):
-        res = solve(solver, prep, T[i], Q0[i], s, seed=i)
-        assert res.q.shape == (model.n,) and np.all(np.isfinite(res.q))
-        assert res.solve_time_s > 0 and res.call_time_s >= res.solve_time_s
+    for i, res in enumerate(results):
         assert res.trace.shape == (min(res.iterations, 1) + 1, 8)
         if res.success:
             ok += 1

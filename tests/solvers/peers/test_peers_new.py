@@ -18,7 +18,7 @@ import pytest
 from pipeline.kinematics import fk_htm
 from pipeline.solvers import NotApplicableError, make_settings, names, prepare, solve
 from tests.conftest import ROOT
-from tests.solvers.peers.test_peers import _general_model, _goals, _robot
+from tests.solvers.peers.test_peers import _general_model, _goals, _robot, solved_goals
 
 LIBRARY = {"pybullet_ik": "pybullet", "ikpy": "ikpy", "pink": "pink", "mink": "mink", "placo": "placo"}
 TUNED = {"max_num_iterations": 100, "residual_threshold": 1e-6, "joint_damping": 0.01}
@@ -39,13 +39,8 @@ def test_warm_start_success(solver, robot):
     model = _robot(robot)
     s = make_settings(solver, TUNED if solver == "pybullet_ik" else None)
     prep = prepare(solver, model, s)
-    Q, Q0, T = _goals(model, GOALS)
     ok = 0
-    for i in range(GOALS):
-        res = solve(solver, prep, T[i], Q0[i], s, seed=i)
-        assert res.q.shape == (model.n,) and np.all(np.isfinite(res.q))
-        assert res.solve_time_s > 0 and res.call_time_s >= res.solve_time_s
-        assert res.trace.shape[1] == 8
+    for res in solved_goals(solver, prep, model, s, GOALS)[0]:
         ok += res.success
         if solver in ("pink", "mink"):  # the configuration limit keeps every iterate within the limits
             lim = model.limits
