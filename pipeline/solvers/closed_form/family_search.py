@@ -337,6 +337,7 @@ def solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q):
     nb = _sign_changes(ctx, N, Fs, Vs, THs, BR, BB, F1, V1, TH)
     nb = _dips(ctx, N, Fs, Vs, BR, BB, nb, F1, V1, TH)
     t = np.zeros(6, np.complex128)
+    e5, e6 = any_perp(h5), any_perp(h6)  # the wrist pair's reference directions, once per pose
     n = 0
     for kb in range(nb):
         b = BB[kb]
@@ -346,7 +347,7 @@ def solve_search(mode, case, H, P, RM, pM, Rg, pg, clip, pref, samples, Q):
             continue
         t[0], t[1], t[2] = TH[b, 0], TH[b, 1], TH[b, 2]
         t[3 if mode == 4 else 5] = cis(root)
-        _wrist_pair(mode, H, Rg, RM, g, any_perp(h5), any_perp(h6), pref, t)
+        _wrist_pair(mode, H, Rg, RM, g, e5, e6, pref, t)
         n = _keep(Q, n, t)
     return n
 
