@@ -34,6 +34,8 @@ CPU (the worker's ``bare_cpu_s``: no Python stop test).
 from __future__ import annotations
 
 import argparse
+import importlib.metadata as md
+import platform
 import subprocess
 import sys
 import tempfile
@@ -70,6 +72,7 @@ def placo_inputs(model, prep, ps, G, restarts: int) -> dict:
             RS[i, k] = box[:, 0] + (box[:, 1] - box[:, 0]) * rng.random(prep.n)
     return {"urdf": np.array(urdf), "joints": np.array(joints), "tip": np.array("tool0"), "goals": G,
             "starts": np.asarray(ps.q_start, dtype=float), "restart_starts": RS, "seed": np.array(7),
+            "fk_q": RS[:, 0],
             **{k: np.array(v) for k, v in LOOP.items()}}
 
 
@@ -116,60 +119,74 @@ def run_ours(prep, G, ps, seed: int = 0) -> dict:
     return {"labels": labels, "ok": ok, "cpu": cpu, "wall": wall, "kernel": kernel}
 
 
-def arm(robot: str, goals: int, python: str) -> tuple[list[str], dict]:
-    """One arm: placo's run, ours, the paired table (markdown lines) and the raw numbers."""
+def arm(robot: str, goals: int, python: str) -> tuple[list[str], list[str]]:
+    """One arm: placo's run and ours on the same goals; (markdown lines, placo side's versions)."""
     from pipeline import solvers
-    from pipeline.studies.arm_answer import wilson
+    from pipeline.kinematics import fk_htm
 
-    t0 = time.process_time()
     model, ps = cold_goals(robot, goals)
     prep = solvers.Prepared(model)
     G = np.ascontiguousarray(ps.goal_transforms(), dtype=float)
     print(f"{robot}: placo on {len(G)} goals", file=sys.stderr, flush=True)
     w0 = time.perf_counter()
-    pl = run_placo(python, placo_inputs(model, prep, ps, G, RESTARTS))
-    placo_wall = time.perf_counter() - w0
+    inputs = placo_inputs(model, prep, ps, G, RESTARTS)
+    pl = run_placo(python, inputs)
+    pl["subprocess_wall_s"] = time.perf_counter() - w0
     print(f"{robot}: ours", file=sys.stderr, flush=True)
     ours = run_ours(prep, G, ps)
-    n = len(G)
-    placo_ok = {kind: np.array([peer_success(model, G[i], pl[f"{kind}_q"][i]) for i in range(n)])
+    pl["fk_max_diff"] = max(float(np.abs(pl["fk_T"][r] - fk_htm(model.chain, q)).max())
+                            for r, q in enumerate(inputs["fk_q"]))
+    placo_ok = {kind: np.array([peer_success(model, G[i], pl[f"{kind}_q"][i]) for i in range(len(G))])
                 for kind in ("single", "restarts")}
-    lines = [f"\n### {robot} ({n} cold goals)\n",
-             "| solver | search | success [%] (95 % CI) | CPU p50 [µs] | CPU p95 [µs] | wall p50 [µs] | "
-             "search's own p50 [µs] | only placo / only ours | McNemar p (exact, two-sided) | "
-             "CPU p50 ours / placo (whole calls) | ours / placo (searches' own) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [f"\n### {robot} ({len(G)} cold goals)\n", *table(pl, placo_ok, ours), "", note(pl, placo_ok)]
+    return lines, [str(v) for v in pl["versions"]]
+
+
+def table(pl: dict, placo_ok: dict, ours: dict) -> list[str]:
+    """The paired table: placo's row, then each of our labels with the same search against it."""
+    from pipeline.studies.arm_answer import wilson
+
+    n = len(placo_ok["single"])
+    us = lambda x, q=50: f"{np.percentile(x, q) * 1e6:.0f}"  # noqa: E731
 
     def pct(k):
         lo, hi = wilson(k, n)
         return f"{100 * k / n:.1f} ({100 * lo:.1f}-{100 * hi:.1f})"
 
+    lines = ["| solver | search | success [%] (95 % CI) | CPU p50 [µs] | CPU p95 [µs] | wall p50 [µs] | "
+             "search's own p50 [µs] | only placo / only ours | McNemar p (exact, two-sided) | "
+             "CPU p50 ours / placo (whole calls) | ours / placo (searches' own) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for kind in ("single", "restarts"):
-        k = int(placo_ok[kind].sum())
-        lines.append(f"| placo 0.10.2 | {kind} | {pct(k)} | {np.median(pl[f'{kind}_cpu_s']) * 1e6:.0f} | "
-                     f"{np.percentile(pl[f'{kind}_cpu_s'], 95) * 1e6:.0f} | {np.median(pl[f'{kind}_wall_s']) * 1e6:.0f} | "
-                     f"{np.median(pl[f'{kind}_bare_cpu_s']) * 1e6:.0f} |  |  |  |  |")
+        cpu, bare = pl[f"{kind}_cpu_s"], pl[f"{kind}_bare_cpu_s"]
+        lines.append(f"| placo 0.10.2 | {kind} | {pct(int(placo_ok[kind].sum()))} | {us(cpu)} | {us(cpu, 95)} | "
+                     f"{us(pl[f'{kind}_wall_s'])} | {us(bare)} |  |  |  |  |")
         for r, label in enumerate(ours["labels"]):
             if label.endswith("_restarts") != (kind == "restarts"):
                 continue
             o = ours["ok"][r]
             b, c = int((placo_ok[kind] & ~o).sum()), int((o & ~placo_ok[kind]).sum())
-            ratio = np.median(ours["cpu"][r]) / np.median(pl[f"{kind}_cpu_s"])
-            bare = np.median(ours["kernel"][r]) / np.median(pl[f"{kind}_bare_cpu_s"])
-            lines.append(f"| `{label}` | {kind} | {pct(int(o.sum()))} | {np.median(ours['cpu'][r]) * 1e6:.0f} | "
-                         f"{np.percentile(ours['cpu'][r], 95) * 1e6:.0f} | {np.median(ours['wall'][r]) * 1e6:.0f} | "
-                         f"{np.median(ours['kernel'][r]) * 1e6:.0f} | "
-                         f"{b} / {c} | {mcnemar_two_sided(b, c):.2g} | {ratio:.3f} | {bare:.3f} |")
-    conv = {kind: int(pl[f"{kind}_converged"].sum()) for kind in ("single", "restarts")}
-    agree = {kind: int((pl[f"{kind}_converged"].astype(bool) == placo_ok[kind]).sum()) for kind in conv}
-    lines.append(f"\nplaco's own stop test passed on {conv['single']} (single) and {conv['restarts']} (restarts) goals; "
-                 f"our FK check agrees with it on {agree['single']} and {agree['restarts']} of {n}. "
-                 f"QP failures: {int(pl['single_stalled'].sum())} / {int(pl['restarts_stalled'].sum())}. "
-                 f"Restarts used by placo, mean {pl['restarts_used'].mean():.2f}, max {int(pl['restarts_used'].max())}. "
-                 f"Steps per call, median {np.median(pl['single_iterations']):.0f} / {np.median(pl['restarts_iterations']):.0f}; "
-                 f"bare replay's largest angle difference {max(pl['single_replay_dq'].max(), pl['restarts_replay_dq'].max()):.1g}. "
-                 f"placo subprocess {placo_wall:.0f} s wall; this process {time.process_time() - t0:.0f} s CPU.")
-    return lines, {"versions": [str(v) for v in pl["versions"]]}
+            lines.append(f"| `{label}` | {kind} | {pct(int(o.sum()))} | {us(ours['cpu'][r])} | {us(ours['cpu'][r], 95)} | "
+                         f"{us(ours['wall'][r])} | {us(ours['kernel'][r])} | {b} / {c} | {mcnemar_two_sided(b, c):.2g} | "
+                         f"{np.median(ours['cpu'][r]) / np.median(cpu):.3f} | "
+                         f"{np.median(ours['kernel'][r]) / np.median(bare):.3f} |")
+    return lines
+
+
+def note(pl: dict, placo_ok: dict) -> str:
+    """What placo's run did: its own stop test against our FK check, QP failures, restarts, steps, replay."""
+    n = len(placo_ok["single"])
+    conv = {kind: int(pl[f"{kind}_converged"].sum()) for kind in placo_ok}
+    agree = {kind: int((pl[f"{kind}_converged"].astype(bool) == placo_ok[kind]).sum()) for kind in placo_ok}
+    dq = max(pl["single_replay_dq"].max(), pl["restarts_replay_dq"].max())
+    return (f"placo's own stop test passed on {conv['single']} (single) and {conv['restarts']} (restarts) goals; our FK "
+            f"check agrees with it on {agree['single']} and {agree['restarts']} of {n}. QP failures: "
+            f"{int(pl['single_stalled'].sum())} / {int(pl['restarts_stalled'].sum())}. Restarts placo used: mean "
+            f"{pl['restarts_used'].mean():.2f}, max {int(pl['restarts_used'].max())}. Steps per call, median "
+            f"{np.median(pl['single_iterations']):.0f} (single) / {np.median(pl['restarts_iterations']):.0f} (restarts); "
+            f"the bare replay's largest angle difference {dq:.1g}. placo's FK of the exported URDF against ours on "
+            f"{len(pl['fk_T'])} joint vectors (the first restart starts): largest entry difference "
+            f"{pl['fk_max_diff']:.1g} m. placo subprocess {pl['subprocess_wall_s']:.1f} s wall.")
 
 
 def main() -> None:
@@ -180,12 +197,17 @@ def main() -> None:
                     help="the python of placo's venv (bash benchmarks/placo_env.sh makes it)")
     ap.add_argument("--out", help="write the tables (markdown) here as well as printing them")
     args = ap.parse_args()
+    if not Path(args.placo_python).is_file():
+        sys.exit(f"bench_placo.py: --placo-python {args.placo_python}: no such file (make placo's venv first: "
+                 "bash benchmarks/placo_env.sh)")
     text = []
     for robot in args.robots.split(","):
-        lines, info = arm(robot, args.goals, args.placo_python)
+        lines, versions = arm(robot, args.goals, args.placo_python)
         print("\n".join(lines), flush=True)
         text += lines
-    text.append(f"\nplaco side: {', '.join(info['versions'])}")
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
+    text.append(f"\nplaco side: {', '.join(versions)}. Our side: python {platform.python_version()}, numpy "
+                f"{np.__version__}, numba {md.version('numba')}, commit {commit.strip() or '?'}.")
     print(text[-1])
     if args.out:
         Path(args.out).write_text("\n".join(text) + "\n")

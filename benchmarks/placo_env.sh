@@ -13,10 +13,17 @@ set -euo pipefail
 
 VENV="${1:-${PLACO_VENV:-/tmp/placo-venv}}"
 PYTHON="${PYTHON:-python3}"
-HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-case "$(cd "$(dirname "$VENV")" 2>/dev/null && pwd)/$(basename "$VENV")" in
-  "$HERE/.venv"|"$HERE/.venv/"*) echo "placo_env.sh: refusing to use the project's .venv ($VENV)" >&2; exit 2 ;;
+case "$VENV" in
+  */.venv|*/.venv/|.venv|.venv/) echo "placo_env.sh: refusing $VENV: a project's .venv is never placo's" >&2; exit 2 ;;
 esac
+if [ -x "$VENV/bin/python" ]; then  # an existing venv: only placo's own (its pin 3.8.0, or no pin yet)
+  have="$("$VENV/bin/python" -c 'import importlib.metadata as m
+try: print(m.version("pin"))
+except m.PackageNotFoundError: print("none")')"
+  if [ "$have" != "3.8.0" ] && [ "$have" != "none" ]; then
+    echo "placo_env.sh: refusing $VENV: it has pin $have, which placo's pin 3.8.0 would replace" >&2; exit 2
+  fi
+fi
 
 # placo 0.10.2's whole dependency set, every version exact (pip install --dry-run --report placo==0.10.2)
 PINS=(

@@ -9,7 +9,8 @@ Imports numpy and placo only (not the project: its lock's pin 4.1.0 is not this 
 ``IN.npz`` holds ``urdf`` (the arm's URDF text, from the project's ``to_urdf``), ``joints`` (its moving
 joints' names in the chain's order), ``tip`` (the tool frame's name), ``goals`` (N, 4, 4) [m],
 ``starts`` (N, n) [rad | m], ``restart_starts`` (N, R, n) [rad | m], ``max_iterations``,
-``pos_threshold`` [m], ``ori_threshold`` [rad] and ``seed`` (the order of the two calls per goal).
+``pos_threshold`` [m], ``ori_threshold`` [rad], ``seed`` (the order of the two calls per goal) and
+``fk_q`` (M, n) [rad | m] (joint vectors whose tool pose placo returns as ``fk_T`` (M, 4, 4) [m]).
 
 placo's documented kinematics-solver set-up (placo.readthedocs.io, "Kinematics / Getting started" and
 "Joint and velocity limits"): ``RobotWrapper`` of the URDF, ``KinematicsSolver`` with the floating base
@@ -157,6 +158,13 @@ def main() -> None:
         if kind == "restarts":
             out["restarts_used"][i] = len(runs) - 1
 
+    fk = np.empty((len(d["fk_q"]), 4, 4))  # placo's FK of the model as loaded, for the caller to check
+    for r, q in enumerate(d["fk_q"]):
+        for name, v in zip(joints, q):
+            robot.set_joint(name, float(v))
+        robot.update_kinematics()
+        fk[r] = robot.get_T_world_frame(tip)
+    out["fk_T"] = fk
     call(0, "single")  # first call outside the record (first-touch allocations)
     rng = np.random.default_rng(int(d["seed"]))
     for i in range(N):
