@@ -123,6 +123,7 @@ def method_table(df: pd.DataFrame, meta: dict, timing: dict | None = None) -> pd
     for (robot, pset, label), g in df.groupby(["robot", "problem_set", "solver"], sort=False):
         method = g["method"].iloc[0]
         library = g["library"].iloc[0] if "library" in g else "ours"
+        version = g["library_version"].iloc[0] if "library_version" in g else ""
         settings = meta.get(label, (method, {}))[1]
         r = int(settings.get("restarts", 0) or 0)
         ok = g[g["success"].astype(bool)]
@@ -135,7 +136,8 @@ def method_table(df: pd.DataFrame, meta: dict, timing: dict | None = None) -> pd
         dist = joint_distance(ok["q_solution"], ok["q_start"]) if len(ok) else np.array([])
         rows.append({
             "robot": robot, "problem set": pset, "solver": label, "method": method, "library": library,
-            "kind": method_kind(method), "search": f"restarts (<= {r})" if r else "single", "problems": n,
+            "library version": version, "kind": method_kind(method),
+            "search": f"restarts (<= {r})" if r else "single", "problems": n,
             "success [%]": 100 * k / n, "success CI low [%]": 100 * lo, "success CI high [%]": 100 * hi,
             "within limits [%]": 100 * g["within_limits"].astype(bool).mean(),
             "successes not nearest the seed": int(g["not nearest"].sum()) if "not nearest" in g else 0,
@@ -396,7 +398,8 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
         text += smoke_text
         call = python_call(robot, method, settings, (robot_files or {}).get(robot, ""), warm)
         rows.append({**base, "recommendation": label, "in words": words, "method": method,
-                     "library": pick["library"], "settings": json.dumps(settings, sort_keys=True),
+                     "library": pick["library"], "library version": pick.get("library version", ""),
+                     "settings": json.dumps(settings, sort_keys=True),
                      "success [%]": pick["success [%]"], "success CI low [%]": pick["success CI low [%]"],
                      "success CI high [%]": pick["success CI high [%]"], "its goals": int(pick["problems"]),
                      "call time p50 [µs]": t_med, "timing": how,
@@ -410,6 +413,7 @@ def answers(mt: pd.DataFrame, df: pd.DataFrame, meta: dict, scale: str = "", rob
 
 
 ANSWER_COLUMNS = ["robot", "problem set", "goals", "smoke run", "recommendation", "in words", "method", "library",
+                  "library version",
                   "settings", "success [%]", "success CI low [%]", "success CI high [%]", "its goals",
                   "call time p50 [µs]", "timing", "distance to seed p50 [rad]", "distance to seed p95 [rad]",
                   "best rate label", "best rate [%]", "not significantly worse", "not for tracking", "finalists",

@@ -51,13 +51,16 @@ from pipeline.studies.arm_answer import (ALPHA, ANSWER_COLUMNS, BUDGETS_US, KEY_
                                          Z95, answers, in_words, is_warm, job_timing, label_settings, method_table,
                                          percentile, pick_fastest, python_call, race_summary, shortlist,
                                          method_kind, success_by_problem, warm_sets, wilson, worse_p)
+from pipeline.studies.common import library_label
 from pipeline.studies.generic import runs_frame
 
 
 def plain_table(ans: pd.DataFrame) -> pd.DataFrame:
     """The answer in plain words, one row per arm and start set (what the report opens with)."""
     return pd.DataFrame({
-        "arm": ans["robot"], "starts": ans["problem set"], "method": ans["in words"], "library": ans["library"],
+        "arm": ans["robot"], "starts": ans["problem set"], "method": ans["in words"],
+        "library": [library_label(lib, ver) for lib, ver in
+                    zip(ans["library"], ans.get("library version", pd.Series([""] * len(ans))).fillna(""))],
         "success [%] (95 % CI)": [f"{s:.1f} ({lo:.1f}-{hi:.1f})" for s, lo, hi in
                                   zip(ans["success [%]"], ans["success CI low [%]"], ans["success CI high [%]"])],
         "median call [µs]": ans["call time p50 [µs]"].round(1),
@@ -133,6 +136,12 @@ _FULL_COLUMNS = ["problem set", "solver", "library", "problems", "success [%]", 
 _KEY_COLUMNS = ["solver", "problem set", "library", "problems", "success [%]", "success 95 % CI [%]",
                 "call time p50 [µs]", "call time p95 [µs]", "CPU time p50 [µs]",
                 "joint distance to start p50, successes [rad]", "position error p99, successes [mm]"]
+
+
+def _versioned(t: pd.DataFrame) -> pd.DataFrame:
+    """``t`` with its ``library`` column showing each peer's version (:func:`library_label`)."""
+    versions = t["library version"].fillna("") if "library version" in t else [""] * len(t)
+    return t.assign(library=[library_label(lib, v) for lib, v in zip(t["library"], versions)])
 
 
 NEAREST_TOL = 1e-9  # [rad] a returned solution is the nearest when no admissible one is nearer by more than this
@@ -257,7 +266,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         keys = key_labels(mt, ans, robot)
         k = g[g["solver"].isin(keys)].copy()
         k["_o"] = k["solver"].map({s: i for i, s in enumerate(keys)})
-        k = k.sort_values(["_o", "problem set"])[_KEY_COLUMNS].rename(columns={
+        k = _versioned(k.sort_values(["_o", "problem set"]))[_KEY_COLUMNS].rename(columns={
             "problem set": "set", "joint distance to start p50, successes [rad]": "joint distance to start p50 [rad]",
             "position error p99, successes [mm]": "position error p99 [mm]"})
         tables.append(TableSpec(
@@ -272,7 +281,7 @@ def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
         job = g["job CPU share [%]"].iloc[0]
         tables.append(TableSpec(
             f"robot_{robot}", f"{robot}: every method, cold and warm starts (its job got {job:.0f} % of a core)",
-            full[_FULL_COLUMNS].rename(columns={"problem set": "set", "problems": "goals",
+            _versioned(full)[_FULL_COLUMNS].rename(columns={"problem set": "set", "problems": "goals",
                                                 "iterations p50": "iter. p50",
                                                 "position error p99, successes [mm]": "position error p99 [mm]"}),
             "Within limits = share of all returned solutions inside the limits. The key table above adds the 95th "

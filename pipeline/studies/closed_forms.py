@@ -23,6 +23,7 @@ import pandas as pd
 from pipeline.studies.specs import FigureSpec, TableSpec
 from pipeline.studies.arm_answer import percentile
 from pipeline.studies.arm_benchmark import refusal_table
+from pipeline.studies.common import library_label
 from pipeline.studies.generic import runs_frame
 
 OURS = "analytic"
@@ -55,7 +56,9 @@ def method_table(df: pd.DataFrame) -> pd.DataFrame:
     for (robot, label), g in df.groupby(["robot", "solver"], sort=False):
         ok = g[g["success"].astype(bool)]
         rows.append({
-            "robot": robot, "solver": label, "library": g["library"].iloc[0],
+            "robot": robot, "solver": label,
+            "library": library_label(g["library"].iloc[0],
+                                     g["library_version"].iloc[0] if "library_version" in g else ""),
             "goals": len(g), "success [%]": 100 * g["success"].astype(bool).mean(),
             "solutions per goal": _mean_nsol(g["info"]),
             "solve time p50 [µs]": 1e6 * percentile(g["solve_time_s"], 50),

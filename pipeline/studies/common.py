@@ -25,13 +25,33 @@ def archive_method(a: Archive) -> tuple[str, str]:
     return method, library
 
 
+def archive_library_version(a: Archive, library: str) -> str:
+    """The version of ``library`` recorded in an archive's environment (``""`` for ours, for an archive
+    without the record, or for a library it did not record)."""
+    if library == "ours":
+        return ""
+    try:
+        version = json.loads(a.metadata.get("environment") or "{}").get("libraries", {}).get(library, "")
+    except (TypeError, ValueError, AttributeError):
+        return ""
+    return "" if version in ("", "not installed") else str(version)
+
+
+def library_label(library: str, version: str) -> str:
+    """A library as a table shows it: ``ours``, or the distribution's name and the version its archive
+    recorded (``"ikpy 4.2.1"``)."""
+    return f"{library} {version}" if version and library != "ours" else library
+
+
 def solves_frame(archives: list[Archive]) -> pd.DataFrame:
-    """All solve records of several archives, with ``solver``, ``method`` and ``library`` columns
-    (:func:`archive_method`)."""
+    """All solve records of several archives, with ``solver``, ``method``, ``library`` and
+    ``library_version`` columns (:func:`archive_method`, :func:`archive_library_version`)."""
     frames = []
     for a in archives:
         df = a.frame()
-        df["method"], df["library"] = archive_method(a)
+        method, library = archive_method(a)
+        df["method"], df["library"] = method, library
+        df["library_version"] = archive_library_version(a, library)
         df["archive"] = str(a.path)
         frames.append(df)
     return pd.concat(frames, ignore_index=True)
