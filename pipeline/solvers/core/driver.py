@@ -114,9 +114,9 @@ class Bound:
         self.shape = (prep.n,)
         self.may_restart = bool(self.sc.restarts) and spec.kind != "analytic"
         self.fused = None
-        if spec.bind_call is not None and spec.bind is not None and not self.may_restart and not self.scaled:
+        if spec.bind_call is not None and spec.bind is not None and not self.scaled:
             self.fused = spec.bind_call(prep, self.sc)
-        self._run = self.fused if self.fused is not None else self._solve
+        self._run = self._solve if self.fused is None else self._fused_restart if self.may_restart else self.fused
         self.call = self._own_time
 
     def _own_time(self, T_goal: np.ndarray, q_start: np.ndarray, seed: int = 0, t0: int | None = None) -> IKResult:
@@ -125,7 +125,7 @@ class Bound:
         c0 = clock[0]
         res = self._run(T_goal, q_start, seed, clock_ns() if t0 is None else t0)
         if clock[0] == c0:
-            if self._run is self.fused:
+            if self._run is self.fused:  # with restarts, watched on every call (a restart may compile later)
                 self.call = self.fused
             return res
         spent = clock[0] - c0
@@ -136,6 +136,16 @@ class Bound:
                 break
             spent += clock[0] - c0
         res.compiled, res.compile_time_s = True, spent * 1e-9
+        return res
+
+    def _fused_restart(self, T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
+        """The fused call (``Solver.bind_call``), then :meth:`restart` when it failed: the same results as
+        :meth:`_solve` with ``restarts``, the first search without the generic path's Python steps."""
+        res = self.fused(T_goal, q_start, seed, t0)
+        if res.success:
+            return res
+        res = self.restart(self.prep.working_goal(T_goal), int(seed), res, t0)
+        res.call_time_s = (clock_ns() - t0) * 1e-9
         return res
 
     def attempt(self, Tg: np.ndarray, q0: np.ndarray, seed: int) -> IKResult:

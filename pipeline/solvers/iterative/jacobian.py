@@ -17,9 +17,11 @@ import numpy as np
 import pipeline.solvers.kernels.pose as _jit
 import pipeline.solvers.iterative.lean as _lean
 from pipeline.solvers.kernels.kin import SEARCH_LIMITS, TRACE_COLS
-from pipeline.solvers.core import CRITERION_CODE, BatchRaw, Prepared, Raw, Settings, search_limits_setting, setting
+from pipeline.solvers.core import (CRITERION_CODE, BatchRaw, IKResult, Prepared, Raw, Settings, SettingsError,
+                                   check_pack, fused_inputs, search_limits_setting, setting)
 from pipeline.solvers.core import fixed
 from pipeline.solvers.core.driver import run_of
+from pipeline.solvers.core.timing import clock_ns
 from pipeline.solvers.core.registry import Solver, register
 
 SOURCE = "000_7e3cb7ad5ee98ff0.txt (Cerbaro 2019) §3"
@@ -141,6 +143,50 @@ def _bind(method: str):
     return bind
 
 
+def _bind_call(method: str):
+    def bind_call(prep: Prepared, s: JacobianSettings):
+        """The public single call fused (``Solver.bind_call``): the loop, the independent FK check and the
+        limit record in one compiled call (:func:`pipeline.solvers.iterative.lean.solve_checked`), the result
+        built positionally; None where the generic path must run (``require_limits``, ``fixed_joints``).
+        Same values as ``bind`` + :func:`~pipeline.solvers.core.finish`, timings aside; with ``restarts`` the
+        driver restarts from its result when it failed."""
+        if s.require_limits or s.fixed_joints:
+            return None
+        ip, fp = packed(method, s, prep.limits)
+        chain = tuple(x if i == 0 else np.ascontiguousarray(x)
+                      for i, x in enumerate(prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))))
+        C = check_pack(prep, s)
+        kernel, inputs = _lean.checked_call(), fused_inputs(prep)
+        n, rows, unit, pos_only = prep.n, s.max_iterations + 1, prep.unit, s.criterion == "position"
+        scaled = prep.goal_scale != 1.0
+        empty, zeros, nan = np.empty, np.zeros, math.nan
+        form, a, ca, sa, d, offs, prism, base, tool = chain
+
+        def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
+            q, trace, times = empty(n), empty((rows, TRACE_COLS)), zeros(3, np.int64)
+            if scaled:  # the goal in the working unit (a copy)
+                T_goal = inputs(T_goal, q_start)[0]
+            try:  # the caller's arrays as they are when C-contiguous float64 (the kernel writes into neither)
+                code, it, claimed, success, dp, ang, inside = kernel(form, a, ca, sa, d, offs, prism, base, tool,
+                                                                     T_goal, q_start, ip, fp, C, q, trace, times)
+            except TypeError:  # anything else: converted as every solver's inputs are (a wrong shape: SettingsError)
+                Tg, q0 = inputs(T_goal, q_start)
+                code, it, claimed, success, dp, ang, inside = kernel(form, a, ca, sa, d, offs, prism, base, tool,
+                                                                     np.array(Tg, order="C"), np.array(q0, order="C"),
+                                                                     ip, fp, C, q, trace, times)
+            if code < 0:  # a shape the kernel refused
+                inputs(T_goal, q_start)
+                raise SettingsError(f"T_goal / q_start: expected shapes (4, 4) and ({n},)")
+            res = IKResult(q, success, code, it, trace[:it + 1].copy(), times[0] * 1e-9, times[1] * 1e-9, dp,
+                           nan if pos_only else ang, claimed, inside, nan, unit, None, {})
+            res.call_time_s = (clock_ns() - t0) * 1e-9
+            return res
+
+        return call
+
+    return bind_call
+
+
 TRACE_BUDGET = 64 * 2**20  # [bytes] per chunk of a batch's trace buffer (N x (max_iterations + 1) x 8 floats)
 
 
@@ -194,4 +240,5 @@ for _name, _title, _cls in (
     ("sdls", "selectively damped least squares (Buss & Kim 2004; eqs. 56-61)", SDLSSettings),
 ):
     _b = _bind(_name)
-    register(Solver(_name, _title, "local", _cls, run_of(_b), source=SOURCE, bind=_b, batch=_batch(_name)))
+    register(Solver(_name, _title, "local", _cls, run_of(_b), source=SOURCE, bind=_b, batch=_batch(_name),
+                    bind_call=_bind_call(_name)))
