@@ -192,3 +192,16 @@ def test_close_check():
     assert evaluate({"close": {"rows": ["B", "C"], "rel": 0.34}}, FRAME, "method", "x (ours)")[0] == HOLDS
     assert evaluate({"close": {"rows": ["B", "C"], "rel": 0.3}}, FRAME, "method", "x (ours)")[0] == DIFFERS
     assert evaluate({"close": {"rows": ["B", "Z"], "rel": 0.3}}, FRAME, "method", "x (ours)")[0] == MISSING
+
+
+@pytest.mark.parametrize("check,verdict", [
+    # a (ours): 10, 0, 5, 7 -- point 1 is the largest by 10/7, point 2 the smallest by any factor
+    ({"max_by": {"row": "1", "factor": 1.4}}, HOLDS), ({"max_by": {"row": "1", "factor": 1.5}}, DIFFERS),
+    ({"max": "1"}, HOLDS),  # the bare order passes on any margin: the degree needs max_by
+    ({"max_by": {"row": "4", "factor": 1}}, DIFFERS),  # not the largest at all
+    ({"min_by": {"row": "2", "factor": 100}}, HOLDS), ({"min_by": {"row": "3", "factor": 1}}, DIFFERS),
+    ({"max_by": {"row": "9", "factor": 2}}, MISSING),
+])
+def test_degree_checks_need_the_margin_not_only_the_order(check, verdict):
+    """``max_by``/``min_by`` read "by far the most / the fewest" on the factor to the nearest rival."""
+    assert evaluate(check, TWO, "point", "a (ours)")[0] == verdict
