@@ -224,5 +224,9 @@ def test_the_headline_map_names_every_claim_and_counts_them_as_the_study_file_do
     assert named == set(range(1, len(claims) + 1)), sorted(named ^ set(range(1, len(claims) + 1)))
     nr = {int(n) for n in re.findall(r"\bc(\d+) NR\b", section)}
     assert nr == {k + 1 for k, c in enumerate(claims) if c.get("not_reproducible")}
+    index = dict(re.findall(r"^- c(\d+): (.*?)(?: …)?$", section, re.M))  # each claim's opening words, in order
+    assert sorted(map(int, index)) == list(range(1, len(claims) + 1))
+    for n, opening in index.items():  # a claim inserted or moved shifts the cN: the openings no longer match
+        assert claims[int(n) - 1]["claim"].startswith(opening), (n, opening)
     row = re.search(rf"^\| {sid} \| (\d+) \| (\d+) \| (\d+) \| (\d+) \|$", text, re.M)
     assert row and (int(row.group(2)), int(row.group(3)), int(row.group(4))) == (len(claims), len(nr), len(claims))
