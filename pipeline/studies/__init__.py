@@ -51,14 +51,18 @@ def build_study_tables(study, archives, published_dir: Path) -> list[TableSpec]:
 def write_tables(tables: list[TableSpec], out_dir: Path) -> None:
     """Each table as ``<name>.csv`` plus ``index.json`` (order, titles, notes)."""
     out_dir.mkdir(parents=True, exist_ok=True)
+    from pipeline.studies.prose import fill
+
     index = []
+    frames = {t.name: t.frame for t in tables}
     for t in tables:
         t.frame.to_csv(out_dir / f"{t.name}.csv", index=False, float_format="%.6g")
-        index.append({"name": t.name, "title": t.title, "note": t.note, "file": f"{t.name}.csv"})
+        entry = {"name": t.name, "title": t.title, "note": fill(t.note, frames), "file": f"{t.name}.csv"}
+        index.append({**entry, "note_bound": t.note} if t.bound else entry)  # the template the prose check reads
     (out_dir / "index.json").write_text(json.dumps(index, indent=1, ensure_ascii=False))
 
 
 def write_figure_index(figs: list[FigureSpec], out_dir: Path) -> None:
-    index = [{"files": f.files, "title": f.title, "caption": f.caption, **({"extra": f.extra} if f.extra else {})}
-             for f in figs]
+    index = [{"files": f.files, "title": f.title, "caption": f.caption, **({"extra": f.extra} if f.extra else {}),
+              **({"bound": True} if f.bound else {})} for f in figs]
     (out_dir / "index.json").write_text(json.dumps(index, indent=1, ensure_ascii=False))

@@ -75,14 +75,16 @@ def _table07(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict,
                      "largest position error of a success [mm] (ours)": float(mm.max()) if len(ok) else np.nan,
                      "successes more than 1 mm off [%] (ours)": 100 * float((mm > 1.0).mean()) if len(ok) else np.nan})
     frame = pd.DataFrame(rows)
-    worst = frame["largest position error of a success [mm] (ours)"].max() if len(frame) else np.nan
+    col = "largest position error of a success [mm] (ours)"
+    worst = frame.loc[frame[col].idxmax(), "method"] if len(frame) and frame[col].notna().any() else "—"
     return TableSpec("table07_success", f"Table 7 — success rate (reading {reading})", frame,
                      "Success = the method's stop test passed and an independent FK of the returned angles "
                      "confirmed it (stop code 6 would mark a contradiction; none is expected). The stop test is the "
                      "document's ‖erro‖ ≤ 1 + 1e-6 on the 8-coefficient DQ norm: in metres that is a position error "
                      "of 2.8 mm only when the orientation is exact, since orientation errors count through the "
-                     f"lever arm of the position, so accepted successes sit up to {worst:.3g} mm from the goal "
-                     "(last two columns: the largest, and the share of each method's successes more than 1 mm off).")
+                     f"lever arm of the position, so accepted successes sit up to {{{{ table07_success | {worst} | {col} "
+                     "| .3g }} mm from the goal (last two columns: the largest, and the share of each method's "
+                     "successes more than 1 mm off).", bound=True)
 
 
 def _table08_11(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
@@ -106,7 +108,7 @@ def _table08_11(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: di
             row["problem time [ms] (published)"] = np.nan if pr is None else pr["problem_time_ms"]
             rows.append(row)
     return TableSpec("table08_11_performance", "Tables 8–11 — performance over successful problems",
-                     pd.DataFrame(rows), UNIT_NOTE)
+                     pd.DataFrame(rows), UNIT_NOTE, bound=True)
 
 
 def _table12(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
@@ -126,7 +128,7 @@ def _table12(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict,
     return TableSpec("table12_cv", "Table 12 — coefficient of variation of problem time", pd.DataFrame(rows),
                      "CV = sample std / mean of the problem time over successful problems: the document's "
                      "measure, since its published CVs equal the problem-time std / mean of its Tables 8–11 "
-                     "(last column). Ours on thread CPU time; the median and quartiles are Figure 24's boxes.")
+                     "(last column). Ours on thread CPU time; the median and quartiles are Figure 24's boxes.", bound=True)
 
 
 def _table13(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
@@ -151,7 +153,8 @@ def _table13(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict,
                      "fewest iterations, ties to each [%] (ours, platform-free)": 100 * float(fewest[m].mean())
                      if n_all else np.nan})
     return TableSpec("table13_fastest", "Table 13 — fastest method per problem", pd.DataFrame(rows),
-                     f"Among the {n_all} problems all four methods solved (published: 7 322), fastest by thread CPU "
+                     f"Among the {{{{ table13_fastest | {LABEL[present[0]] if present else '—'} | problems all four "
+                     "solved (ours) | .0f }} problems all four methods solved (published: 7 322), fastest by thread CPU "
                      "time. Each solve's time is the fastest of the problem set's timing runs (timing_runs; one at "
                      "quick scale), so near-ties between J† and DLS are still decided by the timer noise that remains, "
                      "as they were in the document. SDLS is rarely fastest here: its IK block (an SVD) costs several times "
@@ -159,7 +162,7 @@ def _table13(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict,
                      "iteration, whereas the document's MATLAB iterations cost ~4 units each whatever the block "
                      "(its IK blocks differ by 0.5 units), so there SDLS's fewer iterations won a third of the problems. "
                      "The last column is platform-free: the share of those problems on which the method needed "
-                     "the fewest iterations (one FK and one Jacobian each; ties count for every tied method).")
+                     "the fewest iterations (one FK and one Jacobian each; ties count for every tied method).", bound=True)
 
 
 def _table14(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
@@ -171,7 +174,7 @@ def _table14(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict,
         rows.append({"method": LABEL[m], "Pearson r (ours)": r, "r (published)": _pub(P["table14"], m, "correlation")})
     return TableSpec("table14_correlation", "Table 14 — correlation of problem time with the initial error norm",
                      pd.DataFrame(rows), "Pearson correlation over successful problems of the problem CPU time and the "
-                     "initial ‖erro‖ (the document used SPSS; type not stated).")
+                     "initial ‖erro‖ (the document used SPSS; type not stated).", bound=True)
 
 
 def _table15(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
@@ -187,7 +190,7 @@ def _table15(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict,
         rows.append(row)
     return TableSpec("table15_failures", "Table 15 — failure causes", pd.DataFrame(rows),
                      "2 = pose change below the stall threshold; 3 = error grew 5 iterations in a row; "
-                     "4 = iteration cap (500).")
+                     "4 = iteration cap (500).", bound=True)
 
 
 def _mean(x: pd.Series) -> float:
@@ -219,7 +222,7 @@ def _table16(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict,
                      "Additional iterations = rerun iterations − iteration at which the original run stopped, "
                      "over the rerun problems that succeeded, also split by the original stop (iteration cap, "
                      "code 4, or the others). The document reports that every failure was solved "
-                     "(its unsolved count is 0).")
+                     "(its unsolved count is 0).", bound=True)
 
 
 def _sensitivity(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: dict, reading: str) -> TableSpec:
@@ -250,7 +253,7 @@ def _sensitivity(main: pd.DataFrame, allf: pd.DataFrame, rer: pd.DataFrame, P: d
                      "default follows the document where it is explicit (SDLS 1-norm) and otherwise is the "
                      "reading whose success rates and failure causes come closest to Tables 7 and 15 (a choice "
                      "made because it agrees with published numbers); the mean iterations of Tables 8–11 were "
-                     "not used to choose, and the last column shows how each reading agrees with them.")
+                     "not used to choose, and the last column shows how each reading agrees with them.", bound=True)
 
 
 def build_tables(study, archives, published_dir: Path) -> list[TableSpec]:
@@ -269,6 +272,11 @@ TRACE_ROW = 8 * 8  # [B] one trace row: 8 float64 (pipeline.solvers.kernels.kin.
 BATCH = 2000  # problems per batch call (pipeline.runner.BATCH)
 
 
+def _cell(row: str, column: str, spec: str = ".0f") -> str:
+    """A placeholder for the timing_profile cell at ``row`` and ``column`` (filled when the table is written)."""
+    return f"{{{{ timing_profile | {row} | {column} | {spec} }}}}"
+
+
 def _timing_profile(main: pd.DataFrame, trace_rows: int, bins: int = 8) -> TableSpec:
     """Each solve's CPU time above what its iterations predict, by where its trace falls in a 2 MiB page of
     the batch's trace buffer: a charge on the first write into each page (issue 45) shows as one bin."""
@@ -284,17 +292,19 @@ def _timing_profile(main: pd.DataFrame, trace_rows: int, bins: int = 8) -> Table
         out[f"mean CPU excess [µs] ({LABEL[m]})"] = [float(excess[phase[g.index] == k].mean()) for k in range(bins)]
     out["trace per solve [B]"], out["trace rows per solve"] = per, trace_rows
     out["huge page [KiB]"], out["solves per huge page"] = PAGE // 1024, PAGE / per
+    first = out.iloc[0, 0]
     return TableSpec("timing_profile", "Per-solve CPU time by position in the trace buffer's huge pages", out,
-                     f"Each solve's thread CPU time minus its iterations times its method's median CPU time per "
-                     f"iteration, averaged by where the solve's trace ({per} B: {trace_rows} rows) falls "
-                     f"in a huge page ({PAGE // 1024} KiB) of its batch's trace buffer (one every {PAGE / per:.1f} problems). Before the "
-                     "fix "
+                     "Each solve's thread CPU time minus its iterations times its method's median CPU time per "
+                     f"iteration, averaged by where the solve's trace ({_cell(first, 'trace per solve [B]')} B: "
+                     f"{_cell(first, 'trace rows per solve')} rows) falls in a huge page ({_cell(first, 'huge page [KiB]')} "
+                     f"KiB) of its batch's trace buffer (one every {_cell(first, 'solves per huge page', '.1f')} problems). "
+                     "Before the fix "
                      "the first write into each page (a transparent huge page, zeroed when first touched) happened "
                      "inside a timed solve: a charge many times a typical solve's CPU time on one solve per page, at "
                      "the same place in every batch of a job (where the page boundaries fall depends on the job's buffer "
                      "address), which put one bin of each method's column far above the others "
                      "and inflated the CVs of Table 12 (benchmarks/periodic_charge.py measures both ways). The buffer "
-                     "is now written before the solves, so no bin should stand out.")
+                     "is now written before the solves, so no bin should stand out.", bound=True)
 
 
 def _fig19(study, archives, ok: pd.DataFrame, out_dir: Path) -> list[FigureSpec]:
@@ -324,7 +334,7 @@ def _fig19(study, archives, ok: pd.DataFrame, out_dir: Path) -> list[FigureSpec]
                                f"Figure 19 — error components vs iteration ({LABEL.get(want, want)}, problem {int(pick['problem_id'])})",
                                "The six components of the error vector for the successful problem whose iteration "
                                "count is closest to the method's median, among the problems whose traces the archive "
-                               "stores (an evenly spaced sample of the set; trace_policy)."))
+                               "stores (an evenly spaced sample of the set; trace_policy).", bound=True))
     return figs
 
 
@@ -350,7 +360,7 @@ def _bar_figures(study, ok: pd.DataFrame, methods: list, labels: list, out_dir: 
             ax.plot(labels, pv, "k_", ms=25, mew=2, label="published (Tables 8–11)")
             ax.legend(fontsize=8)
             cap += " Black bars: the document's means."
-        figs.append(FigureSpec(save(fig, out_dir, stem), title, cap))
+        figs.append(FigureSpec(save(fig, out_dir, stem), title, cap, bound=True))
     return figs
 
 
@@ -378,7 +388,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
             ax.set_ylim(*zoom)
         figs.append(FigureSpec(save(fig, out_dir, stem), title,
                                "Box = quartiles, line = median, whiskers cover the central 95 % of the successful "
-                               "problems (as the document describes its SPSS plots), stars = the 5 % beyond."))
+                               "problems (as the document describes its SPSS plots), stars = the 5 % beyond.", bound=True))
 
     fig, axs = plt.subplots(1, len(methods), figsize=(3.2 * len(methods), 3.2), sharey=True, squeeze=False)
     for ax, m in zip(axs[0], methods):
@@ -390,7 +400,7 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     axs[0][0].set_ylabel("problem CPU time [ms]")
     figs.append(FigureSpec(save(fig, out_dir, "fig25_time_vs_initial_error"),
                            "Figure 25 — problem time vs initial error norm",
-                           "One point per successful problem; correlations in Table 14."))
+                           "One point per successful problem; correlations in Table 14.", bound=True))
 
     fig, ax = plt.subplots(figsize=(6, 3.8))
     for m in methods:
@@ -402,5 +412,5 @@ def build_figures(study, archives, out_dir: Path) -> list[FigureSpec]:
     ax.grid(alpha=0.3)
     ax.legend()
     figs.append(FigureSpec(save(fig, out_dir, "success_cdf"), "Success vs iterations (not in the document)",
-                           "Share of all problems solved within a given number of iterations, per method."))
+                           "Share of all problems solved within a given number of iterations, per method.", bound=True))
     return figs

@@ -25,6 +25,10 @@ claim names a table the study builds from its archives, the column that holds th
                                   in every row the value exceeds the row's values in the columns ``of``
 ``nonzero_exactly: [ROW, ...]``   the rows whose value is not zero are exactly these (e.g. 1 = converged)
 ``close: {rows: [A, B], rel: R}``  A's and B's values lie within a relative R of each other (|A − B| <= R max(|A|, |B|))
+``max_by: {row: ROW, factor: F}`` / ``min_by: {row: ROW, factor: F}``
+                                  ROW's value is at least F times every other row's / every other row's
+                                  value is at least F times ROW's ("by far the most / the fewest": a
+                                  claim of degree, where ``max`` / ``min`` would hold on any margin)
 
 An optional ``rows: {column: value, ...}`` keeps only the matching rows first (e.g. the ``mean``
 rows of a table with a ``statistic`` column; a list of values keeps the rows matching any of them).
@@ -70,7 +74,7 @@ import pandas as pd
 from pipeline.studies.specs import TableSpec
 
 CHECKS = ("max", "min", "order", "less", "ratio_at_least", "within", "abs_at_most", "column_less", "at_most",
-          "at_least", "all_at_least", "same_as", "column_largest", "nonzero_exactly", "close")
+          "at_least", "all_at_least", "same_as", "column_largest", "nonzero_exactly", "close", "max_by", "min_by")
 HOLDS, DIFFERS, MISSING, NOT_COMPARABLE = "holds", "differs", "not reproduced", "not comparable here"
 TIE, CANNOT_FAIL, NOT_REPRODUCIBLE = "tie", "cannot fail here", "not reproducible here"
 NOT_MEASURED = "not measured in this build"
@@ -268,12 +272,28 @@ def _check_close(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str,
             f"{a} {vals[a]:.4g}, {b} {vals[b]:.4g} ({100 * gap:.3g} % apart; claim: ≤ {100 * float(arg['rel']):g} %)")
 
 
+def _check_by(kind: str, arg, frame: pd.DataFrame | None, key: str, col: str, published_col: str | None,
+              on_published: bool) -> tuple[str, str]:
+    """Check ``max_by`` / ``min_by``: the named row beats its nearest rival by a factor."""
+    row, factor = str(arg["row"]), float(arg["factor"])
+    vals = _all_rows(frame, key, col)
+    if vals is None or row not in vals or len(vals) < 2:
+        return MISSING, ""
+    others = {r: v for r, v in vals.items() if r != row}
+    rival = (max if kind == "max_by" else min)(others, key=others.get)
+    big, small = (vals[row], others[rival]) if kind == "max_by" else (others[rival], vals[row])
+    ok = big >= factor * small and big > small
+    ratio = big / small if small else math.inf
+    return ((HOLDS if ok else DIFFERS),
+            f"{row} {vals[row]:.4g}, nearest {rival} {others[rival]:.4g} (ratio {ratio:.3g}; claim: ≥ {factor:g})")
+
+
 _CHECKERS = {
     "max": _check_max_min, "min": _check_max_min, "order": _check_order, "less": _check_less,
     "ratio_at_least": _check_ratio_at_least, "within": _check_within, "abs_at_most": _check_abs_at_most,
     "column_less": _check_column_less, "at_most": _check_at_most_at_least, "at_least": _check_at_most_at_least,
     "all_at_least": _check_all_at_least, "same_as": _check_same_as, "column_largest": _check_column_largest,
-    "nonzero_exactly": _check_nonzero_exactly, "close": _check_close
+    "nonzero_exactly": _check_nonzero_exactly, "close": _check_close, "max_by": _check_by, "min_by": _check_by
 }  # check kind -> its function (CHECKS lists the kinds)
 
 

@@ -16,7 +16,8 @@ The report's prose may hold numbers about our results only through placeholders:
 caption and interpretation of a built study. A number typed in the study file's prose (outside a
 placeholder) must be the document's (a published file or column), a setting or a listed document fact
 (``prose_facts``): matching some cell of ours is not enough, since it need not be the cell the
-sentence describes. The notes and captions the code writes are held by any table of the study.
+sentence describes. The notes and captions the code writes are held by any table of the study, unless
+the code writes them bound (placeholders for our numbers: ``TableSpec.bound``), as cerbaro2019 does.
 """
 
 from __future__ import annotations
@@ -166,13 +167,17 @@ def prose_of(study, folder) -> list[tuple[str, str]]:
     tindex = folder / "tables" / "index.json"
     for t in json.loads(tindex.read_text()) if tindex.is_file() else []:
         frames[t["name"]] = read_csv(folder / "tables" / t["file"], keep_default_na=False)
-        pieces.append((f"table {t['name']} (note)", t.get("note") or ""))
+        if "note_bound" in t:  # written with placeholders: each number of ours is the cell its placeholder names
+            pieces.append((f"table {t['name']} (note, bound)", PLACEHOLDER.sub(BOUND, t["note_bound"])))
+        else:
+            pieces.append((f"table {t['name']} (note)", t.get("note") or ""))
         if t["name"] == "claims":
             for i, why in enumerate(frames["claims"].get("why", [])):
                 pieces.append((f"claims row {i + 1} (why)", str(why)))
     findex = folder / "figures" / "index.json"
     for f in json.loads(findex.read_text()) if findex.is_file() else []:
-        pieces.append((f"figure {f['files'][0]} (caption)", f.get("caption") or ""))
+        bound = ", bound" if f.get("bound") else ""
+        pieces.append((f"figure {f['files'][0]} (caption{bound})", PLACEHOLDER.sub(BOUND, f.get("caption") or "")))
     numeric = {k: read_csv(folder / "tables" / f"{k}.csv") for k in frames}
     for i in study.doc.get("interpretations", []):
         for field in ("choice", "evidence"):
@@ -220,7 +225,10 @@ def untabled_numbers(study, folder, published_dir) -> list[tuple[str, str, str]]
     results only through placeholders, each bound to the cell it names; a number typed there is held
     only by the document (its published files and the tables' published columns), the study's settings
     or its ``prose_facts``, never by any cell of ours that happens to match. The table notes and figure
-    captions the study's code writes (from the values it computes) are held by any table of the study."""
+    captions the study's code writes (from the values it computes) are held by any table of the study,
+    unless the code wrote them bound (``TableSpec.bound``, ``FigureSpec.bound``): then, like the study file's
+    prose, each number of ours is a placeholder bound to its cell and every other number must be the
+    document's, a setting or a listed fact."""
     from pathlib import Path
 
     folder = Path(folder)
@@ -236,8 +244,10 @@ def untabled_numbers(study, folder, published_dir) -> list[tuple[str, str, str]]
     document_values = _value_set(documents + [f for f in published_columns if len(f.columns)], settings)
     built = [(w, t) for w, t in prose_of(study, folder)
              if not w.startswith(("claims row", "interpretation "))]  # the study file's prose: checked bound
-    return (_unheld(built, _value_set(frames + documents, settings))
-            + _unheld(study_file_prose(study), document_values))
+    bound = [(w, t) for w, t in built if "bound)" in w]  # notes and captions written with placeholders
+    free = [(w, t) for w, t in built if "bound)" not in w]
+    return (_unheld(free, _value_set(frames + documents, settings))
+            + _unheld(bound + study_file_prose(study), document_values))
 
 
 __all__ += ["BOUND", "prose_of", "study_file_prose", "untabled_numbers"]

@@ -192,3 +192,41 @@ def test_close_check():
     assert evaluate({"close": {"rows": ["B", "C"], "rel": 0.34}}, FRAME, "method", "x (ours)")[0] == HOLDS
     assert evaluate({"close": {"rows": ["B", "C"], "rel": 0.3}}, FRAME, "method", "x (ours)")[0] == DIFFERS
     assert evaluate({"close": {"rows": ["B", "Z"], "rel": 0.3}}, FRAME, "method", "x (ours)")[0] == MISSING
+
+
+@pytest.mark.parametrize("check,verdict", [
+    # a (ours): 10, 0, 5, 7 -- point 1 is the largest by 10/7, point 2 the smallest by any factor
+    ({"max_by": {"row": "1", "factor": 1.4}}, HOLDS), ({"max_by": {"row": "1", "factor": 1.5}}, DIFFERS),
+    ({"max": "1"}, HOLDS),  # the bare order passes on any margin: the degree needs max_by
+    ({"max_by": {"row": "4", "factor": 1}}, DIFFERS),  # not the largest at all
+    ({"min_by": {"row": "2", "factor": 100}}, HOLDS), ({"min_by": {"row": "3", "factor": 1}}, DIFFERS),
+    ({"max_by": {"row": "9", "factor": 2}}, MISSING),
+])
+def test_degree_checks_need_the_margin_not_only_the_order(check, verdict):
+    """``max_by``/``min_by`` read "by far the most / the fewest" on the factor to the nearest rival."""
+    assert evaluate(check, TWO, "point", "a (ours)")[0] == verdict
+
+
+DOCUMENT_STUDIES = ["cerbaro2019", "erthal1992", "borges_kr6", "mariano2019", "nepomuceno2024"]
+
+
+@pytest.mark.parametrize("sid", DOCUMENT_STUDIES)
+def test_the_headline_map_names_every_claim_and_counts_them_as_the_study_file_does(sid):
+    """data/claims_headline_map.md maps each headline sentence of the document to a claim (cN = the N-th
+    entry of the study file's claims): every cN it names exists, every claim is named, and its count
+    table gives the study file's number of claims and of not-reproducible ones (a reader can recount)."""
+    import re
+
+    claims = load_study(DATA / "studies" / f"{sid}.yaml").doc["claims"]
+    text = (DATA / "claims_headline_map.md").read_text()
+    section = re.search(rf"^## {sid} .*?(?=^## |\Z)", text, re.M | re.S).group(0)
+    named = {int(n) for n in re.findall(r"\bc(\d+)\b", section)}
+    assert named == set(range(1, len(claims) + 1)), sorted(named ^ set(range(1, len(claims) + 1)))
+    nr = {int(n) for n in re.findall(r"\bc(\d+) NR\b", section)}
+    assert nr == {k + 1 for k, c in enumerate(claims) if c.get("not_reproducible")}
+    index = dict(re.findall(r"^- c(\d+): (.*?)(?: …)?$", section, re.M))  # each claim's opening words, in order
+    assert sorted(map(int, index)) == list(range(1, len(claims) + 1))
+    for n, opening in index.items():  # a claim inserted or moved shifts the cN: the openings no longer match
+        assert claims[int(n) - 1]["claim"].startswith(opening), (n, opening)
+    row = re.search(rf"^\| {sid} \| (\d+) \| (\d+) \| (\d+) \| (\d+) \|$", text, re.M)
+    assert row and (int(row.group(2)), int(row.group(3)), int(row.group(4))) == (len(claims), len(nr), len(claims))

@@ -85,3 +85,20 @@ def test_check_prose_verb_fails_on_a_typed_result(tmp_path, capsys):
                  "--published", str(DATA / "published")]) == 2
     out, err = capsys.readouterr()
     assert "'123.4'" in out and err.count("\n") == 1 and "number(s) in the prose bound to no cell" in err
+
+
+def test_a_bound_note_is_written_filled_and_checked_as_its_template(tmp_path):
+    """A table note the code writes bound (TableSpec.bound): write_tables fills its placeholders from the
+    cells they name and keeps the template; the prose check reads the template, so a number of ours typed
+    into it fails even where some cell holds it, and a document fact passes."""
+    from pipeline.studies import TableSpec, write_tables
+
+    note = "B took {{ t | B | v (ours) | .1f }} s, A 48.3 s; cap 500, published 7 322"
+    write_tables([TableSpec("t", "T", T["t"], note, bound=True)], tmp_path / "s" / "tables")
+    entry = json.loads((tmp_path / "s" / "tables" / "index.json").read_text())[0]
+    assert entry["note"] == "B took 12345.6 s, A 48.3 s; cap 500, published 7 322" and entry["note_bound"] == note
+    study = SimpleNamespace(id="s", doc={"solvers": {"a": {"max_iterations": 500}}, "prose_facts": [7322]})
+    assert [b[1] for b in untabled_numbers(study, tmp_path / "s", tmp_path / "published")] == ["48.3"]
+    # the same note written free (the default) is held by any cell of the study
+    write_tables([TableSpec("t", "T", T["t"], "A 48.3 s")], tmp_path / "f" / "tables")
+    assert untabled_numbers(study, tmp_path / "f", tmp_path / "published") == []
