@@ -28,6 +28,11 @@ Ostermeier, Külz & Althoff 2025). The families this project solves, for 6R arms
     axes 2, 3 and 4 are parallel and axes 5 and 6 are skew: joints 1 and 5 by a quartic, then 6 and
     the planar joints 2-4 by subproblems. Up to 8 solutions. Also reversed (axes 3, 4, 5 parallel,
     1 and 2 skew).
+``spherical_pair``
+    axes 1, 2 and 3 meet in one point and axes 4, 5 and 6 in another: the wrist centre moves on a
+    sphere, the arm has at most 5 independent motions, and a reachable goal has a continuum of
+    solutions (:mod:`pipeline.solvers.closed_form.continuum` returns representatives and says so).
+    Only a 6R arm (a 7R arm with its elbow held, e.g. the KUKA iiwa).
 ``two_intersecting_search``
     axes 5 and 6 meet and the first three joints have a position case, but no closed form:
     a one-dimensional search over joint 4 whose residual is the wrist's orientation condition
@@ -55,6 +60,9 @@ from pipeline.kinematics.chain import Chain
 DEFAULT_TOL = 1e-9
 FAMILIES = ("spherical_wrist", "three_parallel", "spherical_wrist_3r", "three_parallel_offset",
             "two_intersecting_search")
+# axes 1-3 and 4-6 each meet in a point: no finite solution set (representatives of the continuum); never a
+# 7R arm's family through a swept joint
+CONTINUUM = "spherical_pair"
 # the quartic families (spherical_wrist_3r, three_parallel_offset) need their skew pairs clearly skew: the
 # linear solve inside them is conditioned by the pair's closest distance / reach and its angle [rad]
 SKEW_MIN = 1e-5
@@ -258,8 +266,16 @@ def _skew(p: Pair, lines: Lines) -> bool:
     return p.angle > SKEW_MIN and p.distance > SKEW_MIN * lines.reach
 
 
+def spherical_pair(lines: Lines, tol: float) -> bool:
+    """Axes 1-3 meet in one point and axes 4-6 in another (a 6R chain): the wrist centre moves on a sphere
+    about the shoulder point, so every goal is unreachable or reached by a continuum of joint vectors."""
+    return _meet3(lines, (0, 1, 2), tol)[0] and _meet3(lines, (3, 4, 5), tol)[0]
+
+
 def _classify6(lines: Lines, tol: float) -> tuple[str | None, bool, int, int]:
     """(family, reversed, position case, searched joint 4/6 or 0) of a 6R chain, or (None, ...)."""
+    if spherical_pair(lines, tol):
+        return CONTINUUM, False, 0, 0
     for rev in (False, True):
         L = reverse_lines(lines) if rev else lines
         pr = pairs(L, tol)
@@ -428,6 +444,10 @@ def _describe(fam: str, rev: bool, case: int, searched: int = 0, free: int | Non
         v = sorted(j(i) for i in idx)
         return ", ".join(str(x) for x in v[:-1]) + f" and {v[-1]}"
 
+    if fam == CONTINUUM:
+        return (f"{fam}: axes {axes(1, 2, 3)} meet and axes {axes(4, 5, 6)} meet: every reachable goal has a "
+                "one-parameter continuum of solutions (the arm turns about the line through the two points); "
+                "representatives are returned")
     if fam == "spherical_wrist":
         trip = f"axes {axes(4, 5, 6)} meet (spherical {'shoulder' if rev else 'wrist'})"
     elif fam == "three_parallel":

@@ -26,13 +26,13 @@ import numpy as np
 
 from pipeline.kinematics.chain import Chain
 from pipeline.kinematics.folding import lines_chain
-from pipeline.kinematics.geometry import (FAMILIES, Decomposition, Lines, classify, common_point, joint_lines,
-                                          line_relation, reverse_lines)
+from pipeline.kinematics.geometry import (CONTINUUM, FAMILIES, Decomposition, Lines, classify, common_point,
+                                          joint_lines, line_relation, reverse_lines)
 
 NEAR_TOL = 1e-3  # default: a right angle typed 1.571 (2e-4 rad off) or 1.5708 (4e-6), a length rounded to
 #                   0.1 mm on a 1 m arm; far below any offset an arm is built with (a wrist offset of 1 % of the reach)
-# every closed form of up to 8 solutions first, then the one-dimensional search, then none
-RANK = {**{f: 1 if f == "two_intersecting_search" else 0 for f in FAMILIES}, None: 2}
+# every closed form of up to 8 solutions first, then the one-dimensional search, then none; never a continuum
+RANK = {**{f: 1 if f == "two_intersecting_search" else 0 for f in FAMILIES}, None: 2, CONTINUUM: 3}
 
 
 @dataclass(frozen=True)

@@ -59,7 +59,7 @@ import numpy as np
 
 from pipeline.kinematics import geometry
 from pipeline.kinematics.nearfamily import NEAR_TOL
-from pipeline.solvers.closed_form import lanes, near
+from pipeline.solvers.closed_form import continuum, lanes, near
 from pipeline.solvers.closed_form import subproblems as sp
 from pipeline.solvers.closed_form.analytic_kernels import kernels, scratch
 from pipeline.solvers.closed_form.family_gen3r import FAM_3PO, FAM_SPH3R
@@ -275,6 +275,8 @@ def bind(prep: Prepared, s: AnalyticSettings):
         return near.bind_near(prep, s, sn, bind, _info)
     if _general(prep, s):
         return _bind_general(prep, s)
+    if _continuum(prep, s):
+        return continuum.bind(prep, s, _info)
     k = packed(prep, s)
     n, fam = int(k.ints[0]), _family(prep, s)
     args = (k.ints, k.G)
@@ -291,6 +293,11 @@ def bind(prep: Prepared, s: AnalyticSettings):
                    solutions=S[:m], info=_info(m, tried, float(trace[1, 0]), fam))
 
     return run1
+
+
+def _continuum(prep: Prepared, s: AnalyticSettings) -> bool:
+    """Every goal of the arm is unreachable or a continuum (:mod:`pipeline.solvers.closed_form.continuum`)."""
+    return decomposition(prep, s).family == geometry.CONTINUUM
 
 
 def _near(prep: Prepared, s: AnalyticSettings):
@@ -331,7 +338,7 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
     """N poses in one compiled call on every core (each pose writes only its own rows): the family's batch
     kernel (:func:`~pipeline.solvers.closed_form.analytic_kernels.kernels`), or for an arm that fits no family
     the general elimination's (:func:`_batch_general`); None with ``fixed_joints`` (one call per pose)."""
-    if s.fixed_joints or _near(prep, s) is not None:
+    if s.fixed_joints or _near(prep, s) is not None or _continuum(prep, s):
         return None
     if _general(prep, s):
         return _batch_general(prep, s, goals, starts, keep_traces)
@@ -361,7 +368,7 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
     record in one compiled call, the result built positionally; None under ``require_limits`` (the
     generic path then chooses among the solutions within the limits). Same values as ``bind`` +
     :func:`~pipeline.solvers.core.finish`, timings aside."""
-    if s.require_limits or s.fixed_joints or _near(prep, s) is not None:
+    if s.require_limits or s.fixed_joints or _near(prep, s) is not None or _continuum(prep, s):
         return None
     if _general(prep, s):
         return _bind_call_general(prep, s)
