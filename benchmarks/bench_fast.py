@@ -298,7 +298,11 @@ def paths(n: int, n_batch: int) -> dict:
         out[f"{name}/batch_speedup"] = up
         print(f"  {name:14s} batch kernel {len(T) / best['fast']:9.0f} /s, per-problem calls "
               f"{len(T) / best['generic']:9.0f} /s: {up:.2f}x ({'keep' if up >= 1.2 else 'below 1.2x'})")
-    for name, model, s, ps in jobs[1:]:  # the fused closed-form call vs run1 + finish (a public single call)
+    iiwa = load_robot(ROOT / "data" / "robots" / "kuka_iiwa14.yaml")  # arm_benchmark's reflect label with restarts
+    reflect = make_settings("pseudoinverse", {"search_limits": "reflect", "restarts": 20})
+    fused_jobs = jobs + [("pseudoinverse", iiwa, reflect,
+                          random_joint_pairs(iiwa, n, np.random.default_rng(4), low=-math.pi, high=math.pi))]
+    for name, model, s, ps in fused_jobs:  # the fused call vs run1 + finish (a public single call)
         prep = prepare(name, model, s)
         T, S = ps.goal_transforms()[:n], ps.q_start[:n]
         fast, generic = Bound(get(name), prep, s), Bound(replace(get(name), bind_call=None), prep, s)
