@@ -15,12 +15,12 @@ from pipeline.solvers.core.settings import (MAX_LIBRARY_TIMEOUT_S, MAX_SETTING_F
 from pipeline.solvers.core.prepared import Prepared, inv_rigid
 from pipeline.solvers.core.results import BatchRaw, BatchResult, IKResult, InfoRows, Raw
 from pipeline.solvers.core.rule import (check, check_fields, check_pack, finish, finish_args, finish_batch,
-                                          finish_packed, fused_inputs, meets, nearest_of, nearest_rep, pose_errors,
-                                          unpack_check, verify, within_limits, wrap_into_limits)
+                                          finish_packed, finish_packed_limits, fused_inputs, meets, nearest_of, nearest_rep,
+                                          pose_errors, unpack_check, verify, within_limits, wrap_into_limits)
 
 __all__ = ["CRITERIA", "CRITERION_CODE", "LIMIT_TOL", "MAX_LIBRARY_TIMEOUT_S", "MAX_SETTING_FLOAT", "MAX_TIME_BUDGET_S",
            "MAX_WORK", "POSITION_CRITERIA", "STOP_REASONS", "TRACE_COLS", "BatchRaw", "BatchResult", "IKResult",
            "InfoRows", "NotApplicableError", "Prepared", "Raw", "Settings", "SettingsError", "StopReason", "check",
            "check_data_path", "check_fields", "check_pack", "finish", "finish_args", "finish_batch", "finish_packed",
-           "fused_inputs", "inv_rigid", "meets", "nearest_of", "nearest_rep", "pose_errors", "search_limits_setting", "setting", "unpack_check",
+           "finish_packed_limits", "fused_inputs", "inv_rigid", "meets", "nearest_of", "nearest_rep", "pose_errors", "search_limits_setting", "setting", "unpack_check",
            "verify", "within_limits", "wrap_into_limits"]

@@ -463,6 +463,24 @@ def check_fields(C, n):
 
 
 @numba.njit(cache=True, inline="always")
+def finish_packed_limits(C, q, Tg, code):
+    """:func:`finish_packed` under ``require_limits`` for a method without a solution set: each revolute
+    joint of ``q`` first moved by whole turns into its limits where that fits, in place (the values of
+    :func:`wrap_into_limits`, the generic path's choice for such a method)."""
+    n = q.shape[0]
+    F, prism, crit, tol_pos, tol_rot, tol_dq = check_fields(C, n)
+    lim = unpack_check(F, n)[3]
+    for i in range(n):
+        lo, hi = lim[i, 0], lim[i, 1]
+        if prism[i] != 0.0 or not math.isfinite(lo) or not math.isfinite(q[i]) or lo <= q[i] <= hi:
+            continue
+        w = lo + np.fmod(q[i] - lo, 2 * math.pi) % (2 * math.pi)  # C fmod, as math.fmod (numba has no math.fmod)
+        if w <= hi:
+            q[i] = w
+    return _result(F, prism, q, Tg, crit, tol_pos, tol_rot, tol_dq, code, True, unpack_check(F, n)[4])
+
+
+@numba.njit(cache=True, inline="always")
 def finish_packed(C, q, Tg, code):
     """:func:`_result` (without ``require_limits``) from one :func:`check_pack` array, for a fused
     compiled call: (code, claimed, success, |dp|, angle, within)."""

@@ -147,11 +147,12 @@ def _bind_call(method: str):
     def bind_call(prep: Prepared, s: JacobianSettings):
         """The public single call fused (``Solver.bind_call``): the loop, the independent FK check and the
         limit record in one compiled call (:func:`pipeline.solvers.iterative.lean.solve_checked`), the result
-        built positionally; None where the generic path must run (``require_limits``, ``fixed_joints``).
-        Same values as ``bind`` + :func:`~pipeline.solvers.core.finish`, timings aside; with ``restarts`` the
-        driver restarts from its result when it failed."""
-        if s.require_limits or s.fixed_joints:
+        built positionally; None with ``fixed_joints`` (the generic path runs the folded arm). Same values as
+        ``bind`` + :func:`~pipeline.solvers.core.finish`, ``require_limits`` included, timings aside; with
+        ``restarts`` the driver restarts from its result when it failed."""
+        if s.fixed_joints:
             return None
+        req = int(bool(s.require_limits))
         ip, fp = packed(method, s, prep.limits)
         chain = tuple(x if i == 0 else np.ascontiguousarray(x)
                       for i, x in enumerate(prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))))
@@ -168,12 +169,12 @@ def _bind_call(method: str):
                 T_goal = inputs(T_goal, q_start)[0]
             try:  # the caller's arrays as they are when C-contiguous float64 (the kernel writes into neither)
                 code, it, claimed, success, dp, ang, inside = kernel(form, a, ca, sa, d, offs, prism, base, tool,
-                                                                     T_goal, q_start, ip, fp, C, q, trace, times)
+                                                                     T_goal, q_start, ip, fp, C, q, trace, times, req)
             except TypeError:  # anything else: converted as every solver's inputs are (a wrong shape: SettingsError)
                 Tg, q0 = inputs(T_goal, q_start)
                 code, it, claimed, success, dp, ang, inside = kernel(form, a, ca, sa, d, offs, prism, base, tool,
                                                                      np.array(Tg, order="C"), np.array(q0, order="C"),
-                                                                     ip, fp, C, q, trace, times)
+                                                                     ip, fp, C, q, trace, times, req)
             if code < 0:  # a shape the kernel refused
                 inputs(T_goal, q_start)
                 raise SettingsError(f"T_goal / q_start: expected shapes (4, 4) and ({n},)")

@@ -34,7 +34,7 @@ from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, LIM_OFF, L
                                           jacobian_at, now_ns, quat_from_rot, quat_relative,
                                           relative_translation_norm, rodrigues)
 from pipeline.solvers.kernels.loop import error_row, iterate
-from pipeline.solvers.core import finish_packed
+from pipeline.solvers.core import finish_packed, finish_packed_limits
 
 
 def flops_per_iteration(n: int, method: str = "dls") -> int:
@@ -339,22 +339,27 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
 
 
 @numba.njit(cache=True)
-def solve_checked(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, C, q, trace, times):
+def solve_checked(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, C, q, trace, times, require_limits):
     """The public single call in one compiled call: :func:`solve`, then the result rule of every finish
     (:func:`pipeline.solvers.core.finish_packed` on ``C``, a :func:`~pipeline.solvers.core.check_pack`
     array: the independent FK check, the limit record, the stop reason). Returns (stop code,
     iterations, claimed, success, |dp| [working unit], angle [rad], within limits); stop code -1 (and
-    nothing written) when ``Tg`` is not (4, 4) or ``q0`` not shaped like ``q``."""
+    nothing written) when ``Tg`` is not (4, 4) or ``q0`` not shaped like ``q``. ``require_limits`` (0 or 1):
+    :func:`pipeline.solvers.core.finish_packed_limits` (``q`` moved by turns into the limits, success only
+    within them)."""
     if Tg.shape[0] != 4 or Tg.shape[1] != 4 or q0.shape[0] != q.shape[0]:
         return -1, 0, False, False, math.nan, math.nan, False
     code, it = solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace, times)
-    c, claimed, success, dp, ang, inside = finish_packed(C, q, Tg, code)
+    if require_limits:
+        c, claimed, success, dp, ang, inside = finish_packed_limits(C, q, Tg, code)
+    else:
+        c, claimed, success, dp, ang, inside = finish_packed(C, q, Tg, code)
     return c, it, claimed, success, dp, ang, inside
 
 
 _F1, _F2 = numba.types.float64[::1], numba.types.float64[:, ::1]
 CHECKED_SIGNATURE = (numba.types.int64, _F1, _F1, _F1, _F1, _F1, numba.types.boolean[::1], _F2, _F2, _F2, _F1,
-                     numba.types.int64[::1], _F1, _F1, _F1, _F2, numba.types.int64[::1])
+                     numba.types.int64[::1], _F1, _F1, _F1, _F2, numba.types.int64[::1], numba.types.int64)
 
 
 def checked_call():

@@ -74,6 +74,31 @@ def test_fused_call_equals_run1_and_finish(name, robot, mapping):
         same_result(fused.solve(T[i], S[i], i), generic.solve(T[i], S[i], i), f"{name} {robot} problem {i}")
 
 
+JACOBIAN = ("jacobian_transpose", "pseudoinverse", "dls", "sdls")
+
+
+@pytest.mark.parametrize("name", JACOBIAN)
+@pytest.mark.parametrize("robot", ["franka_panda", "ur5"])
+@pytest.mark.parametrize("mapping", [{"require_limits": True}, {"require_limits": True, "search_limits": "reflect"},
+                                     {"require_limits": True, "restarts": 3, "max_iterations": 30}])
+def test_fused_jacobian_call_under_limits_equals_generic(name, robot, mapping):
+    """The Jacobian methods' fused call under ``require_limits`` (the arm benchmark's labels): the angles moved
+    into the limits by turns and the limit test inside the compiled call, the generic path's values."""
+    model = load_robot(ROOT / "data" / "robots" / f"{robot}.yaml")
+    s = make_settings(name, mapping)
+    prep = prepare(name, model, s)
+    fused, generic = Bound(get(name), prep, s), Bound(replace(get(name), bind_call=None), prep, s)
+    assert fused.fused is not None and generic.fused is None
+    T, S = _problems(model, n=30, seed=9)
+    T[2, :3, 3] *= 100.0  # one goal out of reach
+    outside = 0
+    for i in range(len(T)):
+        a, b = fused.solve(T[i], S[i], i), generic.solve(T[i], S[i], i)
+        same_result(a, b, f"{name} {robot} {mapping} problem {i}")
+        outside += not a.within_limits
+    assert outside < len(T)
+
+
 @pytest.mark.parametrize("fused", [True, False])
 def test_restarts_run_the_bound_search(lwr, fused):
     """A restart is the same attempt as the first search (the bound run1 + finish), not another path; with a
