@@ -154,24 +154,27 @@ def _bind_call(method: str):
             return None
         req = int(bool(s.require_limits))
         ip, fp = packed(method, s, prep.limits)
-        chain = tuple(x if i == 0 else np.ascontiguousarray(x)
-                      for i, x in enumerate(prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))))
+        form, *arrays = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
+        # own writable C-contiguous copies: the one signature the kernel is compiled for (a read-only array
+        # of a frozen model would make every call a TypeError)
+        a, ca, sa, d, offs, prism, base, tool = (np.array(x, dtype=bool if x.dtype == bool else float, order="C")
+                                                 for x in arrays)
+        form = int(form)
         C = check_pack(prep, s)
         kernel, inputs = _lean.checked_call(), fused_inputs(prep)
         n, rows, unit, pos_only = prep.n, s.max_iterations + 1, prep.unit, s.criterion == "position"
         scaled = prep.goal_scale != 1.0
         empty, zeros, nan = np.empty, np.zeros, math.nan
-        form, a, ca, sa, d, offs, prism, base, tool = chain
 
         def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
             q, trace, times = empty(n), empty((rows, TRACE_COLS)), zeros(3, np.int64)
-            if scaled:  # the goal in the working unit (a copy)
-                T_goal = inputs(T_goal, q_start)[0]
+            if scaled:  # the goal in the working unit (a copy), the shapes checked
+                T_goal, q_start = inputs(T_goal, q_start)
             try:  # the caller's arrays as they are when C-contiguous float64 (the kernel writes into neither)
                 code, it, claimed, success, dp, ang, inside = kernel(form, a, ca, sa, d, offs, prism, base, tool,
                                                                      T_goal, q_start, ip, fp, C, q, trace, times, req)
             except TypeError:  # anything else: converted as every solver's inputs are (a wrong shape: SettingsError)
-                Tg, q0 = inputs(T_goal, q_start)
+                Tg, q0 = (T_goal, q_start) if scaled else inputs(T_goal, q_start)
                 code, it, claimed, success, dp, ang, inside = kernel(form, a, ca, sa, d, offs, prism, base, tool,
                                                                      np.array(Tg, order="C"), np.array(q0, order="C"),
                                                                      ip, fp, C, q, trace, times, req)

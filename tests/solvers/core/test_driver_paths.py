@@ -117,3 +117,21 @@ def test_restarts_run_the_bound_search(lwr, fused):
     assert calls == [10, 11, 12, 13][skip: 1 + res.info.get("restarts", 0)] and res.info["restarts"] >= 1
     generic = Bound(replace(get("dls"), bind_call=None), b.prep, s)
     same_result(res, generic.solve(T[0], S[0], 10), "dls restarts, fused first search against generic")
+
+
+@pytest.mark.parametrize("name", JACOBIAN)
+def test_fused_jacobian_call_takes_any_array(lwr, name):
+    """Read-only, Fortran-ordered, integer or list inputs reach the fused call's conversion (the kernel is
+    compiled for C-contiguous float64 only) and give the generic path's result; a wrong shape is one line."""
+    s = make_settings(name, {"require_limits": True})
+    prep = prepare(name, lwr, s)
+    fused, generic = Bound(get(name), prep, s), Bound(replace(get(name), bind_call=None), prep, s)
+    T, S = _problems(lwr, 3, seed=4)
+    ro_T, ro_q = T[0].copy(), S[0].copy()
+    ro_T.setflags(write=False)
+    ro_q.setflags(write=False)
+    for goal, start in ((ro_T, ro_q), (np.asfortranarray(T[1]), S[1].tolist()), (T[2], np.round(S[2]).astype(int))):
+        same_result(fused.solve(goal, start, 0), generic.solve(np.array(goal, float), np.array(start, float), 0),
+                    f"{name} {type(start).__name__}")
+    with pytest.raises(Exception, match="q_start"):
+        fused.solve(T[0], S[0][:3], 0)
