@@ -657,10 +657,9 @@ class Kernels:
         other: the fused call hands it the caller's arrays without checking them in Python (about 0.2 µs
         a call), and any other array (another dtype or layout, read-only, a list) is a TypeError on
         which the call converts its inputs first."""
-        if _CALL_SIGNATURE not in self._call.overloads:
-            self._call.compile(_CALL_SIGNATURE)
-            self._call.disable_compile()
-        return self._call
+        from pipeline.solvers.kernels.specialise import closed_to
+
+        return closed_to(self._call, _CALL_SIGNATURE)
 
 
 _KERNELS: dict[tuple[int, int], Kernels] = {}

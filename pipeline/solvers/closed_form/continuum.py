@@ -27,9 +27,9 @@ import numpy as np
 
 from pipeline.kinematics import geometry
 from pipeline.kinematics.geometry import axis_rotation
-from pipeline.kinematics.htm import fk_htm
 from pipeline.solvers.kernels.kin import LIMIT_TOL, NO_SOLUTION, SUCCESS, TRACE_COLS
-from pipeline.solvers.core import Prepared, Raw
+from pipeline.solvers.core import Prepared, Raw, nearest_rep, pose_errors
+from pipeline.solvers.core.models import wrap_angles
 
 FAMILY = "spherical_pair"
 SWIVEL_SAMPLES = 8  # representatives: this many swivel angles, evenly spaced, up to 4 joint vectors each
@@ -97,24 +97,24 @@ class Continuum:
 
     def __init__(self, prep: Prepared, verify_position: float, verify_rotation: float):
         L = geometry.joint_lines(prep.model.chain)
-        self.chain, self.h, self.M = prep.model.chain, L.h, L.M
+        self.model, self.h, self.M = prep.model, L.h, L.M
         self.S = geometry.common_point(L.h, L.p, (0, 1, 2))[0]
         self.W = geometry.common_point(L.h, L.p, (3, 4, 5))[0]
         self.r = float(np.linalg.norm(self.W - self.S))
         self.u0 = (self.W - self.S) / self.r if self.r > 0 else np.array([0.0, 0.0, 1.0])
         self.Minv = np.linalg.inv(self.M)
         self.tol_p, self.tol_r = verify_position, verify_rotation
-        self.lo, self.hi = np.asarray(prep.limits, float)[:, 0], np.asarray(prep.limits, float)[:, 1]
+        self.lim = np.ascontiguousarray(prep.limits, dtype=float)
+        self.prism = np.zeros(6, np.bool_)  # a continuum arm is 6R (:func:`fits`)
 
     def into_limits(self, q: np.ndarray, q0: np.ndarray) -> tuple[np.ndarray, bool]:
-        """(``q`` with each joint moved by whole turns to lie within π of ``q0`` and then, where another turn
-        puts it within its limits, there; whether every joint is within its limits) [rad]."""
-        q = wrap_near(q, q0)
-        for k in (-1.0, 1.0):
-            moved = q + 2 * math.pi * k
-            fix = ((q < self.lo) | (q > self.hi)) & (moved >= self.lo) & (moved <= self.hi)
-            q = np.where(fix, moved, q)
-        return q, bool(np.all((q >= self.lo - LIMIT_TOL) & (q <= self.hi + LIMIT_TOL)))
+        """(``q`` with each joint moved by whole turns to its value within the limits nearest ``q0``
+        (:func:`pipeline.solvers.core.nearest_rep`), True), or where a joint fits no turn (``q`` moved to lie
+        within π of ``q0``, False) [rad]."""
+        out = np.empty(len(q))
+        if math.isfinite(nearest_rep(np.ascontiguousarray(q, dtype=float), q0, self.lim, self.prism, LIMIT_TOL, out)):
+            return out, True
+        return wrap_near(q, q0), False
 
     def wrist_centre(self, Tg: np.ndarray) -> np.ndarray:
         """The goal's wrist centre ``T_goal M⁻¹ W`` (3,) [length]."""
@@ -159,12 +159,9 @@ class Continuum:
         return _sp1(Rmin @ v, R @ v, u)
 
     def valid(self, q: np.ndarray, Tg: np.ndarray) -> bool:
-        """``q`` reaches ``Tg`` within the FK test."""
-        T = fk_htm(self.chain, q)
-        dR = T[:3, :3].T @ Tg[:3, :3]
-        sin = 0.5 * math.sqrt((dR[2, 1] - dR[1, 2]) ** 2 + (dR[0, 2] - dR[2, 0]) ** 2 + (dR[1, 0] - dR[0, 1]) ** 2)
-        ang = math.atan2(sin, 0.5 * (np.trace(dR) - 1.0))  # exact near 0, where acos of the trace is not
-        return float(np.linalg.norm(T[:3, 3] - Tg[:3, 3])) <= self.tol_p and ang <= self.tol_r
+        """``q`` reaches ``Tg`` within the FK test (:func:`pipeline.solvers.core.pose_errors`)."""
+        dp, ang, _ = pose_errors(self.model, Tg, q)
+        return dp <= self.tol_p and ang <= self.tol_r
 
     def nearest(self, F: tuple, q0: np.ndarray) -> tuple[np.ndarray | None, float]:
         """The joint vector nearest ``q0`` over the swivel angle (of a goal's :meth:`frame` ``F``), and its
@@ -211,8 +208,7 @@ class Continuum:
         rotation (every angle for orthogonal-enough axes; an interval or two for others), from a grid of
         :data:`FINE_GRID`."""
         grid = 2 * math.pi * np.arange(FINE_GRID) / FINE_GRID
-        ok = grid if len(self.at(F, 0.0)) and self._all_feasible(F) else \
-            np.array([p for p in grid if self.at(F, float(p))])
+        ok = grid if self._all_feasible(F) else np.array([p for p in grid if self.at(F, float(p))])
         if len(ok) <= SWIVEL_SAMPLES:
             return ok
         return ok[np.linspace(0, len(ok) - 1, SWIVEL_SAMPLES).round().astype(int)]
@@ -232,21 +228,16 @@ class Continuum:
             for r in self.at(F, float(phi)):
                 r = self.into_limits(r, q0)[0]
                 if len(reps) < max_solutions and self.valid(r, Tg) and not any(
-                        np.max(np.abs(wrap(r - x))) < 1e-9 for x in reps):
+                        np.max(np.abs(wrap_angles(r - x))) < 1e-9 for x in reps):
                     reps.append(r)
         if not reps:
             return None, np.empty((0, 6))
         return reps[0], np.array(reps)
 
 
-def wrap(q: np.ndarray) -> np.ndarray:
-    """Angles [rad] wrapped to (−π, π]."""
-    return -((-np.asarray(q) + math.pi) % (2 * math.pi) - math.pi)
-
-
 def wrap_near(q: np.ndarray, q0: np.ndarray) -> np.ndarray:
     """``q`` moved by whole turns to lie within π of ``q0`` joint by joint [rad]."""
-    return q0 + wrap(q - q0)
+    return q0 + wrap_angles(q - q0)
 
 
 def fits(lines: geometry.Lines, tol: float) -> bool:
@@ -267,7 +258,7 @@ def bind(prep: Prepared, s, info_of):
 
     def run1(T_goal: np.ndarray, q_start: np.ndarray, seed: int) -> Raw:
         t0 = clock_ns()
-        Tg, q0 = np.asarray(T_goal, float), np.asarray(q_start, float)
+        Tg, q0 = np.asarray(T_goal, float), np.ascontiguousarray(q_start, dtype=float)
         q, reps = c.solve(Tg, q0, s.max_solutions)
         ns = clock_ns() - t0
         m = len(reps)

@@ -34,6 +34,7 @@ from pipeline.solvers.kernels.kin import (CRIT_DQ_BODY, CRIT_DQ_NORM, LIM_OFF, L
                                           jacobian_at, now_ns, quat_from_rot, quat_relative,
                                           relative_translation_norm, rodrigues)
 from pipeline.solvers.kernels.loop import error_row, iterate
+from pipeline.solvers.kernels.specialise import closed_to
 from pipeline.solvers.core import finish_packed, finish_packed_limits
 
 
@@ -366,10 +367,7 @@ def checked_call():
     """:func:`solve_checked` compiled for :data:`CHECKED_SIGNATURE` only (C-contiguous float64 arrays,
     the chain of :func:`lean_chain` made contiguous) and closed to any other: a caller hands it its
     arrays unchecked and converts them only on the TypeError any other array raises."""
-    if CHECKED_SIGNATURE not in solve_checked.overloads:
-        solve_checked.compile(CHECKED_SIGNATURE)
-        solve_checked.disable_compile()
-    return solve_checked
+    return closed_to(solve_checked, CHECKED_SIGNATURE)
 
 
 @numba.njit(cache=True, parallel=True)

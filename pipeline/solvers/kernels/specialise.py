@@ -37,6 +37,16 @@ def specialise(template, tag: str, options: dict, **names):
     return _compiled_copy(template, {**template.__globals__, **names}, tag, options)
 
 
+def closed_to(dispatcher, signature: tuple):
+    """``dispatcher`` compiled for ``signature`` (once) and closed to any other, returned: a caller may hand
+    it its arrays unchecked, since any other type (another dtype or layout, read-only, a list) raises the
+    TypeError on which the caller converts them (the fused single calls)."""
+    if signature not in dispatcher.overloads:
+        dispatcher.compile(signature)
+        dispatcher.disable_compile()
+    return dispatcher
+
+
 def _compiled_copy(py, g: dict, tag: str, options: dict):
     """A numba dispatcher of a copy of function ``py`` whose globals are ``g`` and whose qualified name ends
     in ``__tag`` (its own cache file); ``options`` as numba.njit takes them (``nopython`` is implied)."""
