@@ -330,8 +330,9 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     ``disable_grow`` applied).
 
     Writes the solution into ``q`` (n,), trace rows ``0..iterations`` of ``trace`` (k, 8) (rows
-    beyond its length are not written; it needs at least one row), and ``times`` (3,) = (total,
-    IK block, the thread's CPU time over the total) [ns]. Returns ``(stop code, iterations)``.
+    beyond its length are not written; it needs at least one row), and ``times`` (2,) = (total,
+    IK block) [ns], or (3,) with the thread's CPU time over the total as well (two readings of a clock
+    that costs a system call each: the batch only). Returns ``(stop code, iterations)``.
     """
     grow = ip[_jit.I_GROW_LIMIT] if ip[_jit.I_NO_GROW] == 0 else NEVER
     code, it, _ = iterate(_start, _advance, _record, (form, a, ca, sa, d, offs, prism, base, tool, Tg, ip, fp), q0, q,

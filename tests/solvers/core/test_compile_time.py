@@ -55,6 +55,34 @@ def test_a_call_that_compiles_is_run_again_and_says_so(method, settings):
     assert not again.compiled and again.compile_time_s == 0.0 and len(runs) <= 3
 
 
+def test_a_restart_that_compiles_after_warm_calls_is_run_again_and_says_so():
+    """With ``restarts`` a warm fused call is watched only when its search failed: a restart that compiles
+    then (the generic path's first use) is run again and marked, and the calls after it are not."""
+    arm = robots.load_robot("ur5e")
+    ik = solvers.bind("dls", arm, {"restarts": 2, "max_iterations": 5})
+    T, q0 = _goal(arm), np.zeros(6)
+    T[:3, 3] += 10.0  # out of reach: every search fails, the restarts run
+    ik.solve(T, q0)
+    first = ik.solve(T, q0)
+    assert ik.call == ik._fused_then_watch and not first.compiled and first.info["restarts"] == 2
+    real, fresh, runs = ik.run1, _fresh_kernel(), []
+
+    def run1(Tg, q_start, seed):
+        runs.append(seed)
+        if len(runs) == 1:
+            fresh(1.0)  # compiles inside a restart, as the generic path's first use does
+        return real(Tg, q_start, seed)
+
+    ik.run1 = run1
+    before = compile_ns()
+    res = ik.solve(T, q0)
+    spent = (compile_ns() - before) * 1e-9
+    assert res.compiled and res.compile_time_s == pytest.approx(spent) and res.call_time_s < spent
+    assert not res.success and res.info["restarts"] == 2 and np.array_equal(res.q, first.q)
+    again = ik.solve(T, q0)
+    assert not again.compiled and again.compile_time_s == 0.0 and np.array_equal(again.q, first.q)
+
+
 def test_a_warm_call_is_not_marked():
     arm = robots.load_robot("ur5e")
     T = _goal(arm, 3)
