@@ -154,13 +154,9 @@ def _bind_call(method: str):
             return None
         req = int(bool(s.require_limits))
         ip, fp = packed(method, s, prep.limits)
-        form, *arrays = prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args))
-        # own writable C-contiguous copies: the one signature the kernel is compiled for (a read-only array
-        # of a frozen model would make every call a TypeError)
-        a, ca, sa, d, offs, prism, base, tool = (np.array(x, dtype=bool if x.dtype == bool else float, order="C")
-                                                 for x in arrays)
-        form = int(form)
-        C = check_pack(prep, s)
+        # the per-bind inputs in two own arrays (writable, C-contiguous: the kernel's one signature)
+        K, F = _lean.pack_checked(prep.memo("lean_chain", lambda: _lean.lean_chain(prep.args)), ip, fp,
+                                  check_pack(prep, s), req)
         kernel, inputs = _lean.checked_call(), fused_inputs(prep)
         n, rows, unit, pos_only = prep.n, s.max_iterations + 1, prep.unit, s.criterion == "position"
         scaled = prep.goal_scale != 1.0
@@ -172,13 +168,11 @@ def _bind_call(method: str):
             if scaled:  # the goal in the working unit (a copy), the shapes checked
                 T_goal, q_start = inputs(T_goal, q_start)
             try:  # the caller's arrays as they are when C-contiguous float64 (the kernel writes into neither)
-                code, it, claimed, success, dp, ang, inside = kernel(form, a, ca, sa, d, offs, prism, base, tool,
-                                                                     T_goal, q_start, ip, fp, C, q, trace, times, req)
+                code, it, claimed, success, dp, ang, inside = kernel(K, F, T_goal, q_start, q, trace, times)
             except TypeError:  # anything else: converted as every solver's inputs are (a wrong shape: SettingsError)
                 Tg, q0 = (T_goal, q_start) if scaled else inputs(T_goal, q_start)
-                code, it, claimed, success, dp, ang, inside = kernel(form, a, ca, sa, d, offs, prism, base, tool,
-                                                                     np.array(Tg, order="C"), np.array(q0, order="C"),
-                                                                     ip, fp, C, q, trace, times, req)
+                code, it, claimed, success, dp, ang, inside = kernel(K, F, np.array(Tg, order="C"),
+                                                                     np.array(q0, order="C"), q, trace, times)
             if code < 0:  # a shape the kernel refused
                 inputs(T_goal, q_start)
                 raise SettingsError(f"T_goal / q_start: expected shapes (4, 4) and ({n},)")

@@ -340,17 +340,67 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
     return code, it
 
 
+def pack_checked(chain: tuple, ip: np.ndarray, fp: np.ndarray, C: np.ndarray, require_limits: bool):
+    """The per-bind inputs of :func:`solve_checked` in two arrays ``(K, F)``, so that a call hands the
+    kernel seven arrays instead of eighteen arguments (numba's dispatch costs about 50 ns an argument,
+    ~0.5 µs a call saved on the iiwa 14). ``chain`` = :func:`lean_chain`'s tuple, ``ip``/``fp`` the packed
+    parameters, ``C`` a :func:`~pipeline.solvers.core.check_pack` array. ``K`` (int64) = ``ip``, then
+    ``form``, ``require_limits``, the lengths of ``a, ca, sa, d, offs, fp, C``, ``prism`` (0/1 per joint)
+    and last ``len(ip)``; ``F`` (float64) = ``a, ca, sa, d, offs``, ``base`` and ``tool`` (4 x 4, row-major),
+    ``fp``, ``C``."""
+    form, a, ca, sa, d, offs, prism, base, tool = chain
+    if np.shape(base) != (4, 4) or np.shape(tool) != (4, 4):
+        raise ValueError(f"lean chain: base and tool must be 4 x 4, got {np.shape(base)} and {np.shape(tool)}")
+    flat = [np.ravel(np.asarray(x, dtype=float)) for x in (a, ca, sa, d, offs)]
+    fp, C = np.asarray(fp, dtype=float), np.asarray(C, dtype=float)
+    K = np.concatenate([np.asarray(ip, dtype=np.int64), [int(form), int(bool(require_limits))],
+                        [len(x) for x in flat], [len(fp), len(C)], np.asarray(prism, dtype=np.int64),
+                        [len(ip)]]).astype(np.int64)
+    F = np.concatenate([*flat, np.ravel(np.asarray(base, dtype=float)), np.ravel(np.asarray(tool, dtype=float)), fp, C])
+    return np.ascontiguousarray(K), np.ascontiguousarray(F)
+
+
+@numba.njit(cache=True, inline="always")
+def _unpack_checked(K, F, n):
+    """:func:`pack_checked`'s arrays back as views: (form, a, ca, sa, d, offs, prism, base, tool, ip, fp, C,
+    require_limits); ``prism`` a new bool array (n,), every other array a view of ``K`` or ``F``."""
+    li = K[K.shape[0] - 1]
+    h = li + 2  # the seven lengths
+    o = 0
+    a = F[o:o + K[h]]
+    o += K[h]
+    ca = F[o:o + K[h + 1]]
+    o += K[h + 1]
+    sa = F[o:o + K[h + 2]]
+    o += K[h + 2]
+    d = F[o:o + K[h + 3]]
+    o += K[h + 3]
+    offs = F[o:o + K[h + 4]]
+    o += K[h + 4]
+    base = F[o:o + 16].reshape((4, 4))
+    tool = F[o + 16:o + 32].reshape((4, 4))
+    o += 32
+    fp = F[o:o + K[h + 5]]
+    o += K[h + 5]
+    C = F[o:o + K[h + 6]]
+    prism = np.empty(n, np.bool_)
+    for j in range(n):
+        prism[j] = K[h + 7 + j] != 0
+    return K[li], a, ca, sa, d, offs, prism, base, tool, K[:li], fp, C, K[li + 1]
+
+
 @numba.njit(cache=True)
-def solve_checked(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, C, q, trace, times, require_limits):
+def solve_checked(K, F, Tg, q0, q, trace, times):
     """The public single call in one compiled call: :func:`solve`, then the result rule of every finish
-    (:func:`pipeline.solvers.core.finish_packed` on ``C``, a :func:`~pipeline.solvers.core.check_pack`
-    array: the independent FK check, the limit record, the stop reason). Returns (stop code,
-    iterations, claimed, success, |dp| [working unit], angle [rad], within limits); stop code -1 (and
-    nothing written) when ``Tg`` is not (4, 4) or ``q0`` not shaped like ``q``. ``require_limits`` (0 or 1):
-    :func:`pipeline.solvers.core.finish_packed_limits` (``q`` moved by turns into the limits, success only
-    within them)."""
+    (:func:`pipeline.solvers.core.finish_packed` on the :func:`~pipeline.solvers.core.check_pack` array:
+    the independent FK check, the limit record, the stop reason), on :func:`pack_checked`'s ``(K, F)``.
+    Returns (stop code, iterations, claimed, success, |dp| [working unit], angle [rad], within limits);
+    stop code -1 (and nothing written) when ``Tg`` is not (4, 4) or ``q0`` not shaped like ``q``. With
+    ``require_limits``: :func:`pipeline.solvers.core.finish_packed_limits` (``q`` moved by turns into the
+    limits, success only within them)."""
     if Tg.shape[0] != 4 or Tg.shape[1] != 4 or q0.shape[0] != q.shape[0]:
         return -1, 0, False, False, math.nan, math.nan, False
+    form, a, ca, sa, d, offs, prism, base, tool, ip, fp, C, require_limits = _unpack_checked(K, F, q.shape[0])
     code, it = solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace, times)
     if require_limits:
         c, claimed, success, dp, ang, inside = finish_packed_limits(C, q, Tg, code)
@@ -360,13 +410,12 @@ def solve_checked(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, C
 
 
 _F1, _F2 = numba.types.float64[::1], numba.types.float64[:, ::1]
-CHECKED_SIGNATURE = (numba.types.int64, _F1, _F1, _F1, _F1, _F1, numba.types.boolean[::1], _F2, _F2, _F2, _F1,
-                     numba.types.int64[::1], _F1, _F1, _F1, _F2, numba.types.int64[::1], numba.types.int64)
+CHECKED_SIGNATURE = (numba.types.int64[::1], _F1, _F2, _F1, _F1, _F2, numba.types.int64[::1])
 
 
 def checked_call():
-    """:func:`solve_checked` compiled for :data:`CHECKED_SIGNATURE` only (C-contiguous float64 arrays,
-    the chain of :func:`lean_chain` made contiguous) and closed to any other: a caller hands it its
+    """:func:`solve_checked` compiled for :data:`CHECKED_SIGNATURE` only (C-contiguous arrays: the packed
+    inputs, the goal, the start and the three outputs) and closed to any other: a caller hands it its
     arrays unchecked and converts them only on the TypeError any other array raises."""
     return closed_to(solve_checked, CHECKED_SIGNATURE)
 
