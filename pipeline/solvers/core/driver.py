@@ -133,7 +133,8 @@ class Bound:
             if self._run is self.fused:
                 self.call = self.fused
             elif self._run == self._fused_restart:  # with restarts: watched again only when a search failed
-                self.call = self._fused_then_watch
+                hooked = getattr(self.fused, "on_failure", None)  # a fused call that hands a failure on itself
+                self.call = self._fused_then_watch if hooked is None else hooked(self._restart_watched)
             return res
         spent = clock[0] - c0
         for _ in range(3):  # the run again (a run that compiles once more, a later branch, again)
@@ -157,11 +158,18 @@ class Bound:
 
     def _fused_then_watch(self, T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
         """A warm fused call with restarts: the fused call alone when it succeeds (it compiles nothing after
-        its first clean call); when it failed, the restarts run as :meth:`_fused_restart` under
-        :meth:`_own_time`'s watch (the generic path a restart takes may compile on its first use)."""
+        its first clean call), else :meth:`_restart_watched`. A fused call with an ``on_failure`` attribute
+        (``on_failure(handler)`` -> the same call handing a failed result to ``handler`` itself) is used
+        instead, one Python frame less per call."""
         res = self.fused(T_goal, q_start, seed, t0)
         if res.success:
             return res
+        return self._restart_watched(res, T_goal, q_start, seed, t0)
+
+    def _restart_watched(self, res: IKResult, T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
+        """The restarts after a warm fused call's failed search ``res``, under :meth:`_own_time`'s watch: the
+        generic path a restart takes may compile on its first use, and a call that compiled is run again
+        whole and marked."""
         clock = COMPILE_CLOCK
         c0 = clock[0]
         out = self.restart(self.prep.working_goal(T_goal), int(seed), res, t0)

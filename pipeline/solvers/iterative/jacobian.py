@@ -160,29 +160,36 @@ def _bind_call(method: str):
         kernel, inputs = _lean.checked_call(), fused_inputs(prep)
         n, rows, unit, pos_only = prep.n, s.max_iterations + 1, prep.unit, s.criterion == "position"
         scaled = prep.goal_scale != 1.0
-        empty, zeros, nan = np.empty, np.zeros, math.nan
+        empty, nan = np.empty, math.nan
 
-        def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
-            # two clock slots: the thread-CPU reading (a system call, ~0.45 us each of two) is the batch's only
-            q, trace, times = empty(n), empty((rows, TRACE_COLS)), zeros(2, np.int64)
-            if scaled:  # the goal in the working unit (a copy), the shapes checked
-                T_goal, q_start = inputs(T_goal, q_start)
-            try:  # the caller's arrays as they are when C-contiguous float64 (the kernel writes into neither)
-                code, it, claimed, success, dp, ang, inside = kernel(K, F, T_goal, q_start, q, trace, times)
-            except TypeError:  # anything else: converted as every solver's inputs are (a wrong shape: SettingsError)
-                Tg, q0 = (T_goal, q_start) if scaled else inputs(T_goal, q_start)
-                code, it, claimed, success, dp, ang, inside = kernel(K, F, np.array(Tg, order="C"),
-                                                                     np.array(q0, order="C"), q, trace, times)
-            if code < 0:  # a shape the kernel refused
-                inputs(T_goal, q_start)
-                raise SettingsError(f"T_goal / q_start: expected shapes (4, 4) and ({n},)")
-            ns, ik_ns = times.tolist()  # Python ints: numpy scalars cost ~1.5 us more per call here
-            res = IKResult(q, success, code, it, trace[:it + 1].copy(), ns * 1e-9, ik_ns * 1e-9, dp,
-                           nan if pos_only else ang, claimed, inside, nan, unit, None, {})
-            res.call_time_s = (clock_ns() - t0) * 1e-9
-            return res
+        def make(on_failure):
+            """The call; with ``on_failure`` (the driver's restarts, ``on_failure(res, T_goal, q_start, seed,
+            t0)``) one that hands a failed search's result on itself, a Python frame less than a wrapper."""
 
-        return call
+            def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
+                q, trace = empty(n), empty((rows, TRACE_COLS))
+                # the goal in the working unit (a copy, the shapes checked) when the robot file's unit is not
+                Tg, q0 = inputs(T_goal, q_start) if scaled else (T_goal, q_start)
+                try:  # the caller's arrays as they are when C-contiguous float64 (the kernel writes into neither)
+                    code, it, claimed, success, dp, ang, inside, ns, ik_ns = kernel(K, F, Tg, q0, q, trace)
+                except TypeError:  # anything else: converted as every solver's inputs are (a wrong shape: SettingsError)
+                    Tg, q0 = (Tg, q0) if scaled else inputs(T_goal, q_start)
+                    code, it, claimed, success, dp, ang, inside, ns, ik_ns = kernel(
+                        K, F, np.array(Tg, order="C"), np.array(q0, order="C"), q, trace)
+                if code < 0:  # a shape the kernel refused
+                    inputs(T_goal, q_start)
+                    raise SettingsError(f"T_goal / q_start: expected shapes (4, 4) and ({n},)")
+                res = IKResult(q, success, code, it, trace[:it + 1].copy(), ns * 1e-9, ik_ns * 1e-9, dp,
+                               nan if pos_only else ang, claimed, inside, nan, unit, None, {})
+                res.call_time_s = (clock_ns() - t0) * 1e-9
+                if success or on_failure is None:
+                    return res
+                return on_failure(res, T_goal, q_start, seed, t0)  # the caller's goal and start, as given
+
+            call.on_failure = make
+            return call
+
+        return make(None)
 
     return bind_call
 

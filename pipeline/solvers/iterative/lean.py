@@ -342,7 +342,7 @@ def solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace,
 
 def pack_checked(chain: tuple, ip: np.ndarray, fp: np.ndarray, C: np.ndarray, require_limits: bool):
     """The per-bind inputs of :func:`solve_checked` in two arrays ``(K, F)``, so that a call hands the
-    kernel seven arrays instead of eighteen arguments (numba's dispatch costs about 50 ns an argument,
+    kernel six arrays instead of eighteen arguments (numba's dispatch costs about 50 ns an argument,
     ~0.5 µs a call saved on the iiwa 14). ``chain`` = :func:`lean_chain`'s tuple, ``ip``/``fp`` the packed
     parameters, ``C`` a :func:`~pipeline.solvers.core.check_pack` array. ``K`` (int64) = ``ip``, then
     ``form``, ``require_limits``, the lengths of ``a, ca, sa, d, offs, fp, C``, ``prism`` (0/1 per joint)
@@ -390,32 +390,34 @@ def _unpack_checked(K, F, n):
 
 
 @numba.njit(cache=True)
-def solve_checked(K, F, Tg, q0, q, trace, times):
+def solve_checked(K, F, Tg, q0, q, trace):
     """The public single call in one compiled call: :func:`solve`, then the result rule of every finish
     (:func:`pipeline.solvers.core.finish_packed` on the :func:`~pipeline.solvers.core.check_pack` array:
     the independent FK check, the limit record, the stop reason), on :func:`pack_checked`'s ``(K, F)``.
-    Returns (stop code, iterations, claimed, success, |dp| [working unit], angle [rad], within limits);
-    stop code -1 (and nothing written) when ``Tg`` is not (4, 4) or ``q0`` not shaped like ``q``. With
+    Returns (stop code, iterations, claimed, success, |dp| [working unit], angle [rad], within limits,
+    solve time [ns], IK-block time [ns]) (the times as ints: no clock array for the caller to allocate and
+    read); stop code -1 (and nothing written) when ``Tg`` is not (4, 4) or ``q0`` not shaped like ``q``. With
     ``require_limits``: :func:`pipeline.solvers.core.finish_packed_limits` (``q`` moved by turns into the
     limits, success only within them)."""
     if Tg.shape[0] != 4 or Tg.shape[1] != 4 or q0.shape[0] != q.shape[0]:
-        return -1, 0, False, False, math.nan, math.nan, False
+        return -1, 0, False, False, math.nan, math.nan, False, 0, 0
     form, a, ca, sa, d, offs, prism, base, tool, ip, fp, C, require_limits = _unpack_checked(K, F, q.shape[0])
+    times = np.zeros(2, np.int64)  # two slots: no thread-CPU clock (a system call each read, ~0.45 µs)
     code, it = solve(form, a, ca, sa, d, offs, prism, base, tool, Tg, q0, ip, fp, q, trace, times)
     if require_limits:
         c, claimed, success, dp, ang, inside = finish_packed_limits(C, q, Tg, code)
     else:
         c, claimed, success, dp, ang, inside = finish_packed(C, q, Tg, code)
-    return c, it, claimed, success, dp, ang, inside
+    return c, it, claimed, success, dp, ang, inside, times[0], times[1]
 
 
 _F1, _F2 = numba.types.float64[::1], numba.types.float64[:, ::1]
-CHECKED_SIGNATURE = (numba.types.int64[::1], _F1, _F2, _F1, _F1, _F2, numba.types.int64[::1])
+CHECKED_SIGNATURE = (numba.types.int64[::1], _F1, _F2, _F1, _F1, _F2)
 
 
 def checked_call():
     """:func:`solve_checked` compiled for :data:`CHECKED_SIGNATURE` only (C-contiguous arrays: the packed
-    inputs, the goal, the start and the three outputs) and closed to any other: a caller hands it its
+    inputs, the goal, the start and the two outputs) and closed to any other: a caller hands it its
     arrays unchecked and converts them only on the TypeError any other array raises."""
     return closed_to(solve_checked, CHECKED_SIGNATURE)
 

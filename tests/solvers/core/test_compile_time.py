@@ -64,7 +64,7 @@ def test_a_restart_that_compiles_after_warm_calls_is_run_again_and_says_so():
     T[:3, 3] += 10.0  # out of reach: every search fails, the restarts run
     ik.solve(T, q0)
     first = ik.solve(T, q0)
-    assert ik.call == ik._fused_then_watch and not first.compiled and first.info["restarts"] == 2
+    assert ik.call != ik._own_time and not first.compiled and first.info["restarts"] == 2  # the warm call
     real, fresh, runs = ik.run1, _fresh_kernel(), []
 
     def run1(Tg, q_start, seed):
