@@ -61,8 +61,12 @@ class Solver:
                                     kernel is so short that ``bind`` + :func:`finish` would cost more
                                     than it (the analytic closed forms). It must give what ``bind`` +
                                     :func:`finish` give, bit for bit, timings aside; used only with
-                                    ``bind``, and not for restarts or scaled prismatic joints; None =
-                                    the generic path for these settings
+                                    ``bind``, and not for scaled prismatic joints; with ``restarts`` it
+                                    is the first search and the driver restarts after a failed one (a
+                                    ``call`` with an ``on_failure(handler)`` attribute returns the same
+                                    call handing its failed result to ``handler(res, T_goal, q_start,
+                                    seed, t0)`` itself: the Jacobian methods); None = the generic path
+                                    for these settings
     """
 
     name: str
