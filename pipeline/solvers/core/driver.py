@@ -98,10 +98,11 @@ class Bound:
     Compilation is never timed as a solve: a call during which numba compiled kernels or loaded them
     from its cache (:func:`pipeline._numba_cache.compile_ns`) is run again once they are ready, and
     returns that run's result with ``compiled`` True and ``compile_time_s`` the time it took. The fused
-    call is watched until its first call that compiles nothing (it compiles nothing later), and with
-    ``restarts`` after that only when its search failed (the restarts' generic path may compile on its
-    first use; :meth:`_fused_then_watch`); the generic path on every call (a restart or a rare branch
-    may compile later).
+    call is watched until its first call that compiles nothing (it compiles nothing later); with
+    ``restarts``, a fused call that hands a failed search on itself (``on_failure``, the Jacobian
+    methods) is then watched only when its search failed (:meth:`_restart_watched`: the restarts' generic
+    path may compile on its first use); the generic path, and any other fused call with restarts, on
+    every call (a restart or a rare branch may compile later).
     """
 
     __slots__ = ("spec", "prep", "settings", "sc", "run1", "scaled", "shape", "may_restart", "fused", "call", "_run")
@@ -132,9 +133,8 @@ class Bound:
         if clock[0] == c0:
             if self._run is self.fused:
                 self.call = self.fused
-            elif self._run == self._fused_restart:  # with restarts: watched again only when a search failed
-                hooked = getattr(self.fused, "on_failure", None)  # a fused call that hands a failure on itself
-                self.call = self._fused_then_watch if hooked is None else hooked(self._restart_watched)
+            elif self._run == self._fused_restart and hasattr(self.fused, "on_failure"):
+                self.call = self.fused.on_failure(self._restart_watched)  # watched again only after a failed search
             return res
         spent = clock[0] - c0
         for _ in range(3):  # the run again (a run that compiles once more, a later branch, again)
@@ -156,20 +156,10 @@ class Bound:
         res.call_time_s = (clock_ns() - t0) * 1e-9
         return res
 
-    def _fused_then_watch(self, T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
-        """A warm fused call with restarts: the fused call alone when it succeeds (it compiles nothing after
-        its first clean call), else :meth:`_restart_watched`. A fused call with an ``on_failure`` attribute
-        (``on_failure(handler)`` -> the same call handing a failed result to ``handler`` itself) is used
-        instead, one Python frame less per call."""
-        res = self.fused(T_goal, q_start, seed, t0)
-        if res.success:
-            return res
-        return self._restart_watched(res, T_goal, q_start, seed, t0)
-
     def _restart_watched(self, res: IKResult, T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
-        """The restarts after a warm fused call's failed search ``res``, under :meth:`_own_time`'s watch: the
-        generic path a restart takes may compile on its first use, and a call that compiled is run again
-        whole and marked."""
+        """The restarts after a warm fused call's failed search ``res`` (the handler its ``on_failure`` hands
+        it to), under :meth:`_own_time`'s watch: the generic path a restart takes may compile on its first
+        use, and a call that compiled is run again whole and marked."""
         clock = COMPILE_CLOCK
         c0 = clock[0]
         out = self.restart(self.prep.working_goal(T_goal), int(seed), res, t0)

@@ -354,12 +354,10 @@ def pack_checked(chain: tuple, ip: np.ndarray, fp: np.ndarray, C: np.ndarray, re
     if np.shape(base) != (4, 4) or np.shape(tool) != (4, 4):
         raise ValueError(f"lean chain: base and tool must be 4 x 4, got {np.shape(base)} and {np.shape(tool)}")
     flat = [np.ravel(np.asarray(x, dtype=float)) for x in (a, ca, sa, d, offs)]
-    fp, C = np.asarray(fp, dtype=float), np.asarray(C, dtype=float)
-    K = np.concatenate([np.asarray(ip, dtype=np.int64), [int(form), int(bool(require_limits))],
-                        [len(x) for x in flat], [len(fp), len(C)], np.asarray(prism, dtype=np.int64),
-                        [len(ip)]]).astype(np.int64)
-    F = np.concatenate([*flat, np.ravel(np.asarray(base, dtype=float)), np.ravel(np.asarray(tool, dtype=float)), fp, C])
-    return np.ascontiguousarray(K), np.ascontiguousarray(F)
+    K = np.concatenate([ip, [int(form), int(bool(require_limits))], [len(x) for x in flat], [len(fp), len(C)],
+                        np.asarray(prism, dtype=np.int64), [len(ip)]], dtype=np.int64)
+    F = np.concatenate([*flat, np.ravel(base), np.ravel(tool), fp, C], dtype=float)
+    return K, F  # new, C-contiguous and writable: the kernel's one signature
 
 
 @numba.njit(cache=True, inline="always")
