@@ -363,6 +363,17 @@ def batch(prep: Prepared, s: AnalyticSettings, goals: np.ndarray, starts: np.nda
                     trace_rows=rows, trace_offsets=offsets, solutions=S, n_solutions=nsol, info=info)
 
 
+def fused_kernel(prep: Prepared, s: AnalyticSettings) -> tuple:
+    """What :func:`bind_call` hands its compiled call (an arm a family's closed form takes):
+    ``(kernel, ints, GC, n, ms)``, called as ``kernel(ints, GC, T_goal, q_start, S, q, trace)`` with
+    ``S`` (ms, n), ``q`` (n,) and ``trace`` (2, 8) float64 arrays to write
+    (:func:`~pipeline.solvers.closed_form.analytic_kernels.call_pose`; ``benchmarks/call_budget.py`` times it
+    alone)."""
+    k = packed(prep, s)
+    GC = np.concatenate([k.G, check_pack(prep, s), [prep.goal_scale]])
+    return kernels(k.ints).call, k.ints, GC, int(k.ints[0]), min(s.max_solutions, most_solutions(k.ints))
+
+
 def bind_call(prep: Prepared, s: AnalyticSettings):
     """The public single call fused (``Solver.bind_call``): closed form, independent FK check and limit
     record in one compiled call, the result built positionally; None under ``require_limits`` (the
@@ -372,13 +383,11 @@ def bind_call(prep: Prepared, s: AnalyticSettings):
         return None
     if _general(prep, s):
         return _bind_call_general(prep, s)
-    k = packed(prep, s)
-    ints, GC = k.ints, np.concatenate([k.G, check_pack(prep, s), [prep.goal_scale]])
-    n, ms, fam = int(k.ints[0]), min(s.max_solutions, most_solutions(k.ints)), _family(prep, s)
-    inputs, unit, pos_only = fused_inputs(prep, scaled=False), prep.unit, s.criterion == "position"
+    kernel, ints, GC, n, ms = fused_kernel(prep, s)
+    fam, inputs, unit = _family(prep, s), fused_inputs(prep, scaled=False), prep.unit
+    pos_only = s.criterion == "position"
     nan, empty = math.nan, np.empty
-
-    kernel, messages, shape_S, shape_trace = kernels(k.ints).call, _MESSAGES, (ms, n), (2, TRACE_COLS)
+    messages, shape_S, shape_trace = _MESSAGES, (ms, n), (2, TRACE_COLS)
 
     def call(T_goal: np.ndarray, q_start: np.ndarray, seed: int, t0: int) -> IKResult:
         S = empty(shape_S)
