@@ -52,6 +52,7 @@ class Prepared:
         self.prismatic = np.asarray(c.prismatic, dtype=bool)
         self._cache: dict = {}  # see memo()
         self._bound: dict = {}  # (solver name, id(settings)) -> driver.Bound (see registry.bind)
+        self._last: dict = {}  # solver name -> the Bound solve() called last for it (see registry.solve)
         self._finish_args = None  # finish()'s packed check model (see _finish_args)
 
     @property
