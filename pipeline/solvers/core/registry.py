@@ -262,8 +262,8 @@ def solve(name: str, robot: RobotModel | Prepared, T_goal: np.ndarray, q_start: 
     """
     t0 = clock_ns()
     if type(robot) is Prepared:  # the cached binding (as in bind), called without further frames
-        hit = robot._last.get(name)  # the method's binding of the last call: no key to build (0.25 µs a call
-        if hit is not None and hit.settings is settings:  # less amid other work, benchmarks/call_budget.py)
+        hit = robot._last.get(name)  # the method's binding of the last call: no key to build (0.13-0.15 µs a
+        if hit is not None and hit.settings is settings:  # call less amid other work, benchmarks/call_budget.py)
             return hit.call(T_goal, q_start, seed, t0)
         hit = robot._bound.get((name, id(settings)))
         if hit is not None and hit.settings is settings:
