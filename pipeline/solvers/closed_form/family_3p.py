@@ -89,8 +89,10 @@ def p3_last(fx, t234, tgt, dd, s, clip, d2):
 def solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q):
     """Three parallel axes (2-4) and axes 5-6 meeting: up to 8 candidates. The stages are inlined
     (:data:`tw`: the same floats as the calls, 0.3-0.35 µs less a pose, since no tuple goes through
-    memory between them); the retries where a free angle took its default (θ5 at the start's, then
-    θ2; rare) stay calls."""
+    memory between them, for about 5 s more compile at the first call); the retries where a free
+    angle took its default (θ5 at the start's, then θ2; rare) stay calls. (The spherical wrist's
+    single call, :func:`~pipeline.solvers.closed_form.family_sph.solve_sph`, does not inline: 0.2 µs less a
+    pose there cost 5 s more compile, a third more for the README example's first call.)"""
     fx = tw.p3_fixed(H, P, RM, pM)
     g, pgt = t9(Rg), (pg[0], pg[1], pg[2])
     n = 0

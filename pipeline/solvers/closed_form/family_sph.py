@@ -60,10 +60,11 @@ def sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, d4, d6):
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def sph_wrist_at(fx, gh6, ge6, t1, t2, t3, clip, pref):
-    """:func:`sph_wrist` for joints 1-3 at (t1, t2, t3): first with the free angles' defaults at zero
-    (inlined, :data:`tw`), once more with the start's θ4 and θ6 (``pref``, rad) where the wrist is
-    singular and took them (``v[7]``; a call, the rare case)."""
-    v = tw.sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, ONE, ONE)
+    """:func:`sph_wrist` for joints 1-3 at (t1, t2, t3): first with the free angles' defaults at zero,
+    once more with the start's θ4 and θ6 (``pref``, rad) where the wrist is singular and took them
+    (``v[7]``)."""
+    d4, d6 = ONE, ONE
+    v = sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, d4, d6)
     if v[7]:
         v = sph_wrist(fx, gh6, ge6, t1, t2, t3, clip, cis(-pref[3]), cis(pref[5]))
     return v
@@ -87,15 +88,10 @@ def keep_wrists(Q, n, t1, t2, t3, v, lim):
 def solve_sph(case, H, P, RM, pM, Rg, pg, clip, pref, Q, lim):
     """Spherical wrist: up to 8 candidate solutions into Q; returns their count. A branch whose
     joints 1-3 (then 4-5) fall outside ``lim`` (6, 2) is dropped before the rest is computed (a 7R
-    sweep passes the limits; a 6R arm ±inf: every solution).
-
-    The arm's, the goal's and the wrist's stages are inlined (:data:`tw`: the same floats as the calls,
-    about 0.2 µs less a pose, since the arm's tuples and each branch's do not go through memory between
-    calls); the position stage stays a call (:func:`pos3d`: its four cases inlined took numba 24 s to
-    compile, for 0.1 µs more), as do the retries where a free angle took its default (rare)."""
-    fx = tw.sph_fixed(case, H, P, RM, pM)
+    sweep passes the limits; a 6R arm ±inf: every solution)."""
+    fx = sph_fixed(case, H, P, RM, pM)
     hs, ps, c, o = fx[0], fx[1], fx[2], fx[3]
-    w, gh6, ge6 = tw.sph_goal(fx, t9(Rg), (pg[0], pg[1], pg[2]))
+    w, gh6, ge6 = sph_goal(fx, t9(Rg), (pg[0], pg[1], pg[2]))
     n = 0
     for sa in (1.0, -1.0):
         r = pos3d(case, hs, ps, o, c, w, sa, clip, ONE)
@@ -120,7 +116,7 @@ def candidates(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
 
 # ---- 8 goals in vector lanes ------------------------------------------------------------------------
 # the stages inlined into each pass at numba's level (a pass with a call left in it is not vectorized);
-# the single call above inlines some of them (solve_sph's docstring), the rest it calls
+# the single call above uses the same functions uninlined (far less for numba to compile)
 tw = inlined_twin(subproblems, sys.modules[__name__])
 
 
