@@ -87,17 +87,16 @@ def p3_last(fx, t234, tgt, dd, s, clip, d2):
 
 @numba.njit(cache=True, error_model="numpy")
 def solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q):
-    """Three parallel axes (2-4) and axes 5-6 meeting: up to 8 candidates. The stages are inlined
-    (:data:`tw`: the same floats as the calls, 0.3-0.35 µs less a pose, since no tuple goes through
-    memory between them, for about 5 s more compile at the first call); the retries where a free
-    angle took its default (θ5 at the start's, then θ2; rare) stay calls. (The spherical wrist's
-    single call, :func:`~pipeline.solvers.closed_form.family_sph.solve_sph`, does not inline: 0.2 µs less a
-    pose there cost 5 s more compile, a third more for the README example's first call.)"""
+    """Three parallel axes (2-4) and axes 5-6 meeting: up to 8 candidates. The arm's stage and the
+    last one (the planar 2R, 8 times a pose) are inlined (:data:`tw`, the same floats): 0.22 µs less a
+    pose for about 1 s more compile. The first and middle stages stay calls: inlined as well they saved
+    0.11 µs more for 4 s more compile. The retries where a free angle took its default (θ5 at the
+    start's, then θ2; rare) are calls too."""
     fx = tw.p3_fixed(H, P, RM, pM)
     g, pgt = t9(Rg), (pg[0], pg[1], pg[2])
     n = 0
     for sa in (1.0, -1.0):
-        r = tw.p3_first(fx, g, pgt, sa, clip, ONE)
+        r = p3_first(fx, g, pgt, sa, clip, ONE)
         if r[7]:
             r = p3_first(fx, g, pgt, sa, clip, cis(-pref[4]))
         if not r[6]:
@@ -105,7 +104,7 @@ def solve_3p(H, P, RM, pM, Rg, pg, clip, pref, Q):
         tm, w1 = r[0], r[1]
         for sb in range(2):
             t5, t6 = (r[2], r[3]) if sb == 0 else (r[4], r[5])
-            t234, tgt, dd = tw.p3_mid(fx, g, tm, w1, t5, t6)
+            t234, tgt, dd = p3_mid(fx, g, tm, w1, t5, t6)
             for ic in range(2):
                 v = tw.p3_last(fx, t234, tgt, dd, 1.0 - 2.0 * ic, clip, ONE)
                 if v[4]:
@@ -127,7 +126,7 @@ def candidates(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
 
 # ---- 8 goals in vector lanes ------------------------------------------------------------------------
 # the stages inlined into each pass at numba's level (a pass with a call left in it is not vectorized);
-# the single call above inlines them too (solve_3p), the rare retries aside
+# the single call above inlines the arm's stage and the last (solve_3p: far less for numba to compile)
 tw = inlined_twin(subproblems, sys.modules[__name__])
 
 

@@ -65,8 +65,8 @@ def inlined_twin(*modules, suffix: str = "inline"):
     :mod:`pipeline.solvers.closed_form.family_sph` and :mod:`~pipeline.solvers.closed_form.family_3p`), while
     the kernels themselves stay separate functions elsewhere (inlining at numba's level copies a callee's
     code into every call site, which multiplies the compiler's work: a single closed-form call compiled
-    in minutes with everything inlined and seconds without; the three-parallel single call inlines its
-    stages, :func:`~pipeline.solvers.closed_form.family_3p.solve_3p`).
+    in minutes with everything inlined and seconds without; the single calls inline the few stages that
+    pay for their compile time, :func:`~pipeline.solvers.closed_form.family_3p.solve_3p`).
     The twins compute the same floats as the originals (the same operations in the same order; no
     fast-math).
 
