@@ -121,7 +121,7 @@ def candidates(case, mode, H, P, RM, pM, Rg, pg, clip, pref, samples, Q, lim6):
 
 # ---- 8 goals in vector lanes ------------------------------------------------------------------------
 # the stages inlined into each pass at numba's level (a pass with a call left in it is not vectorized);
-# the single call above inlines the first two only (solve_sph: far less for numba to compile)
+# the single call above inlines the arm's and the goal's stages only (solve_sph: far less to compile)
 tw = inlined_twin(subproblems, sys.modules[__name__])
 
 
