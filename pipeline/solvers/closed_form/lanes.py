@@ -24,8 +24,8 @@ the arm is read into tuples before the passes; a pass holds no call into libm an
 position case is chosen outside the pass). And for the compiler's own time: numba inlines each stage
 at the numba level (:func:`~pipeline.solvers.kernels.specialise.inlined_twin`; the single calls
 inline a few of the same twins, where that pays for its compile time) once per pass, so the branches
-are lanes too, not passes of their own: the first stage runs once over 16 lanes (8 goals × sa), the rest once over 32 (× sb), both candidates of the
-last branch in the same pass. Written as one pass per branch, the spherical-wrist passes took numba
+are lanes too, not passes of their own: the first stage runs once over 16 lanes (8 goals × sa), the
+rest once over 32 (× sb), both candidates of the last branch in the same pass. Written as one pass per branch, the spherical-wrist passes took numba
 120 s to compile, against 38 s now, with the same speed.
 
 Layout of ``L`` (:data:`SIZE` floats): rows of :data:`W` = 32 slots, slot ``16 sb + 8 ia + l`` for goal
