@@ -31,10 +31,8 @@ import os
 import random
 import sys
 import time
-import types
 from pathlib import Path
 
-import numba
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -44,12 +42,18 @@ from pipeline.solvers import bind, make_settings, solve  # noqa: E402
 from pipeline.solvers.core import IKResult, Prepared  # noqa: E402
 from pipeline.solvers.closed_form import analytic  # noqa: E402
 from pipeline.solvers.closed_form import analytic_kernels as ak  # noqa: E402
+from pipeline.solvers.closed_form.analytic_kernels import _views, finish_packed, scratch, unpack  # noqa: E402
+from pipeline.solvers.kernels.kin import borrowed, grid, now_ns  # noqa: E402
+from pipeline.solvers.kernels.specialise import specialise  # noqa: E402
 from pipeline.solvers.peers.geo import metric  # noqa: E402
 from tests.solvers.closed_form import family_arms as fa  # noqa: E402
 
-_LOOP = '''
-def loop(ints, GC, goals, starts, S, q, trace, part, reps):
-    """Mean ns per pose of one part of the kernel (0 solve_pose, 1 core6, 2 finish, 3 scratch)."""
+SOLVE_POSE = CORE6 = None  # _loop's kernels, bound per family by compiled_loop (as in analytic_kernels)
+
+
+def _loop(ints, GC, goals, starts, S, q, trace, part, reps):
+    """Mean ns per pose of one part of the kernel (0 solve_pose, 1 core6, 2 finish, 3 scratch); a template
+    whose ``SOLVE_POSE`` and ``CORE6`` :func:`compiled_loop` binds to a family's kernels."""
     n = ints[0]
     ng = 8 * n + 27
     clk = np.zeros(2, np.int64)
@@ -65,21 +69,18 @@ def loop(ints, GC, goals, starts, S, q, trace, part, reps):
         if part == 0:
             acc += SOLVE_POSE(ints, GC[:ng], Tg, starts[i], Sc, W, Z, I, S, q, trace)[0]
         elif part == 1:
-            acc += CORE6(ints[2], ints[3], ints[7], H, P, RM, pM, Tg, (Tg[0, 3], Tg[1, 3], Tg[2, 3]), par[0],
-                         starts[i], ints[5], Q, nolim, Wr, Qr)
+            acc += CORE6(ints[2], ints[3], ints[7], H, P, RM, pM, Tg, (Tg[0, 3], Tg[1, 3], Tg[2, 3]),
+                         par[0], starts[i], ints[5], Q, nolim, Wr, Qr)
         elif part == 2:
             acc += finish_packed(borrowed(GC)[ng:], borrowed(starts[i]), Tg, 0)[0]
         else:
             acc += scratch(ints)[0].shape[0]
     return (now_ns(clk) - t0) / reps, acc
-'''
 
 
 def compiled_loop(K):
-    """The loop above compiled against this family's kernels (uncached: a benchmark's own code)."""
-    g = {**vars(ak), "SOLVE_POSE": K.solve_pose, "CORE6": K.core6}
-    exec(compile(_LOOP, "<call_budget>", "exec"), g)
-    return numba.njit(error_model="numpy")(types.FunctionType(g["loop"].__code__, g, "loop"))
+    """:func:`_loop` compiled against this family's kernels (uncached: a benchmark's own code)."""
+    return specialise(_loop, "call_budget", {"error_model": "numpy"}, SOLVE_POSE=K.solve_pose, CORE6=K.core6)
 
 
 def budget(kind: str, arm: int, reps: int) -> dict:
@@ -98,8 +99,9 @@ def budget(kind: str, arm: int, reps: int) -> dict:
     kernel, ints, GC, n, ms = analytic.fused_kernel(prep, b.sc)
     S, q, trace = np.empty((ms, n)), np.empty(n), np.empty((2, ak.TRACE_COLS))
     bad = np.eye(3)
-    robot, family = prep.memo(("peers_geo", "eaik"), None)
-    Tm = [metric(prep).goal(T) for T in Tl]
+    robot, _ = prep.memo(("peers_geo", "eaik"), None)
+    to_eaik = metric(prep)
+    Tm = [to_eaik.goal(T) for T in Tl]
     empty, shape_S, shape_t, nan = np.empty, (ms, n), (2, ak.TRACE_COLS), math.nan
 
     def three_arrays(i):
@@ -134,7 +136,6 @@ def budget(kind: str, arm: int, reps: int) -> dict:
                 times[name].append(pc() - t)
     out = {name: float(np.median(v)) * 1e-3 for name, v in times.items()}
     loop = compiled_loop(ak.kernels(ints))
-    loop(ints, GC, goals, starts, S, q, trace, 0, 10)
     for part, name in enumerate(("solve_pose", "core6", "finish", "scratch")):
         loop(ints, GC, goals, starts, S, q, trace, part, 10)
         out[name] = min(loop(ints, GC, goals, starts, S, q, trace, part, 20 * reps)[0] for _ in range(5)) * 1e-3
