@@ -28,8 +28,8 @@ Joints held at given values (``fixed_joints``, numbered from 1) are folded into 
 first (:mod:`pipeline.solvers.core.fixed`): a 7R arm with one joint held is solved as the 6R arm it is,
 by every path above (one in the search family by the general elimination where that applies). A 6R arm
 that fits a better family only within ``near_tol`` (rounded angles in its file) is solved on the
-nearest exact arm of that family, each candidate polished and checked on the real arm
-(:mod:`pipeline.solvers.closed_form.near`). Both run one pose per call (no batch kernel, no fused call).
+nearest exact arm of that family, each candidate polished and checked on the real arm, and the real
+arm's own path (``near_tol`` 0) adds its solutions (:mod:`pipeline.solvers.closed_form.near`). Both run one pose per call (no batch kernel, no fused call).
 
 Every candidate is checked by the forward kinematics of the joint lines (base and tool included)
 against ``verify_position`` / ``verify_rotation``; ``solutions`` holds the valid ones, each once (two
@@ -100,7 +100,8 @@ class AnalyticSettings(Settings):
     near_tol: float = setting(NEAR_TOL, "a 6R arm that fits a better family only within this tolerance (meet within "
                               "near_tol x reach, parallel within near_tol rad; rounded angles or lengths in its file) "
                               "is solved by that family's closed form on the nearest exact arm, each candidate "
-                              "polished by Newton steps on the real arm and FK-checked there; 0 = never",
+                              "polished by Newton steps on the real arm and FK-checked there, joined by the real arm's "
+                              "own path's solutions; 0 = never",
                               minimum=0.0, maximum=1e-2)
 
     def check(self, where: str) -> None:

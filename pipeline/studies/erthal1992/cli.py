@@ -79,7 +79,9 @@ def cmd_robot(args) -> None:
             if sn is not None:
                 text += (f"{sn.describe(model.length_unit)} (near_tol {NEAR_TOL:g}): `analytic` solves it by that "
                          "family's closed form on the nearest exact arm, then polishes each candidate by Newton "
-                         "steps on this arm and checks it by this arm's forward kinematics\n")
+                         "steps on this arm and checks it by this arm's forward kinematics; this arm's own path "
+                         "(what near_tol 0 would run) adds its solutions, so none is lost where the two arms "
+                         "differ\n")
             if six_revolute and classify(model.chain, args.geometry_tol).family is None:
                 from pipeline.solvers.closed_form import general6r
                 from pipeline.solvers.core import Prepared
