@@ -111,16 +111,46 @@ def _dip(ctx, b, lo, hi, sg, F1, V1, TH):
 @numba.njit(cache=True, error_model="numpy")
 def _edge(ctx, b, good, bad, fg, F1, V1, TH):
     """Where branch ``b`` stops existing between ``good`` (it exists, residual ``fg``) and ``bad`` (it
-    does not), by 16 bisections: (the last point where it exists, its residual there)."""
+    does not), by 16 bisections: (the last point where it exists, its residual there, and a point nearer
+    the edge with its residual: the same two unless a root lies between them).
+
+    At the edge a sub-problem's two roots meet, and near it the residual moves like the square root of
+    the distance to the edge, fast: a goal whose joints 1-3 sit next to that meeting has its root within
+    the last 1/65 536 of the cell, past the bisection's last point. The value at the edge is extrapolated
+    from the last two points along that square root; where it may have the other sign than the last
+    point (twice the extrapolated change allowed), the edge is bisected to rounding
+    (:data:`EDGE_BISECTIONS` more) until a point of the other sign turns up, returned as the third value
+    (its bracket with the last point then holds the root)."""
+    g2, f2 = good, fg
     for _ in range(16):
         m = 0.5 * (good + bad)
         _ev(ctx, m, F1, V1, TH)
         if V1[b]:
-            good = m
-            fg = F1[b]
+            g2, f2 = good, fg
+            good, fg = m, F1[b]
         else:
             bad = m
-    return good, fg
+    xr, fr = good, fg
+    d1, d2 = math.sqrt(abs(good - bad)), math.sqrt(abs(g2 - bad))
+    if d2 > d1:
+        change = 2.0 * (f2 - fg) * d1 / (d2 - d1)  # edge to last point, along the square root, doubled
+        if fg * (fg - change) > 0.0:
+            return good, fg, xr, fr
+    for _ in range(EDGE_BISECTIONS):
+        m = 0.5 * (xr + bad)
+        if m == xr or m == bad:
+            break
+        _ev(ctx, m, F1, V1, TH)
+        if V1[b]:
+            xr, fr = m, F1[b]
+            if fr * fg < 0.0:
+                break
+        else:
+            bad = m
+    return good, fg, xr, fr
+
+
+EDGE_BISECTIONS = 40  # after the first 16: a cell of 2π/64 to below 1e-16 rad
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -180,9 +210,13 @@ def _sign_changes(ctx, N, Fs, Vs, THs, BR, BB, F1, V1, TH):
             f0, f1 = Fs[i, b], Fs[i + 1, b]
             if v0 != v1:  # the branch ends inside: find its edge by bisection, evaluate there
                 if v0:
-                    a1, f1 = _edge(ctx, b, a0, a1, f0, F1, V1, TH)
+                    a1, f1, xr, fr = _edge(ctx, b, a0, a1, f0, F1, V1, TH)
+                    if fr * f1 < 0.0 and nb < 64:  # a root between the last point and the edge
+                        nb = _push(BR, BB, nb, a1, f1, xr, fr, b)
                 else:
-                    a0, f0 = _edge(ctx, b, a1, a0, f1, F1, V1, TH)
+                    a0, f0, xr, fr = _edge(ctx, b, a1, a0, f1, F1, V1, TH)
+                    if fr * f0 < 0.0 and nb < 64:
+                        nb = _push(BR, BB, nb, xr, fr, a0, f0, b)
             if f0 * f1 <= 0.0:
                 if nb < 64 and not (f1 == 0.0 and v1 and i + 1 < N):  # a zero on a grid point: once
                     nb = _push(BR, BB, nb, a0, f0, a1, f1, b)
@@ -225,7 +259,7 @@ def _dips(ctx, N, Fs, Vs, BR, BB, nb, F1, V1, TH):
             sg = 1.0 if fi > 0.0 else -1.0
             ai = -math.pi + i * step
             found, xm, fm = _dip(ctx, b, ai - step, ai + step, sg, F1, V1, TH)
-            if not found or nb + 2 > 64:
+            if not found or nb + 3 > 64:
                 continue
             # one root between a_i and xm; the other between xm and the far side (its grid point, or
             # the branch's last valid point before its edge)
@@ -233,7 +267,9 @@ def _dips(ctx, N, Fs, Vs, BR, BB, nb, F1, V1, TH):
             vf = vr if xm > ai else vl
             ff = fr if xm > ai else fl
             if not vf:
-                far, ff = _edge(ctx, b, xm, far, fm, F1, V1, TH)
+                far, ff, xr, fr = _edge(ctx, b, xm, far, fm, F1, V1, TH)
+                if fr * ff < 0.0 and nb < 64:
+                    nb = _push(BR, BB, nb, far, ff, xr, fr, b)
             nb = _push(BR, BB, nb, ai, fi, xm, fm, b)
             if ff * fm <= 0.0:
                 nb = _push(BR, BB, nb, xm, fm, far, ff, b)
