@@ -29,7 +29,8 @@ first (:mod:`pipeline.solvers.core.fixed`): a 7R arm with one joint held is solv
 by every path above (one in the search family by the general elimination where that applies). A 6R arm
 that fits a better family only within ``near_tol`` (rounded angles in its file) is solved on the
 nearest exact arm of that family, each candidate polished and checked on the real arm, and the real
-arm's own path (``near_tol`` 0) adds its solutions (:mod:`pipeline.solvers.closed_form.near`). Both run one pose per call (no batch kernel, no fused call).
+arm's own path (``near_tol`` 0) adds its solutions (:mod:`pipeline.solvers.closed_form.near`). Both run
+one pose per call (no batch kernel, no fused call).
 
 Every candidate is checked by the forward kinematics of the joint lines (base and tool included)
 against ``verify_position`` / ``verify_rotation``; ``solutions`` holds the valid ones, each once (two
