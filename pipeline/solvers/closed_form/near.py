@@ -14,9 +14,9 @@ the other by that much); the strict check (``verify_position``, ``verify_rotatio
 Why both: moving the lines onto the family moves every solution by about the snap distance, and where two
 solutions of the real arm lie closer than that (a goal near a fold of the workspace) the exact arm has
 the pair as a double root or not at all, and a polish from one candidate finds one of them or neither.
-On 200 random arms per family (``benchmarks/bench_families_eaik.py``) the arms that fall within 1e-4-1e-3
-of the offset-wrist family lost 1-2 of their solutions on 1-2 of every 10 goals that way, all of which the
-elimination on the real arm returned. Nearer the family (a URDF's rounded right angles, micrometres and
+On 200 random arms per family (``benchmarks/bench_families_eaik.py``), 13 arms fall within 4e-5-9e-4 ×
+reach of the offset-wrist family; on 9 of their 130 goals the snapped form alone lost 1-2 solutions that
+way, every one of which the elimination on the real arm returned. Nearer the family (a URDF's rounded right angles, micrometres and
 microradians off) the elimination is the one that loses solutions (its eliminant nearly degenerates) and
 the snapped closed form is complete; the union holds in both regimes. The real arm's own path costs its
 usual time (60-100 µs for the elimination, a search's 10-200 µs) on top; where it refuses the arm, the
