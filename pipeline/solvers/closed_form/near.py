@@ -11,16 +11,16 @@ geometric Jacobian) take it there to rounding, quadratically. The exact arm's ow
 rounding margin ``clip`` to at least ``100 × near_tol`` (a branch at a tangency on one arm may miss it on
 the other by that much); the strict check (``verify_position``, ``verify_rotation``) is on the real arm.
 
-Why both: moving the lines onto the family moves every solution by about the snap distance, and where two
-solutions of the real arm lie closer than that (a goal near a fold of the workspace) the exact arm has
-the pair as a double root or not at all, and a polish from one candidate finds one of them or neither.
-On 200 random arms per family (``benchmarks/bench_families_eaik.py``), 13 arms fall within 4e-5-9e-4 ×
-reach of the offset-wrist family; on 9 of their 130 goals the snapped form alone lost 1-2 solutions that
-way, every one of which the elimination on the real arm returned. Nearer the family (a URDF's rounded right angles, micrometres and
-microradians off) the elimination is the one that loses solutions (its eliminant nearly degenerates) and
-the snapped closed form is complete; the union holds in both regimes. The real arm's own path costs its
-usual time (60-100 µs for the elimination, a search's 10-200 µs) on top; where it refuses the arm, the
-snapped closed form answers alone.
+Why both: moving the lines onto the family moves every solution by about the snap distance, and where
+two solutions of the real arm lie closer than that (a goal near a fold of the workspace) the exact arm
+has the pair as a double root or not at all, and a polish from one candidate finds one of them or
+neither. Of 600 random arms of the general generators (``benchmarks/bench_families_eaik.py``), 13 lie
+within 4e-5-9e-4 × reach of the offset-wrist family; on 9 of their 130 goals the snapped form alone
+lost 1-2 solutions that way, every one of which the elimination on the real arm returned. Nearer the
+family (a URDF's rounded right angles, micrometres and microradians off) the elimination is the one that
+loses solutions (its eliminant nearly degenerates) and the snapped closed form is complete; the union
+holds in both regimes. The real arm's own path costs its usual time (60-100 µs for the elimination, a
+search's 10-200 µs) on top; where it refuses the arm, the snapped closed form answers alone.
 
 Solutions that meet are merged (one within
 :data:`~pipeline.solvers.closed_form.analytic_kernels.DISTINCT_TOL` per joint, wrapped), the rest ranked
